@@ -1,0 +1,56 @@
+"""The ``bowden`` command.
+
+Each subcommand lives in its own module of this package and exposes ``register(subparsers)``, which
+adds its parser and sets ``handler`` to a function taking the parsed namespace and returning an
+exit code. Modules are discovered, so a new subcommand is one new file and no edit here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+from collections.abc import Sequence
+
+from bowden import __version__
+from bowden.errors import BowdenError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Build the top-level parser with every subcommand module of this package registered."""
+    parser = argparse.ArgumentParser(
+        prog="bowden",
+        description="Sensorless tension control of cable-driven exosuits.",
+    )
+    parser.add_argument("--version", action="version", version=f"bowden {__version__}")
+    subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        if info.name.startswith("_"):
+            continue
+        module = importlib.import_module(f"{__name__}.{info.name}")
+        module.register(subparsers)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; return the process exit code (tests call this directly)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    handler = getattr(args, "handler", None)
+    if handler is None:
+        parser.print_help()
+        return 2
+    try:
+        code: int = handler(args)
+    except BowdenError as error:
+        print(f"bowden: error: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("bowden: interrupted", file=sys.stderr)
+        return 130
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

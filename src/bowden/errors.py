@@ -1,0 +1,45 @@
+"""Every exception bowden raises on purpose.
+
+Each subclasses a builtin so callers can catch what they understand (``ValueError`` for bad input,
+``OSError`` for devices, ``TimeoutError`` for silent peers). Messages name the offending field,
+column, row or device and say what to do about it. The command line turns any ``BowdenError``
+into a one-line message and a non-zero exit code instead of a traceback.
+"""
+
+from __future__ import annotations
+
+
+class BowdenError(Exception):
+    """Base class of every error bowden raises deliberately."""
+
+
+class ParameterError(BowdenError, ValueError):
+    """A parameter is outside its valid range or of the wrong kind (names the field)."""
+
+
+class ModelFileError(BowdenError, ValueError):
+    """A ``model.json`` file is missing, malformed, of the wrong version or lacks a field."""
+
+
+class RecordingError(BowdenError, ValueError):
+    """A recording (bench, trial or EMG) is unusable: names the column and row of the problem."""
+
+
+class FitError(BowdenError, ValueError):
+    """A fit could not be made or did not converge (too little data, degenerate design)."""
+
+
+class HardwareError(BowdenError, OSError):
+    """A device misbehaved: wrong reply, error code, transmit failure."""
+
+
+class DeviceTimeoutError(HardwareError, TimeoutError):
+    """A device did not answer in time."""
+
+
+class SafetyFault(BowdenError, RuntimeError):
+    """A watchdog moved the suit to its safe state; the message gives the reason."""
+
+
+class StoreError(BowdenError, RuntimeError):
+    """The study store cannot be opened, read or written."""
