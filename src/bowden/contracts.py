@@ -1,0 +1,105 @@
+"""Names shared by every part of bowden: recording columns, study conditions and speeds, muscles.
+
+These are the contracts of DESIGN.md written down once. Identification, the runtime recorder, the
+simulator, the analysis and the study store all import their column names from here, so a rename
+is one edit and a typo is an import error rather than a silently empty column.
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+# --- Bench recording (input of identification), one row per sample -----------------------------
+BENCH_TIME: Final = "time_s"
+BENCH_MOTOR_TORQUE: Final = "motor_torque_nm"
+BENCH_MOTOR_VELOCITY: Final = "motor_velocity_rad_s"
+BENCH_TENSION: Final = "tension_n"
+BENCH_ELEVATION: Final = "elevation_rad"
+BENCH_TRIAL: Final = "trial"  # optional
+BENCH_COLUMNS: Final = (
+    BENCH_TIME,
+    BENCH_MOTOR_TORQUE,
+    BENCH_MOTOR_VELOCITY,
+    BENCH_TENSION,
+    BENCH_ELEVATION,
+)
+
+# --- Trial recording, one row per control cycle -------------------------------------------------
+TRIAL_TIME: Final = "time_s"
+TRIAL_REFERENCE_ELEVATION: Final = "reference_elevation_rad"  # what the display showed
+TRIAL_ELEVATION: Final = "elevation_rad"  # measured (IMU)
+TRIAL_ELEVATION_VELOCITY: Final = "elevation_velocity_rad_s"
+TRIAL_DESIRED_TENSION: Final = "desired_tension_n"  # controller output of the assistance block
+TRIAL_MOMENT_ARM: Final = "moment_arm_m"  # r(theta) used by the controller this cycle
+TRIAL_COMMANDED_TORQUE: Final = "commanded_torque_nm"  # motor torque sent
+TRIAL_MOTOR_TORQUE: Final = "motor_torque_nm"  # motor torque reported
+TRIAL_MOTOR_VELOCITY: Final = "motor_velocity_rad_s"
+TRIAL_TENSION: Final = "tension_n"  # load cell, NaN when absent
+TRIAL_STATE: Final = "controller_state"  # int, see bowden.control.ControllerState
+TRIAL_FAULT: Final = "fault_flags"  # int bit set, see bowden.control.Fault
+TRIAL_COLUMNS: Final = (
+    TRIAL_TIME,
+    TRIAL_REFERENCE_ELEVATION,
+    TRIAL_ELEVATION,
+    TRIAL_ELEVATION_VELOCITY,
+    TRIAL_DESIRED_TENSION,
+    TRIAL_MOMENT_ARM,
+    TRIAL_COMMANDED_TORQUE,
+    TRIAL_MOTOR_TORQUE,
+    TRIAL_MOTOR_VELOCITY,
+    TRIAL_TENSION,
+    TRIAL_STATE,
+    TRIAL_FAULT,
+)
+
+# --- Study design --------------------------------------------------------------------------------
+# Conditions in the paper's order; "no_suit" is always first, the others are randomised.
+CONDITION_NO_SUIT: Final = "no_suit"
+CONDITION_PRETENSION: Final = "pretension"
+CONDITION_SUPPORT_25: Final = "support_25"
+CONDITION_SUPPORT_50: Final = "support_50"
+CONDITIONS: Final = (
+    CONDITION_NO_SUIT,
+    CONDITION_PRETENSION,
+    CONDITION_SUPPORT_25,
+    CONDITION_SUPPORT_50,
+)
+# Short labels used in the paper's tables and figures.
+CONDITION_LABELS: Final = {
+    CONDITION_NO_SUIT: "no",
+    CONDITION_PRETENSION: "pre",
+    CONDITION_SUPPORT_25: "25%",
+    CONDITION_SUPPORT_50: "50%",
+}
+# Support fraction per condition (None: no suit worn; "pretension": constant tension).
+CONDITION_SUPPORT: Final[dict[str, float | str | None]] = {
+    CONDITION_NO_SUIT: None,
+    CONDITION_PRETENSION: "pretension",
+    CONDITION_SUPPORT_25: 0.25,
+    CONDITION_SUPPORT_50: 0.50,
+}
+
+# Movement speeds: peak elevation speed of the minimum-jerk reference, deg/s (paper: V1-V3).
+SPEEDS: Final = ("V1", "V2", "V3")
+SPEED_PEAK_DEG_S: Final = {"V1": 60.0, "V2": 120.0, "V3": 180.0}
+REPETITIONS_PER_TRIAL: Final = 10
+ELEVATION_LOW_DEG: Final = 20.0
+ELEVATION_HIGH_DEG: Final = 100.0
+
+# --- Muscles (sEMG channels) in the paper's order ------------------------------------------------
+MUSCLES: Final = (
+    "anterior_deltoid",
+    "medial_deltoid",
+    "posterior_deltoid",
+    "biceps",
+    "triceps",
+    "trapezius",
+    "latissimus_dorsi",
+    "pectoralis_major",
+)
+# Muscles whose sEMG carries ECG artefacts (paper: ECG removal for these two).
+ECG_CONTAMINATED_MUSCLES: Final = ("latissimus_dorsi", "pectoralis_major")
+EMG_RATE_HZ: Final = 2000.0
+
+# --- Movement phases -----------------------------------------------------------------------------
+PHASES: Final = ("entire", "raising", "lowering")
