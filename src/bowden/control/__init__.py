@@ -1,0 +1,7 @@
+"""The sensorless controller: assistance → compensation → limits, one pure ``step()`` per cycle."""
+
+from bowden.control.controller import Command, Controller, build_controller
+from bowden.control.faults import Fault, Limit
+from bowden.control.limits import ControllerLimits
+
+__all__ = ["Command", "Controller", "ControllerLimits", "Fault", "Limit", "build_controller"]
