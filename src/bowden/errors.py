@@ -43,3 +43,11 @@ class SafetyFault(BowdenError, RuntimeError):
 
 class StoreError(BowdenError, RuntimeError):
     """The study store cannot be opened, read or written."""
+
+
+class MalformedFrameError(HardwareError, ValueError):
+    """A device sent bytes that do not decode (wrong length, bad OSC, wrong register size)."""
+
+
+class TransmitError(HardwareError):
+    """A frame could not be sent (e.g. CAN "No buffer space available": nothing on the bus ACKs)."""
