@@ -35,8 +35,8 @@ TRIAL_COMMANDED_TORQUE: Final = "commanded_torque_nm"  # motor torque sent
 TRIAL_MOTOR_TORQUE: Final = "motor_torque_nm"  # motor torque reported
 TRIAL_MOTOR_VELOCITY: Final = "motor_velocity_rad_s"
 TRIAL_TENSION: Final = "tension_n"  # load cell, NaN when absent
-TRIAL_STATE: Final = "controller_state"  # int, see bowden.control.ControllerState
-TRIAL_FAULT: Final = "fault_flags"  # int bit set, see bowden.control.Fault
+TRIAL_STATE: Final = "controller_state"  # int, the runtime loop's state (see bowden.runtime)
+TRIAL_FAULT: Final = "fault_flags"  # int bit set of bowden.control.Fault
 TRIAL_COLUMNS: Final = (
     TRIAL_TIME,
     TRIAL_REFERENCE_ELEVATION,
