@@ -51,3 +51,7 @@ class MalformedFrameError(HardwareError, ValueError):
 
 class TransmitError(HardwareError):
     """A frame could not be sent (e.g. CAN "No buffer space available": nothing on the bus ACKs)."""
+
+
+class OutcomeTableError(BowdenError, ValueError):
+    """An outcome table for the statistics is unusable (missing column, value <= 0, empty cell)."""
