@@ -1,0 +1,1 @@
+"""Study analysis: EMG processing with ECG removal, segmentation, and the paper's outcome measures."""

@@ -1,0 +1,306 @@
+"""ECG artefact removal from EMG by template subtraction, plain or adaptive.
+
+Written from the description of the adaptive template subtraction of Petersen E., Sauer J.,
+Graßhoff J., Rostalski P. (2020) "Removing cardiac artifacts from single-channel respiratory
+electromyograms", IEEE Access 8:30905–30917 (REFERENCE §5), not from its toolbox's code:
+
+1. beats are cut at the midpoints between consecutive R-peaks;
+2. the template of a beat is the mean of the ``template_beats`` (40) beats centred on it, aligned
+   at their R-peaks (20 before and 20 after it; the beat itself is left out, see
+   :func:`_moving_templates` for why);
+3. the template is aligned to the beat by cross-correlation of its QRS part (R ± 55 ms);
+4. the QRS part is stretched or shrunk by −10…+10 samples per side (21 variants, PCHIP
+   resampling) while the P part (beat start to the QRS) and the T part (QRS to beat end) keep the
+   template's samples;
+5. each of the three sections gets its own least-squares scale and offset, and the variant with
+   the smallest residual energy over the whole beat is kept;
+6. the fitted artefact (scale · template + offset, per section) is subtracted.
+
+The residual energy of every variant comes from prefix sums of the P/T sections (which do not
+depend on the variant except through where they end) plus the QRS section, so 21 variants cost
+little more than one. ``method="template"`` is the plain template subtraction: the same moving
+40-beat template, subtracted at the detected R-peaks without alignment, stretching or scaling.
+Beats whose QRS window does not fit inside the record are left untouched.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.interpolate import PchipInterpolator
+
+from bowden.analysis.emg_signal import EmgSignal
+from bowden.errors import ParameterError, RecordingError
+
+EcgMethod = Literal["adaptive", "template"]
+_MAX_HALF_BEAT_S = 1.0  # beyond 1 s from an R-peak nothing of the heartbeat is left to remove
+
+
+@dataclass(frozen=True, kw_only=True)
+class EcgRemovalParameters:
+    """Settings of :func:`emg_remove_ecg` (defaults: REFERENCE §5, Petersen et al. 2020).
+
+    Parameters
+    ----------
+    method
+        ``"adaptive"`` (aligned, stretched, per-section scaled template) or ``"template"`` (plain).
+    template_beats
+        Number of beats averaged into each beat's template, centred on it.
+    qrs_half_width_s
+        Half width of the QRS section around the R-peak, s (55 ms).
+    stretch_samples
+        The QRS part is stretched/shrunk by −n…+n samples per side (10 → 21 variants).
+    max_shift_samples
+        Largest cross-correlation shift when aligning the template to a beat, samples.
+    """
+
+    method: EcgMethod = "adaptive"
+    template_beats: int = 40
+    qrs_half_width_s: float = 0.055
+    stretch_samples: int = 10
+    max_shift_samples: int = 10
+
+    def __post_init__(self) -> None:
+        if self.method not in ("adaptive", "template"):
+            raise ParameterError(f"method must be 'adaptive' or 'template', got {self.method!r}")
+        if not (isinstance(self.template_beats, int) and self.template_beats >= 1):
+            raise ParameterError(f"template_beats must be a positive integer, got {self.template_beats!r}")
+        if not (math.isfinite(self.qrs_half_width_s) and self.qrs_half_width_s > 0.0):
+            raise ParameterError(f"qrs_half_width_s must be positive, got {self.qrs_half_width_s}")
+        for name in ("stretch_samples", "max_shift_samples"):
+            value = getattr(self, name)
+            if not (isinstance(value, int) and value >= 0):
+                raise ParameterError(f"{name} must be a non-negative integer, got {value!r}")
+
+
+def emg_remove_ecg(
+    emg: EmgSignal,
+    r_peaks: ArrayLike,
+    *,
+    channels: tuple[str, ...] | None = None,
+    parameters: EcgRemovalParameters | None = None,
+) -> EmgSignal:
+    """Subtract the ECG artefact from the named channels of a band-passed EMG.
+
+    Parameters
+    ----------
+    emg
+        Band-passed EMG (the composer uses 20–400 Hz), V.
+    r_peaks
+        Increasing sample indices of the R-peaks in ``emg`` (see :func:`emg_detect_r_peaks`).
+    channels
+        Channels to clean; ``None`` cleans all. Other channels pass through unchanged.
+    parameters
+        Algorithm settings; defaults reproduce REFERENCE §5.
+
+    Returns
+    -------
+    EmgSignal
+        The EMG with the artefact subtracted from the chosen channels.
+    """
+    params = parameters or EcgRemovalParameters()
+    peaks = np.asarray(r_peaks, dtype=np.int64).ravel()
+    if peaks.size and (peaks[0] < 0 or peaks[-1] >= emg.n_samples or np.any(np.diff(peaks) <= 0)):
+        raise RecordingError(
+            f"r_peaks must be increasing sample indices within 0..{emg.n_samples - 1}"
+        )
+    names = emg.channels if channels is None else channels
+    out = np.array(emg.values)
+    for name in names:
+        emg.channel(name)  # raises a RecordingError naming a missing channel
+        column = emg.channels.index(name)
+        out[:, column] = remove_ecg_from_channel(out[:, column], peaks, emg.rate_hz, params)
+    return emg.with_values(out)
+
+
+def remove_ecg_from_channel(
+    samples: NDArray[np.float64], r_peaks: NDArray[np.int64], rate_hz: float, params: EcgRemovalParameters
+) -> NDArray[np.float64]:
+    """One channel of :func:`emg_remove_ecg` (1-D in, cleaned copy out)."""
+    y = np.asarray(samples, dtype=np.float64)
+    n = y.size
+    qrs = int(round(params.qrs_half_width_s * rate_hz))
+    stretch = params.stretch_samples if params.method == "adaptive" else 0
+    shift = params.max_shift_samples if params.method == "adaptive" else 0
+    reach = qrs + stretch + shift
+    peaks = r_peaks[(r_peaks - reach >= 0) & (r_peaks + reach < n)]
+    if peaks.size < 2:
+        return y.copy()
+    start, end = _beat_bounds(peaks, n, int(round(_MAX_HALF_BEAT_S * rate_hz)))
+    half = int(max(np.max(peaks - start), np.max(end - 1 - peaks))) + shift
+    offsets = np.arange(-half, half + 1)
+    template = _moving_templates(y, peaks, start, end, offsets, params.template_beats)
+    cleaned = y.copy()
+    if params.method == "template":
+        for k, r in enumerate(peaks):
+            cleaned[start[k] : end[k]] -= template[k, start[k] - r + half : end[k] - r + half]
+        return cleaned
+    aligned = peaks + _alignment_shifts(y, peaks, template, half, qrs, shift)
+    artefact = _fit_adaptive(y, aligned, start, end, template, half, qrs, stretch)
+    for k in range(peaks.size):
+        cleaned[start[k] : end[k]] -= artefact[k][: end[k] - start[k]]
+    return cleaned
+
+
+def _beat_bounds(
+    peaks: NDArray[np.int64], n: int, max_half: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """[start, end) of each beat: RR midpoints, half the median RR at the record's ends."""
+    mids = (peaks[:-1] + peaks[1:]) // 2
+    edge = int(np.median(np.diff(peaks))) // 2
+    start = np.concatenate([[peaks[0] - edge], mids])
+    end = np.concatenate([mids, [peaks[-1] + edge + 1]])
+    start = np.clip(np.maximum(start, peaks - max_half), 0, n)
+    end = np.clip(np.minimum(end, peaks + max_half + 1), 0, n)
+    return start.astype(np.int64), end.astype(np.int64)
+
+
+def _moving_templates(
+    y: NDArray[np.float64],
+    peaks: NDArray[np.int64],
+    start: NDArray[np.int64],
+    end: NDArray[np.int64],
+    offsets: NDArray[np.int64],
+    n_beats: int,
+) -> NDArray[np.float64]:
+    """Template per beat: mean of the ``n_beats`` neighbouring beats centred on it, R-aligned.
+
+    The beat itself is left out (n/2 beats before it, n/2 after, fewer at the record's ends).
+    Including it would let the least-squares scale of the adaptive method fit the beat's own EMG,
+    which sits in the template with weight 1/n: in sections where the band-passed ECG is small the
+    fitted scale then tends to 1 and the template's averaged EMG (variance σ²/n) is subtracted
+    everywhere. Without it the scale of an ECG-free section tends to 0 and leaves the EMG alone.
+    """
+    index = peaks[:, np.newaxis] + offsets
+    inside = (index >= start[:, np.newaxis]) & (index < end[:, np.newaxis])
+    beats = np.where(inside, y[np.clip(index, 0, y.size - 1)], 0.0)
+    # Moving sums over the beat axis through prefix sums; window [k - n//2, k + n - n//2].
+    sums = np.vstack([np.zeros(offsets.size), np.cumsum(beats, axis=0)])
+    counts = np.vstack([np.zeros(offsets.size), np.cumsum(inside, axis=0)])
+    k = np.arange(peaks.size)
+    lo = np.clip(k - n_beats // 2, 0, peaks.size)
+    hi = np.clip(k + (n_beats - n_beats // 2) + 1, 0, peaks.size)
+    total = sums[hi] - sums[lo] - beats
+    count = counts[hi] - counts[lo] - inside
+    return np.divide(total, count, out=np.zeros_like(total), where=count > 0)
+
+
+def _alignment_shifts(
+    y: NDArray[np.float64],
+    peaks: NDArray[np.int64],
+    template: NDArray[np.float64],
+    half: int,
+    qrs: int,
+    max_shift: int,
+) -> NDArray[np.int64]:
+    """Lag (samples) maximising the cross-correlation of each template's QRS with its beat."""
+    if max_shift == 0:
+        return np.zeros(peaks.size, dtype=np.int64)
+    q = template[:, half - qrs : half + qrs + 1]
+    q = q - q.mean(axis=1, keepdims=True)
+    lags = np.arange(-max_shift, max_shift + 1)
+    score = np.empty((peaks.size, lags.size))
+    for j, lag in enumerate(lags):
+        segment = y[(peaks + lag)[:, np.newaxis] + np.arange(-qrs, qrs + 1)]
+        score[:, j] = np.sum(q * (segment - segment.mean(axis=1, keepdims=True)), axis=1)
+    return np.asarray(lags[np.argmax(score, axis=1)], dtype=np.int64)
+
+
+def _fit_adaptive(
+    y: NDArray[np.float64],
+    aligned: NDArray[np.int64],
+    start: NDArray[np.int64],
+    end: NDArray[np.int64],
+    template: NDArray[np.float64],
+    half: int,
+    qrs: int,
+    stretch: int,
+) -> list[NDArray[np.float64]]:
+    """Best stretched variant per beat with per-section LS scale and offset; the fitted artefacts."""
+    n_beats = aligned.size
+    rows = np.arange(n_beats)
+    lo = start - aligned  # first offset of each beat relative to its aligned R-peak
+    hi = end - aligned  # one past the last offset
+    offsets = np.arange(-half, half + 1)
+    index = np.clip(aligned[:, np.newaxis] + offsets, 0, y.size - 1)
+    inside = (offsets >= lo[:, np.newaxis]) & (offsets < hi[:, np.newaxis])
+    ys = np.where(inside, y[index], 0.0)
+    ts = np.where(inside, template, 0.0)
+    # Prefix sums (along offsets) of 1, t, t², y, t·y, y² for the P and T sections.
+    stack = np.stack([inside.astype(np.float64), ts, ts * ts, ys, ts * ys, ys * ys])
+    prefix = np.concatenate([np.zeros((6, n_beats, 1)), np.cumsum(stack, axis=2)], axis=2)
+
+    def section_sums(first: NDArray[np.int64], stop: NDArray[np.int64]) -> NDArray[np.float64]:
+        a = np.clip(first + half, 0, offsets.size)
+        b = np.clip(stop + half, 0, offsets.size)
+        b = np.maximum(a, b)
+        return np.asarray(prefix[:, rows, b] - prefix[:, rows, a], dtype=np.float64)
+
+    base_qrs = PchipInterpolator(np.arange(-qrs, qrs + 1), template[:, half - qrs : half + qrs + 1], axis=1)
+    best_sse = np.full(n_beats, np.inf)
+    best_variant = np.zeros(n_beats, dtype=np.int64)
+    variants: dict[int, NDArray[np.float64]] = {}
+    for d in range(-stretch, stretch + 1):
+        width = qrs + d
+        if width < 1:
+            continue
+        qrs_offsets = np.arange(-width, width + 1)
+        t_qrs = np.asarray(base_qrs(qrs_offsets * (qrs / width)), dtype=np.float64)
+        variants[d] = t_qrs
+        y_qrs = y[aligned[:, np.newaxis] + qrs_offsets]
+        qrs_sums = np.stack(
+            [np.full(n_beats, float(qrs_offsets.size)), t_qrs.sum(1), (t_qrs**2).sum(1),
+             y_qrs.sum(1), (t_qrs * y_qrs).sum(1), (y_qrs**2).sum(1)]
+        )
+        sse = (
+            _section_sse(section_sums(lo, np.full(n_beats, -width)))
+            + _section_sse(qrs_sums)
+            + _section_sse(section_sums(np.full(n_beats, width + 1), hi))
+        )
+        better = sse < best_sse
+        best_sse[better] = sse[better]
+        best_variant[better] = d
+    artefacts: list[NDArray[np.float64]] = []
+    for k in range(n_beats):
+        width = qrs + int(best_variant[k])
+        beat_offsets = np.arange(lo[k], hi[k])
+        values = template[k, np.clip(beat_offsets + half, 0, offsets.size - 1)].copy()
+        in_qrs = (beat_offsets >= -width) & (beat_offsets <= width)
+        values[in_qrs] = variants[int(best_variant[k])][k, beat_offsets[in_qrs] + width]
+        observed = y[aligned[k] + beat_offsets]
+        fitted = np.empty_like(values)
+        for mask in (beat_offsets < -width, in_qrs, beat_offsets > width):
+            scale, offset = _line_fit(values[mask], observed[mask])
+            fitted[mask] = scale * values[mask] + offset
+        # Express the artefact on the beat's own [start, end) grid (alignment moved its origin).
+        artefact = np.zeros(end[k] - start[k])
+        position = aligned[k] + beat_offsets - start[k]
+        artefact[position] = fitted
+        artefacts.append(artefact)
+    return artefacts
+
+
+def _section_sse(sums: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Residual energy of the LS fit y ≈ a·t + b from the sums (n, Σt, Σt², Σy, Σty, Σy²)."""
+    n, st, stt, sy, sty, syy = sums
+    det = n * stt - st * st
+    ok = det > 1e-12 * np.maximum(n * stt, 1e-300)
+    a = np.where(ok, (n * sty - st * sy) / np.where(ok, det, 1.0), 0.0)
+    b = np.where(n > 0, (sy - a * st) / np.maximum(n, 1.0), 0.0)
+    return np.asarray(np.maximum(syy - a * sty - b * sy, 0.0), dtype=np.float64)
+
+
+def _line_fit(t: NDArray[np.float64], y: NDArray[np.float64]) -> tuple[float, float]:
+    """Least-squares scale and offset of y ≈ a·t + b (a = 0 for a flat or empty template)."""
+    if y.size == 0:
+        return 0.0, 0.0
+    t_centred = t - t.mean()
+    denominator = float(np.dot(t_centred, t_centred))
+    if denominator <= 1e-12 * max(float(np.dot(t, t)), 1e-300):
+        return 0.0, float(y.mean())
+    a = float(np.dot(t_centred, y - y.mean()) / denominator)
+    return a, float(y.mean() - a * t.mean())
