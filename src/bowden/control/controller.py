@@ -17,8 +17,9 @@ Each cycle (paper, "Control architecture"):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
-from typing import Literal, NamedTuple
+from typing import Literal, NamedTuple, Protocol
 
 from bowden.control.faults import Fault, Limit
 from bowden.control.limits import ControllerLimits
@@ -28,7 +29,8 @@ from bowden.model.compensation import CompensationModel
 from bowden.model.geometry import CuffGeometry
 
 _NAN = math.nan
-_INF = math.inf
+# Bound once: a module global is one lookup on the hot path, math.sin two.
+_sin, _cos, _sqrt, _exp = math.sin, math.cos, math.sqrt, math.exp
 
 
 class Command(NamedTuple):
@@ -59,45 +61,42 @@ _TORQUE = int(Limit.TORQUE)
 _RATE = int(Limit.TORQUE_RATE)
 
 
+class StepFunction(Protocol):
+    """Signature of :attr:`Controller.step`."""
+
+    def __call__(
+        self,
+        time_s: float,
+        elevation_rad: float,
+        elevation_velocity_rad_s: float,
+        motor_velocity_rad_s: float = _NAN,
+        motor_torque_nm: float = _NAN,
+    ) -> Command: ...
+
+
 class Controller:
     """The paper's controller for one wearer, support level, suit model and set of limits.
 
     Build it with :func:`build_controller`. The parameters it was built from are kept as read-only
     attributes (``model``, ``subject``, ``arm``, ``geometry``, ``assistance``, ``limits``); the
     cycle-to-cycle state is only the last commanded torque and time (for the rate limit).
+
+    ``step(time_s, elevation_rad, elevation_velocity_rad_s, motor_velocity_rad_s=nan,
+    motor_torque_nm=nan) -> Command`` computes one cycle:
+
+    time_s
+        Time of the cycle, s (monotonic; used by the torque-rate limit).
+    elevation_rad, elevation_velocity_rad_s
+        Humeral elevation (0 = arm hanging) and its velocity (> 0 raising).
+    motor_velocity_rad_s, motor_torque_nm
+        Latest motor readings, if known (NaN: unknown); checked for plausibility only.
+
+    ``step`` is a closure compiled at construction with every constant folded into it: on CPython a
+    closure variable is a cheaper load than an attribute, which keeps the checks and the named result
+    within the cost budget of the arithmetic itself (see ``benchmarks/controller.py``).
     """
 
-    __slots__ = (
-        "_aabb",
-        "_ab",
-        "_blend_mid",
-        "_blend_steep",
-        "_d_intercept",
-        "_d_slope",
-        "_elev_max",
-        "_elev_min",
-        "_floor",
-        "_last_time",
-        "_low_intercept",
-        "_low_slope",
-        "_max_motor_vel",
-        "_max_rate",
-        "_max_tension",
-        "_max_torque",
-        "_max_vel",
-        "_min_torque",
-        "_nominal_dt",
-        "_pretension",
-        "_psi",
-        "_support_moment",
-        "_torque",
-        "arm",
-        "assistance",
-        "geometry",
-        "limits",
-        "model",
-        "subject",
-    )
+    __slots__ = ("_state", "arm", "assistance", "geometry", "limits", "model", "step", "subject")
 
     def __init__(
         self,
@@ -115,147 +114,161 @@ class Controller:
         self.geometry = geometry
         self.assistance = assistance
         self.limits = limits
-        a, b = geometry.exit_distance_m, geometry.anchor_distance_m
-        self._ab = a * b
-        self._aabb = a * a + b * b
-        self._psi = geometry.rest_angle_rad
-        # support·g·Σmd folds τ_g(θ)·support into one multiply by sin θ.
-        if assistance.is_pretension:
-            self._pretension = assistance.pretension_n
-            self._support_moment = 0.0
-        else:
-            self._pretension = _NAN
-            self._support_moment = float(assistance.support) * STANDARD_GRAVITY_M_S2 * arm.total_moment_kg_m
-        self._floor = assistance.floor_tension_n
-        self._max_tension = limits.max_tension_n
-        self._low_intercept = model.lowering.intercept_nm
-        self._low_slope = model.lowering.slope_m
-        self._d_intercept = model.raising.intercept_nm - model.lowering.intercept_nm
-        self._d_slope = model.raising.slope_m - model.lowering.slope_m
-        self._blend_mid = model.blend_midpoint_rad_s
-        self._blend_steep = model.blend_steepness_s_rad
-        self._min_torque = limits.min_torque_nm
-        self._max_torque = limits.max_torque_nm
-        self._max_rate = limits.max_torque_rate_nm_s
-        self._nominal_dt = limits.nominal_period_s
-        self._elev_min = limits.elevation_min_rad
-        self._elev_max = min(limits.elevation_max_rad, geometry.max_elevation_rad)
-        self._max_vel = limits.max_elevation_velocity_rad_s
-        self._max_motor_vel = limits.max_motor_velocity_rad_s
-        self._torque = 0.0
-        self._last_time = _NAN
+        self.step: StepFunction
+        self._state: _StepState
+        self.step, self._state = _compile_step(model, arm, geometry, assistance, limits)
 
     def reset(self) -> None:
         """Forget the last command: the next torque ramps up from zero again."""
-        self._torque = 0.0
-        self._last_time = _NAN
+        self._state.reset()
 
     @property
     def last_torque_nm(self) -> float:
         """The torque of the last command (0 after a fault or reset)."""
-        return self._torque
+        return self._state.torque_nm()
+
+
+class _StepState(NamedTuple):
+    """Access to the closure's state from outside the hot path."""
+
+    reset: Callable[[], None]
+    torque_nm: Callable[[], float]
+
+
+def _compile_step(
+    model: CompensationModel,
+    arm: ArmModel,
+    geometry: CuffGeometry,
+    assistance: AssistanceParameters,
+    limits: ControllerLimits,
+) -> tuple[StepFunction, _StepState]:
+    """Fold every constant into a step closure; return it with accessors of its state."""
+    a, b = geometry.exit_distance_m, geometry.anchor_distance_m
+    ab, aabb, two_ab = a * b, a * a + b * b, 2.0 * a * b
+    psi = geometry.rest_angle_rad
+    # support·g·Σmd turns τ_g(θ)·support into one multiply by sin θ; NaN pretension marks the law.
+    if assistance.is_pretension:
+        pretension, support_moment = assistance.pretension_n, 0.0
+    else:
+        pretension = _NAN
+        support_moment = float(assistance.support) * STANDARD_GRAVITY_M_S2 * arm.total_moment_kg_m
+    floor = assistance.floor_tension_n
+    max_tension = limits.max_tension_n
+    low_intercept, low_slope = model.lowering.intercept_nm, model.lowering.slope_m
+    d_intercept = model.raising.intercept_nm - low_intercept
+    d_slope = model.raising.slope_m - low_slope
+    blend_mid, blend_steep = model.blend_midpoint_rad_s, model.blend_steepness_s_rad
+    min_torque, max_torque = limits.min_torque_nm, limits.max_torque_nm
+    max_rate, nominal_dt = limits.max_torque_rate_nm_s, limits.nominal_period_s
+    elev_min = limits.elevation_min_rad
+    elev_max = min(limits.elevation_max_rad, geometry.max_elevation_rad)
+    max_vel = limits.max_elevation_velocity_rad_s
+    min_vel = -max_vel
+    max_motor_vel = limits.max_motor_velocity_rad_s
+    min_motor_vel = -max_motor_vel
+    last_torque = 0.0
+    last_time = _NAN
 
     def step(
-        self,
         time_s: float,
         elevation_rad: float,
         elevation_velocity_rad_s: float,
         motor_velocity_rad_s: float = _NAN,
         motor_torque_nm: float = _NAN,
     ) -> Command:
-        """Compute this cycle's motor torque.
-
-        Parameters
-        ----------
-        time_s
-            Time of the cycle, s (monotonic; used by the torque-rate limit).
-        elevation_rad, elevation_velocity_rad_s
-            Humeral elevation (0 = arm hanging) and its velocity (> 0 raising).
-        motor_velocity_rad_s, motor_torque_nm
-            Latest motor readings, if known (NaN: unknown). Checked for plausibility only.
-        """
-        # One chained comparison per input: NaN fails every comparison, so this also rejects NaN.
+        nonlocal last_torque, last_time
+        # Chained comparisons: NaN fails every one of them, so range checks also reject NaN; x − x is
+        # 0 only for finite x. NaN motor readings mean "unknown" and pass.
         if not (
-            self._elev_min <= elevation_rad <= self._elev_max
-            and -self._max_vel <= elevation_velocity_rad_s <= self._max_vel
-            and -_INF < time_s < _INF
-            and (motor_velocity_rad_s != motor_velocity_rad_s
-                 or -self._max_motor_vel <= motor_velocity_rad_s <= self._max_motor_vel)
-            and (motor_torque_nm != motor_torque_nm or -_INF < motor_torque_nm < _INF)
-        ):
-            return self._fault(
-                time_s, elevation_rad, elevation_velocity_rad_s, motor_velocity_rad_s, motor_torque_nm
+            elev_min <= elevation_rad <= elev_max
+            and min_vel <= elevation_velocity_rad_s <= max_vel
+            and time_s - time_s == 0.0
+        ) or (
+            motor_velocity_rad_s == motor_velocity_rad_s
+            and not min_motor_vel <= motor_velocity_rad_s <= max_motor_vel
+        ) or (motor_torque_nm - motor_torque_nm != 0.0 and motor_torque_nm == motor_torque_nm):
+            last_torque, last_time = 0.0, _NAN
+            return _fault_command(
+                time_s, elevation_rad, elevation_velocity_rad_s, motor_velocity_rad_s, motor_torque_nm,
+                elev_min, elev_max, max_vel, max_motor_vel,
             )
 
-        alpha = self._psi - elevation_rad
-        moment_arm = self._ab * math.sin(alpha) / math.sqrt(self._aabb - 2.0 * self._ab * math.cos(alpha))
-        limits = 0
-        tension = self._pretension
-        if tension != tension:  # support law (NaN pretension marks it)
-            tension = self._floor
+        alpha = psi - elevation_rad
+        moment_arm = ab * _sin(alpha) / _sqrt(aabb - two_ab * _cos(alpha))
+        limited = 0
+        tension = pretension
+        if tension != tension:  # support law
+            tension = floor
             if moment_arm > 0.0:
-                supported = self._support_moment * math.sin(elevation_rad) / moment_arm
+                supported = support_moment * _sin(elevation_rad) / moment_arm
                 if supported > tension:
                     tension = supported
-        if tension > self._max_tension:
-            tension = self._max_tension
-            limits = _TENSION
+        if tension > max_tension:
+            tension = max_tension
+            limited = _TENSION
 
-        x = self._blend_steep * (elevation_velocity_rad_s - self._blend_mid)
-        if x >= 0.0:
-            weight = 1.0 / (1.0 + math.exp(-x))
+        x = blend_steep * (elevation_velocity_rad_s - blend_mid)
+        if x >= 0.0:  # two branches so exp never overflows
+            weight = 1.0 / (1.0 + _exp(-x))
         else:
-            e = math.exp(x)
+            e = _exp(x)
             weight = e / (1.0 + e)
-        torque = self._low_intercept + self._low_slope * tension + (
-            self._d_intercept + self._d_slope * tension
-        ) * weight
+        torque = low_intercept + low_slope * tension + (d_intercept + d_slope * tension) * weight
 
-        if torque > self._max_torque:
-            torque = self._max_torque
-            limits |= _TORQUE
-        elif torque < self._min_torque:
-            torque = self._min_torque
-            limits |= _TORQUE
+        if torque > max_torque:
+            torque = max_torque
+            limited |= _TORQUE
+        elif torque < min_torque:
+            torque = min_torque
+            limited |= _TORQUE
 
-        dt = time_s - self._last_time
+        dt = time_s - last_time
         if not 0.0 < dt < 0.1:  # first cycle, repeated time or a stall: assume one nominal period
-            dt = self._nominal_dt
-        previous = self._torque
-        step_max = self._max_rate * dt
-        if torque > previous + step_max:
-            torque = previous + step_max
-            limits |= _RATE
-        elif torque < previous - step_max:
-            torque = previous - step_max
-            limits |= _RATE
-        self._torque = torque
-        self._last_time = time_s
-        return _new_command(Command, (torque, tension, moment_arm, 0, limits))
+            dt = nominal_dt
+        step_max = max_rate * dt
+        if torque > last_torque + step_max:
+            torque = last_torque + step_max
+            limited |= _RATE
+        elif torque < last_torque - step_max:
+            torque = last_torque - step_max
+            limited |= _RATE
+        last_torque, last_time = torque, time_s
+        return _new_command(Command, (torque, tension, moment_arm, 0, limited))
 
-    def _fault(
-        self,
-        time_s: float,
-        elevation_rad: float,
-        elevation_velocity_rad_s: float,
-        motor_velocity_rad_s: float,
-        motor_torque_nm: float,
-    ) -> Command:
-        """The safe command, with flags saying which input was wrong (off the hot path)."""
-        faults = Fault.NONE
-        if not all(math.isfinite(v) for v in (time_s, elevation_rad, elevation_velocity_rad_s)) or any(
-            math.isinf(v) for v in (motor_velocity_rad_s, motor_torque_nm)
-        ):
-            faults |= Fault.NONFINITE_INPUT
-        if math.isfinite(elevation_rad) and not self._elev_min <= elevation_rad <= self._elev_max:
-            faults |= Fault.ELEVATION_OUT_OF_RANGE
-        if math.isfinite(elevation_velocity_rad_s) and abs(elevation_velocity_rad_s) > self._max_vel:
-            faults |= Fault.ELEVATION_VELOCITY_OUT_OF_RANGE
-        if math.isfinite(motor_velocity_rad_s) and abs(motor_velocity_rad_s) > self._max_motor_vel:
-            faults |= Fault.MOTOR_OVERSPEED
-        self._torque = 0.0
-        self._last_time = _NAN
-        return _new_command(Command, (0.0, _NAN, _NAN, int(faults), 0))
+    def reset() -> None:
+        nonlocal last_torque, last_time
+        last_torque, last_time = 0.0, _NAN
+
+    def torque_nm() -> float:
+        return last_torque
+
+    return step, _StepState(reset=reset, torque_nm=torque_nm)
+
+
+def _fault_command(
+    time_s: float,
+    elevation_rad: float,
+    elevation_velocity_rad_s: float,
+    motor_velocity_rad_s: float,
+    motor_torque_nm: float,
+    elev_min: float,
+    elev_max: float,
+    max_vel: float,
+    max_motor_vel: float,
+) -> Command:
+    """The safe command, with flags saying which input was wrong (off the hot path)."""
+    faults = Fault.NONE
+    if not all(math.isfinite(v) for v in (time_s, elevation_rad, elevation_velocity_rad_s)) or any(
+        math.isinf(v) for v in (motor_velocity_rad_s, motor_torque_nm)
+    ):
+        faults |= Fault.NONFINITE_INPUT
+    if math.isfinite(elevation_rad) and not elev_min <= elevation_rad <= elev_max:
+        faults |= Fault.ELEVATION_OUT_OF_RANGE
+    if math.isfinite(elevation_velocity_rad_s) and abs(elevation_velocity_rad_s) > max_vel:
+        faults |= Fault.ELEVATION_VELOCITY_OUT_OF_RANGE
+    if math.isfinite(motor_velocity_rad_s) and abs(motor_velocity_rad_s) > max_motor_vel:
+        faults |= Fault.MOTOR_OVERSPEED
+    return _new_command(Command, (0.0, _NAN, _NAN, int(faults), 0))
 
 
 def build_controller(
