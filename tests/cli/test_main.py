@@ -1,0 +1,47 @@
+import subprocess
+import sys
+
+import pytest
+
+from bowden import __version__
+from bowden.cli import build_parser, main
+
+
+def test_version_command(capsys):
+    assert main(["version"]) == 0
+    assert capsys.readouterr().out.strip() == f"bowden {__version__}"
+
+
+def test_version_verbose_lists_dependencies(capsys):
+    assert main(["version", "--verbose"]) == 0
+    out = capsys.readouterr().out
+    assert "numpy" in out and "python" in out
+
+
+def test_help_lists_every_discovered_subcommand(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    choices = build_parser()._subparsers._group_actions[0].choices  # type: ignore[union-attr]
+    assert "version" in choices
+    for name in choices:
+        assert name in out
+
+
+def test_no_command_prints_help_and_fails(capsys):
+    assert main([]) == 2
+    assert "usage: bowden" in capsys.readouterr().out
+
+
+def test_unknown_command_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["no-such-command"])
+    assert exit_info.value.code == 2
+
+
+def test_module_entry_point_runs():
+    result = subprocess.run(
+        [sys.executable, "-m", "bowden", "version"], capture_output=True, text=True, check=True
+    )
+    assert result.stdout.strip() == f"bowden {__version__}"
