@@ -1,0 +1,346 @@
+"""The AK60-6 V1.1 MIT-mode driver over an injected ``can.BusABC``.
+
+The bus is injected (socketcan ``can0`` on the BeagleBone, python-can's ``virtual`` bus against the
+simulated peer in tests), never opened here. Frames are those of :mod:`bowden.hardware.ak60_codec`.
+
+What the driver adds to the codec:
+
+* replies are matched to the command that asked for them (stale replies queued from an earlier,
+  timed-out exchange are drained before each send), with a deadline: a silent motor raises
+  :class:`~bowden.errors.DeviceTimeoutError` instead of blocking the loop;
+* the ±12.5 rad position field is only ±2 output turns, so wraps are counted and ``position_rad`` is
+  multi-turn spool position (the field wraps on the AK firmware; a jump of more than half the field
+  between two replies is a wrap, which needs |v| < P·reply rate: 6000 rad/s at 500 Hz);
+* transmit failures — typically ``No buffer space available`` (errno 105) when nothing on the bus
+  acknowledges — are retried briefly, then raised as :class:`~bowden.errors.TransmitError`;
+* motor error codes are passed through in :attr:`MotorState.error_code` (the loop's watchdog turns
+  them into a safe stop), never swallowed;
+* ``direction`` maps the motor's positive sense onto the suit's (torque > 0 pulls the cable).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from types import TracebackType
+from typing import Self
+
+import can
+
+from bowden.errors import DeviceTimeoutError, MalformedFrameError, ParameterError, TransmitError
+from bowden.hardware.ak60_codec import (
+    DEFAULT_FIRMWARE,
+    ENTER_MOTOR_MODE,
+    EXIT_MOTOR_MODE,
+    FIRMWARE_LIMITS,
+    MAX_STANDARD_ID,
+    SET_ZERO,
+    AK60Limits,
+    MitCommand,
+    MitReply,
+    pack_command,
+    unpack_reply,
+)
+from bowden.hardware.protocols import MotorState
+
+_log = logging.getLogger(__name__)
+ERRNO_NO_BUFFER_SPACE = 105  # ENOBUFS on Linux: the CAN controller's transmit queue is full
+
+
+@dataclass(frozen=True, kw_only=True)
+class AK60Config:
+    """How to talk to one AK60-6 (all times in seconds).
+
+    Parameters
+    ----------
+    motor_id
+        CAN id of the motor (standard 11-bit; the reply carries it in byte 0).
+    limits
+        Field ranges of the firmware variant (see ``ak60_codec.FIRMWARE_LIMITS``).
+    reply_timeout_s
+        How long a command waits for its reply. A bus round trip is ≈ 0.25 ms.
+    special_reply_timeout_s
+        How long enter/exit motor mode wait for the motor's state frame.
+    zero_settle_s, zero_timeout_s
+        After "set zero" the motor is silent ~0.5–1.5 s: wait ``zero_settle_s``, then poll until it
+        answers or ``zero_timeout_s`` has passed since the request.
+    direction
+        +1 if positive motor torque pulls the cable, −1 if the spool is wound the other way.
+    torque_limit_nm
+        Commands are clamped to ±this (Nm, spool side) before packing. Default: the peak torque.
+    kd
+        Damping gain sent with every torque command (Nm·s/rad); 0 = pure torque control.
+    reply_arbitration_id
+        Accept replies only on this CAN id (the firmware's "master id"), or None for any standard id.
+    send_attempts, send_retry_s
+        A failed transmit is retried this many times in all, ``send_retry_s`` apart.
+    """
+
+    motor_id: int = 1
+    limits: AK60Limits = field(default_factory=lambda: FIRMWARE_LIMITS[DEFAULT_FIRMWARE])
+    reply_timeout_s: float = 0.01
+    special_reply_timeout_s: float = 0.1
+    zero_settle_s: float = 0.5
+    zero_timeout_s: float = 2.0
+    direction: int = 1
+    torque_limit_nm: float = 9.0
+    kd: float = 0.0
+    reply_arbitration_id: int | None = None
+    send_attempts: int = 3
+    send_retry_s: float = 0.0002
+
+    def __post_init__(self) -> None:
+        if not 0 < self.motor_id <= MAX_STANDARD_ID:
+            raise ParameterError(f"AK60Config.motor_id must be in 1..{MAX_STANDARD_ID}, got {self.motor_id}")
+        for name in ("reply_timeout_s", "special_reply_timeout_s", "zero_timeout_s", "torque_limit_nm"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ParameterError(f"AK60Config.{name} must be positive, got {value!r}")
+        for name in ("zero_settle_s", "kd", "send_retry_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ParameterError(f"AK60Config.{name} must be non-negative, got {value!r}")
+        if self.zero_settle_s >= self.zero_timeout_s:
+            raise ParameterError("AK60Config.zero_settle_s must be shorter than zero_timeout_s")
+        if self.direction not in (1, -1):
+            raise ParameterError(f"AK60Config.direction must be +1 or -1, got {self.direction}")
+        if self.kd > self.limits.kd_max:
+            raise ParameterError(f"AK60Config.kd ({self.kd}) exceeds limits.kd_max ({self.limits.kd_max})")
+        if self.send_attempts < 1:
+            raise ParameterError(f"AK60Config.send_attempts must be >= 1, got {self.send_attempts}")
+        if self.reply_arbitration_id is not None and not 0 <= self.reply_arbitration_id <= MAX_STANDARD_ID:
+            raise ParameterError(
+                f"AK60Config.reply_arbitration_id must be a standard id, got {self.reply_arbitration_id}"
+            )
+
+
+@dataclass
+class AK60Counters:
+    """What went wrong so far (for the run summary and the tests)."""
+
+    replies: int = 0
+    timeouts: int = 0
+    malformed: int = 0
+    stale_replies: int = 0
+    transmit_retries: int = 0
+    transmit_failures: int = 0
+
+
+class AK60Motor:
+    """An AK60-6 in MIT mode used as a torque source (implements :class:`~bowden.hardware.Motor`).
+
+    Parameters
+    ----------
+    bus
+        An open python-can bus at 1 Mbit/s; the caller owns it and shuts it down.
+    config
+        :class:`AK60Config`.
+    clock
+        Monotonic time source (s) used for reply deadlines and state time stamps.
+    """
+
+    def __init__(
+        self,
+        bus: can.BusABC,
+        config: AK60Config | None = None,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self._bus = bus
+        self.config = config if config is not None else AK60Config()
+        self._clock = clock
+        self.counters = AK60Counters()
+        self._enabled = False
+        self._last_raw_position: float | None = None
+        self._turns = 0
+        self._field_span_rad = 2.0 * self.config.limits.position_rad
+        self.last_state: MotorState | None = None
+
+    # --- Motor protocol ---------------------------------------------------------------------------
+    @property
+    def enabled(self) -> bool:
+        """True between :meth:`enable` and :meth:`disable`."""
+        return self._enabled
+
+    def enable(self) -> MotorState:
+        """Enter motor mode and return the state frame the motor answers with."""
+        self._send(ENTER_MOTOR_MODE)
+        state = self._await_state(self.config.special_reply_timeout_s, "enter motor mode")
+        self._enabled = True
+        return state
+
+    def disable(self) -> None:
+        """Exit motor mode (motor limp). Safe to call more than once and on a silent motor.
+
+        The reply to the exit frame is read if it comes but not required: a motor that has gone
+        silent must still be told to stop, and the caller cannot do more than that.
+        """
+        self._send(EXIT_MOTOR_MODE)
+        self._enabled = False
+        try:
+            self._await_state(self.config.special_reply_timeout_s, "exit motor mode")
+        except (DeviceTimeoutError, MalformedFrameError) as error:
+            _log.warning("AK60 id %d: no valid reply to exit motor mode (%s)", self.config.motor_id, error)
+
+    def set_zero(self) -> None:
+        """Make the current position zero; waits out the motor's silence after the request.
+
+        Raises
+        ------
+        DeviceTimeoutError
+            If the motor has not answered within ``zero_timeout_s``.
+        """
+        requested_s = self._clock()
+        self._send(SET_ZERO)
+        time.sleep(self.config.zero_settle_s)
+        poll = MitCommand(torque_nm=0.0) if self._enabled else None
+        while True:
+            remaining = requested_s + self.config.zero_timeout_s - self._clock()
+            if remaining <= 0.0:
+                raise DeviceTimeoutError(
+                    f"AK60 id {self.config.motor_id} did not answer within {self.config.zero_timeout_s} s "
+                    "after set-zero; check power and wiring, then retry"
+                )
+            # A zero-torque command (motor mode) or a repeated exit frame (rest) is harmless either way.
+            self._send(pack_command(poll, self.config.limits) if poll is not None else EXIT_MOTOR_MODE)
+            try:
+                reply = self._await_reply(min(remaining, self.config.reply_timeout_s * 5))
+            except DeviceTimeoutError:
+                continue
+            # The motor's zero is now here; forget the wrap history measured against the old one.
+            self._turns = 0
+            self._last_raw_position = None
+            self.last_state = self._to_state(reply)
+            return
+
+    def command_torque(self, torque_nm: float) -> MotorState:
+        """Send a pure torque command (spool side, Nm, > 0 pulls) and return the reply to it.
+
+        Raises
+        ------
+        DeviceTimeoutError
+            No reply within ``reply_timeout_s``.
+        MalformedFrameError
+            A frame from this motor that does not decode.
+        TransmitError
+            The frame could not be sent.
+        ParameterError
+            ``torque_nm`` is NaN (a NaN command never reaches the wire).
+        """
+        if math.isnan(torque_nm):
+            raise ParameterError("command_torque: torque_nm is NaN")
+        limit = self.config.torque_limit_nm
+        motor_torque = self.config.direction * min(max(torque_nm, -limit), limit)
+        command = MitCommand(torque_nm=motor_torque, kd=self.config.kd)
+        self._drain()
+        self._send(pack_command(command, self.config.limits))
+        return self._await_state(self.config.reply_timeout_s, "torque command")
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        if not self._enabled:
+            return
+        try:
+            self.command_torque(0.0)
+        except (DeviceTimeoutError, MalformedFrameError, TransmitError) as error:
+            _log.warning("AK60 id %d: zero-torque command on exit failed (%s)", self.config.motor_id, error)
+        try:
+            self.disable()
+        except TransmitError:
+            if exc is None:
+                raise
+            _log.exception("AK60 id %d: could not send exit motor mode", self.config.motor_id)
+
+    # --- wire ------------------------------------------------------------------------------------
+    def _send(self, data: bytes) -> None:
+        message = can.Message(arbitration_id=self.config.motor_id, data=data, is_extended_id=False)
+        last_error: can.CanError | None = None
+        for attempt in range(self.config.send_attempts):
+            try:
+                self._bus.send(message, timeout=self.config.reply_timeout_s)
+                return
+            except can.CanError as error:  # CanOperationError carries errno 105 on socketcan
+                last_error = error
+                if attempt + 1 < self.config.send_attempts:
+                    self.counters.transmit_retries += 1
+                    time.sleep(self.config.send_retry_s)
+        self.counters.transmit_failures += 1
+        hint = ""
+        if getattr(last_error, "error_code", None) == ERRNO_NO_BUFFER_SPACE:
+            hint = " (no buffer space: nothing acknowledges — is the motor powered, the bus terminated?)"
+        raise TransmitError(
+            f"AK60 id {self.config.motor_id}: transmit failed after {self.config.send_attempts} "
+            f"attempts: {last_error}{hint}"
+        ) from last_error
+
+    def _is_reply(self, message: can.Message) -> bool:
+        if message.is_error_frame or message.is_remote_frame or message.is_extended_id:
+            return False
+        if not message.data or message.data[0] != self.config.motor_id:
+            return False
+        wanted = self.config.reply_arbitration_id
+        return wanted is None or message.arbitration_id == wanted
+
+    def _drain(self) -> None:
+        while (message := self._bus.recv(timeout=0.0)) is not None:
+            if self._is_reply(message):
+                self.counters.stale_replies += 1
+
+    def _await_reply(self, timeout_s: float) -> MitReply:
+        deadline = self._clock() + timeout_s
+        while True:
+            remaining = deadline - self._clock()
+            if remaining <= 0.0:
+                self.counters.timeouts += 1
+                raise DeviceTimeoutError(
+                    f"AK60 id {self.config.motor_id}: no reply within {timeout_s * 1e3:.1f} ms"
+                )
+            message = self._bus.recv(timeout=remaining)
+            if message is None or not self._is_reply(message):
+                continue
+            try:
+                reply = unpack_reply(message.data, self.config.limits)
+            except MalformedFrameError:
+                self.counters.malformed += 1
+                raise
+            self.counters.replies += 1
+            return reply
+
+    def _await_state(self, timeout_s: float, what: str) -> MotorState:
+        try:
+            reply = self._await_reply(timeout_s)
+        except DeviceTimeoutError as error:
+            raise DeviceTimeoutError(f"{error} ({what})") from None
+        state = self._to_state(reply)
+        self.last_state = state
+        return state
+
+    def _to_state(self, reply: MitReply) -> MotorState:
+        raw = reply.position_rad
+        previous = self._last_raw_position
+        if previous is not None:
+            jump = raw - previous
+            if jump > 0.5 * self._field_span_rad:
+                self._turns -= 1
+            elif jump < -0.5 * self._field_span_rad:
+                self._turns += 1
+        self._last_raw_position = raw
+        sign = self.config.direction
+        return MotorState(
+            time_s=self._clock(),
+            position_rad=sign * (raw + self._turns * self._field_span_rad),
+            velocity_rad_s=sign * reply.velocity_rad_s,
+            torque_nm=sign * reply.torque_nm,
+            temperature_c=reply.temperature_c,
+            error_code=reply.error_code,
+        )

@@ -1,0 +1,256 @@
+"""The AK60-6 driver against the simulated motor over python-can's virtual bus: the bytes are real."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
+
+import can
+import pytest
+
+from bowden.errors import DeviceTimeoutError, MalformedFrameError, ParameterError, TransmitError
+from bowden.hardware.ak60 import ERRNO_NO_BUFFER_SPACE, AK60Config, AK60Motor
+from bowden.hardware.ak60_codec import FIRMWARE_LIMITS, MotorErrorCode, position_resolution_rad
+from bowden.hardware.protocols import Motor
+from bowden.sim.peers import AK60Peer, WallTimePlant
+from bowden.sim.peers.ak60_peer import COMMAND, ENTER, EXIT, ZERO
+
+if TYPE_CHECKING:
+    from conftest import SimplePlant
+
+FAST = AK60Config(reply_timeout_s=0.05, special_reply_timeout_s=0.2, zero_settle_s=0.02, zero_timeout_s=1.0)
+
+
+@pytest.fixture
+def peer(can_buses: tuple[can.BusABC, can.BusABC], wall_plant: WallTimePlant) -> Iterator[AK60Peer]:
+    with AK60Peer(can_buses[1], wall_plant, zero_silence_s=0.05) as running:
+        yield running
+
+
+@pytest.fixture
+def motor(can_buses: tuple[can.BusABC, can.BusABC], peer: AK60Peer) -> AK60Motor:
+    return AK60Motor(can_buses[0], FAST)
+
+
+def test_driver_implements_the_motor_protocol(motor: AK60Motor) -> None:
+    assert isinstance(motor, Motor)
+
+
+def test_enter_command_reply_exit(motor: AK60Motor, peer: AK60Peer, plant: SimplePlant) -> None:
+    state = motor.enable()
+    assert peer.in_motor_mode and motor.enabled
+    assert state.error_code == 0 and state.temperature_c == plant.motor.temperature_c
+    for _ in range(200):
+        state = motor.command_torque(2.0)
+    commands = [frame for frame in peer.received if frame.kind == COMMAND]
+    # The peer decoded the driver's bytes to the torque asked for (within one 12-bit step of ±15 Nm).
+    assert commands[-1].torque_nm == pytest.approx(2.0, abs=30.0 / 4095)
+    # The reply carries the plant's state: torque lagging towards 2 Nm, spool accelerating.
+    assert state.torque_nm == pytest.approx(plant.motor.torque_nm, abs=0.02)
+    assert state.velocity_rad_s > 0.0
+    motor.disable()
+    assert not peer.in_motor_mode and not motor.enabled
+    assert peer.received[0].kind == ENTER
+    assert peer.received[-1].kind == EXIT
+    # Outside motor mode the motor answers but applies no torque.
+    motor.command_torque(3.0)
+    assert peer.received[-1].torque_nm == 0.0
+    motor.disable()  # twice is fine
+
+
+def test_negative_direction_flips_every_sign(can_buses: tuple[can.BusABC, can.BusABC], peer: AK60Peer,
+                                             plant: SimplePlant) -> None:
+    motor = AK60Motor(can_buses[0], AK60Config(reply_timeout_s=0.05, direction=-1))
+    motor.enable()
+    for _ in range(100):
+        state = motor.command_torque(1.0)
+    assert peer.received[-1].torque_nm == pytest.approx(-1.0, abs=30.0 / 4095)
+    assert plant.motor.velocity_rad_s < 0.0 < state.velocity_rad_s
+    assert state.torque_nm > 0.0
+    motor.disable()
+
+
+def test_torque_is_clamped_to_the_configured_limit(motor: AK60Motor, peer: AK60Peer) -> None:
+    motor.enable()
+    motor.command_torque(50.0)
+    assert peer.received[-1].torque_nm == pytest.approx(9.0, abs=30.0 / 4095)
+    with pytest.raises(ParameterError, match="NaN"):
+        motor.command_torque(math.nan)
+    motor.disable()
+
+
+def test_set_zero_waits_out_the_silence(motor: AK60Motor, peer: AK60Peer, plant: SimplePlant) -> None:
+    motor.enable()
+    for _ in range(300):
+        state = motor.command_torque(1.0)
+    motor.command_torque(0.0)
+    plant.motor.damping_nm_s = 10.0  # stop the spool so the zero is well defined
+    assert abs(state.position_rad) > 0.05
+    motor.set_zero()
+    assert any(frame.kind == ZERO for frame in peer.received)
+    after = motor.command_torque(0.0)
+    assert after.position_rad == pytest.approx(0.0, abs=0.01)
+    motor.disable()
+
+
+def test_set_zero_times_out_on_a_motor_that_stays_silent(can_buses: tuple[can.BusABC, can.BusABC],
+                                                          wall_plant: WallTimePlant) -> None:
+    config = AK60Config(reply_timeout_s=0.01, zero_settle_s=0.01, zero_timeout_s=0.1)
+    with AK60Peer(can_buses[1], wall_plant, zero_silence_s=5.0):
+        motor = AK60Motor(can_buses[0], config)
+        with pytest.raises(DeviceTimeoutError, match="set-zero"):
+            motor.set_zero()
+
+
+def test_timeouts_then_recovery(motor: AK60Motor, peer: AK60Peer) -> None:
+    motor.enable()
+    peer.mute()
+    with pytest.raises(DeviceTimeoutError, match="no reply"):
+        motor.command_torque(1.0)
+    with pytest.raises(DeviceTimeoutError):
+        motor.command_torque(1.0)
+    assert motor.counters.timeouts == 2
+    peer.mute(False)
+    state = motor.command_torque(0.5)
+    assert state.error_code == 0
+    motor.disable()
+
+
+def test_enable_times_out_without_a_motor(can_buses: tuple[can.BusABC, can.BusABC]) -> None:
+    motor = AK60Motor(can_buses[0], AK60Config(special_reply_timeout_s=0.02))
+    with pytest.raises(DeviceTimeoutError, match="enter motor mode"):
+        motor.enable()
+    assert not motor.enabled
+
+
+@pytest.mark.parametrize("code", [c for c in MotorErrorCode if c != MotorErrorCode.NONE])
+def test_each_motor_error_code_surfaces_in_the_state(motor: AK60Motor, peer: AK60Peer,
+                                                      code: MotorErrorCode) -> None:
+    motor.enable()
+    peer.inject_error(int(code))
+    state = motor.command_torque(0.5)
+    assert state.error_code == code
+    peer.inject_error(0)
+    assert motor.command_torque(0.0).error_code == 0
+    motor.disable()
+
+
+def test_six_byte_firmware(can_buses: tuple[can.BusABC, can.BusABC], wall_plant: WallTimePlant) -> None:
+    with AK60Peer(can_buses[1], wall_plant, reply_length=6):
+        motor = AK60Motor(can_buses[0], FAST)
+        state = motor.enable()
+        assert math.isnan(state.temperature_c) and state.error_code == 0
+        motor.disable()
+
+
+def test_other_firmware_variant_end_to_end(can_buses: tuple[can.BusABC, can.BusABC],
+                                           wall_plant: WallTimePlant) -> None:
+    limits = FIRMWARE_LIMITS["peak-9nm"]
+    with AK60Peer(can_buses[1], wall_plant, limits=limits) as peer:
+        motor = AK60Motor(can_buses[0], AK60Config(limits=limits, reply_timeout_s=0.05))
+        motor.enable()
+        motor.command_torque(4.0)
+        assert peer.received[-1].torque_nm == pytest.approx(4.0, abs=18.0 / 4095)
+        motor.disable()
+
+
+def test_malformed_reply_is_a_fault(motor: AK60Motor, peer: AK60Peer) -> None:
+    motor.enable()
+    peer.replace_next_reply(bytes([1, 0x80, 0x00]))  # right id, wrong length
+    with pytest.raises(MalformedFrameError, match="6 or 8"):
+        motor.command_torque(0.5)
+    assert motor.counters.malformed == 1
+    peer.replace_next_reply(bytes([7, 1, 2, 3, 4, 5, 6, 7]))  # another motor's reply is not ours
+    with pytest.raises(DeviceTimeoutError):
+        motor.command_torque(0.5)
+    assert motor.command_torque(0.0).error_code == 0
+    motor.disable()
+
+
+def test_wraps_are_counted_over_many_turns(motor: AK60Motor, peer: AK60Peer, plant: SimplePlant) -> None:
+    # The plant stands still (no torque) and the test moves the spool by hand, 0.3 rad at a time,
+    # out to 8 output turns and back: the ±12.5 rad field wraps twice on the way out.
+    motor.enable()
+    plant.motor.damping_nm_s = 0.0
+    targets = [0.3 * k for k in range(168)] + [0.3 * k for k in range(167, -60, -1)]
+    lsb = position_resolution_rad(motor.config.limits)
+    for target in targets:
+        plant.motor.position_rad = target
+        plant.motor.velocity_rad_s = 0.0
+        state = motor.command_torque(0.0)
+        assert state.position_rad == pytest.approx(target, abs=lsb)
+    motor.disable()
+
+
+def test_context_manager_leaves_the_motor_safe(can_buses: tuple[can.BusABC, can.BusABC],
+                                               peer: AK60Peer) -> None:
+    with pytest.raises(RuntimeError, match="boom"), AK60Motor(can_buses[0], FAST) as motor:
+        motor.enable()
+        motor.command_torque(2.0)
+        raise RuntimeError("boom")
+    kinds = [frame.kind for frame in peer.received]
+    assert kinds[-1] == EXIT
+    # Zero is not on the grid of a symmetric 12-bit field: it goes out as +½ step (3.7 mNm at ±15 Nm),
+    # which is why the safe state ends by leaving motor mode, not with a zero command.
+    assert peer.received[-2].kind == COMMAND
+    assert peer.received[-2].torque_nm == pytest.approx(0.0, abs=15.0 / 4095)
+    assert not peer.in_motor_mode
+
+
+class FlakyBus(can.BusABC):
+    """A bus whose first ``failures`` sends fail like socketcan with nothing on the bus to ACK."""
+
+    def __init__(self, inner: can.BusABC, failures: int) -> None:
+        super().__init__(channel="flaky")
+        self.inner = inner
+        self.failures = failures
+        self.attempts = 0
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        self.attempts += 1
+        if self.failures > 0:
+            self.failures -= 1
+            raise can.CanOperationError("Failed to transmit: No buffer space available",
+                                        error_code=ERRNO_NO_BUFFER_SPACE)
+        self.inner.send(msg, timeout)
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        return self.inner.recv(timeout), True
+
+    def shutdown(self) -> None:
+        super().shutdown()
+
+
+def test_transient_transmit_failure_is_retried(can_buses: tuple[can.BusABC, can.BusABC],
+                                               peer: AK60Peer) -> None:
+    bus = FlakyBus(can_buses[0], failures=1)
+    try:
+        motor = AK60Motor(bus, FAST)
+        motor.enable()
+        assert motor.counters.transmit_retries == 1 and motor.counters.transmit_failures == 0
+        motor.disable()
+    finally:
+        bus.shutdown()
+
+
+def test_persistent_transmit_failure_raises_with_a_hint(can_buses: tuple[can.BusABC, can.BusABC]) -> None:
+    bus = FlakyBus(can_buses[0], failures=100)
+    try:
+        motor = AK60Motor(bus, AK60Config(send_attempts=3))
+        with pytest.raises(TransmitError, match="no buffer space") as info:
+            motor.enable()
+        assert isinstance(info.value, OSError)
+        assert bus.attempts == 3 and motor.counters.transmit_failures == 1
+    finally:
+        bus.shutdown()
+
+
+def test_config_validation_names_the_field() -> None:
+    bad: list[dict[str, Any]] = [
+        {"motor_id": 0}, {"reply_timeout_s": 0.0}, {"direction": 2}, {"kd": 6.0},
+        {"zero_settle_s": 3.0}, {"send_attempts": 0}, {"reply_arbitration_id": 0x800},
+    ]
+    for kwargs in bad:
+        with pytest.raises(ParameterError, match=next(iter(kwargs))):
+            AK60Config(**kwargs)
