@@ -1,0 +1,102 @@
+"""A self-contained HTML document: headings, paragraphs, tables and figures embedded as PNG data.
+
+The report of a study is one file a researcher can mail or archive: no external assets, no scripts.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+_STYLE = """
+body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; max-width: 1100px;
+       margin: 2em auto; padding: 0 1em; color: #1b1b1b; line-height: 1.45; }
+h1 { border-bottom: 2px solid #444; padding-bottom: .2em; }
+h2 { margin-top: 2em; border-bottom: 1px solid #bbb; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.88em; }
+th, td { border: 1px solid #ccc; padding: 3px 7px; text-align: right; }
+th { background: #f2f2f2; }
+caption { caption-side: top; text-align: left; font-weight: 600; padding: 4px 0; }
+figure { margin: 1.2em 0; }
+figcaption { font-size: 0.9em; color: #444; }
+img { max-width: 100%; }
+.banner { background: #fff4d6; border: 1px solid #e0b84a; padding: .6em 1em; margin: 1em 0; }
+.note { color: #555; font-size: 0.92em; }
+.side-by-side { display: flex; gap: 2em; flex-wrap: wrap; align-items: flex-start; }
+"""
+
+
+@dataclass
+class HtmlDocument:
+    """Accumulates body fragments and writes them as one HTML file."""
+
+    title: str
+    parts: list[str] = field(default_factory=list)
+
+    def heading(self, text: str, level: int = 2) -> None:
+        self.parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
+
+    def paragraph(self, text: str, css_class: str = "") -> None:
+        attr = f' class="{css_class}"' if css_class else ""
+        self.parts.append(f"<p{attr}>{html.escape(text)}</p>")
+
+    def banner(self, text: str) -> None:
+        self.parts.append(f'<div class="banner">{html.escape(text)}</div>')
+
+    def table(self, frame: pd.DataFrame, caption: str, float_format: str = "{:.3g}") -> None:
+        """A DataFrame as an HTML table with a caption; floats formatted with ``float_format``."""
+        body = frame.to_html(
+            float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True
+        )
+        opening_end = body.index(">") + 1  # after pandas' "<table ...>"
+        self.parts.append(
+            f"{body[:opening_end]}<caption>{html.escape(caption)}</caption>{body[opening_end:]}"
+        )
+
+    def raw_table(self, table_html: str) -> None:
+        """An HTML table made elsewhere (e.g. a pandas Styler), inserted as is."""
+        self.parts.append(table_html)
+
+    def figure(self, fig: Any, caption: str, dpi: int = 110) -> None:
+        """Embed a matplotlib figure as a PNG data URI and close it."""
+        buffer = io.BytesIO()
+        fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        data = base64.b64encode(buffer.getvalue()).decode("ascii")
+        self.parts.append(
+            f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>"
+        )
+
+    def render(self) -> str:
+        body = "\n".join(self.parts)
+        return (
+            "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f"<title>{html.escape(self.title)}</title><style>{_STYLE}</style></head>\n"
+            f"<body>\n<h1>{html.escape(self.title)}</h1>\n{body}\n</body></html>\n"
+        )
+
+    def write(self, path: str | Path) -> Path:
+        """Write atomically: a crash never leaves a half-written report."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as handle:
+                handle.write(self.render())
+            os.replace(tmp, path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+        return path
+
