@@ -89,7 +89,9 @@ def independent_robustfit(x: np.ndarray, y: np.ndarray, tune: float = 4.685) -> 
     }
 
 
-def contaminated_line(seed: int, n: int = 400, outlier_fraction: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+def contaminated_line(
+    seed: int, n: int = 400, outlier_fraction: float = 0.1
+) -> tuple[np.ndarray, np.ndarray]:
     """A bench-like line (torque ≈ 0.05 + 0.04·tension) with gross outliers."""
     rng = np.random.default_rng(seed)
     x = rng.uniform(5.0, 120.0, n)

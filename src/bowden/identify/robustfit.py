@@ -122,7 +122,9 @@ class RobustFit:
     def slope(self) -> float:
         """b[1] of a one-predictor fit, in units of y per unit of x."""
         if self.coefficients.shape[0] != 2:
-            raise FitError(f"slope is defined for one predictor; this fit has {self.coefficients.shape[0] - 1}")
+            raise FitError(
+                f"slope is defined for one predictor; this fit has {self.coefficients.shape[0] - 1}"
+            )
         return float(self.coefficients[1])
 
     @property
@@ -178,7 +180,7 @@ def robust_sigma(
     m1 = float(np.mean(dpsi))
     m2 = float(np.sum((1.0 - leverage) * psi * psi)) / (n - rank)
     k = 1.0 + (rank / n) * (1.0 - m1) / m1
-    return k * math.sqrt(m2) * st / m1
+    return float(k * math.sqrt(m2) * st / m1)
 
 
 def _pivoted_qr(
