@@ -55,3 +55,7 @@ class TransmitError(HardwareError):
 
 class OutcomeTableError(BowdenError, ValueError):
     """An outcome table for the statistics is unusable (missing column, value <= 0, empty cell)."""
+
+
+class OutputFileError(BowdenError, OSError):
+    """An output file (model.json, figure, report) cannot be written: names the file and the reason."""
