@@ -1,0 +1,100 @@
+"""``bowden identify BENCH... -o model.json [--figure fig.png]``: bench recordings to a compensation model.
+
+Reads one or several bench recordings (CSV or Parquet), runs the paper's identification (see
+:mod:`bowden.identify`), writes the versioned ``model.json`` with provenance, prints the summary
+(lines, both R², n, implied k, single-bend check, warnings) and optionally draws the regression
+figure. Selection thresholds are given in the paper's units (degrees) on the command line.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from bowden.errors import OutputFileError
+from bowden.identify.estimator import TransmissionIdentifier
+from bowden.identify.figure import save_identification_figure
+from bowden.identify.preprocess import LOWERING, RAISING, PreprocessSettings
+
+_DEFAULTS = PreprocessSettings()
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = subparsers.add_parser(
+        "identify",
+        help="fit the raising/lowering compensation lines from bench recordings",
+        description=(
+            "Identify the Bowden transmission from bench recordings (columns time_s, motor_torque_nm, "
+            "motor_velocity_rad_s, tension_n, elevation_rad, optional trial) and write model.json."
+        ),
+    )
+    parser.add_argument(
+        "bench", nargs="+", type=Path, metavar="BENCH", help="bench recording(s), .csv or .parquet"
+    )
+    parser.add_argument("-o", "--output", type=Path, required=True, help="model file to write (model.json)")
+    parser.add_argument("--figure", type=Path, help="also draw the regression figure (.png, .pdf, .svg)")
+    parser.add_argument(
+        "--pulley-radius-mm", type=float, default=35.0, help="spool radius in mm (default 35, the paper's)"
+    )
+    parser.add_argument("--cutoff-hz", type=float, default=_DEFAULTS.cutoff_hz, help="low-pass cutoff (5 Hz)")
+    parser.add_argument(
+        "--min-speed-deg-s", type=float, default=15.0, help="keep |spool speed| above this (15 °/s)"
+    )
+    parser.add_argument(
+        "--max-acceleration-deg-s2",
+        type=float,
+        default=15.0,
+        help="keep |spool acceleration| below this (15 °/s²)",
+    )
+    parser.add_argument(
+        "--min-elevation-deg", type=float, default=20.0, help="keep elevation above this (20°)"
+    )
+    parser.add_argument(
+        "--max-elevation-deg", type=float, default=90.0, help="keep elevation below this (90°)"
+    )
+    parser.add_argument(
+        "--min-samples",
+        type=int,
+        default=50,
+        help="fewer steady-state samples in a direction is an error (50)",
+    )
+    parser.add_argument(
+        "--ignore-extra-columns", action="store_true", help="ignore columns outside the bench contract"
+    )
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    settings = PreprocessSettings(
+        cutoff_hz=args.cutoff_hz,
+        min_speed_rad_s=math.radians(args.min_speed_deg_s),
+        max_abs_acceleration_rad_s2=math.radians(args.max_acceleration_deg_s2),
+        min_elevation_rad=math.radians(args.min_elevation_deg),
+        max_elevation_rad=math.radians(args.max_elevation_deg),
+    )
+    identifier = TransmissionIdentifier(
+        preprocessing=settings,
+        pulley_radius_m=args.pulley_radius_mm / 1000.0,
+        min_samples_per_direction=args.min_samples,
+    )
+    if args.ignore_extra_columns:
+        from bowden.identify.recording import read_bench_recording
+
+        identifier.fit(read_bench_recording(args.bench, limits=identifier.limits, allow_extra_columns=True))
+    else:
+        identifier.fit(args.bench)
+    try:
+        identifier.model_.save(args.output)
+    except OSError as error:
+        raise OutputFileError(f"cannot write the model to {args.output}: {error.strerror or error}") from None
+    print(identifier.summary_.format())
+    print(f"Model written to {args.output}")
+    if args.figure is not None:
+        fits = {RAISING: identifier.raising_fit_, LOWERING: identifier.lowering_fit_}
+        save_identification_figure(identifier.selection_, fits, args.figure)
+        print(f"Figure written to {args.figure}")
+    if identifier.summary_.warnings:
+        print(f"bowden identify: {len(identifier.summary_.warnings)} warning(s), see above", file=sys.stderr)
+    return 0
