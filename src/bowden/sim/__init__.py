@@ -1,0 +1,1 @@
+"""The simulated suit: plant physics, mannequin bench, virtual participants and batch simulation."""

@@ -1,0 +1,443 @@
+"""Compiled physics of the simulated suit: one fixed plant step and loops over many of them.
+
+The plant (REFERENCE §6) is, from the motor to the arm:
+
+* **motor**: current-loop lag (exact exponential), torque-constant error, torque limit, rotor inertia,
+  viscous friction and Coulomb friction integrated by time stepping (Moreau 1988: the friction
+  impulse is chosen so that the velocity is zero when it can be), so a motor at rest stays exactly
+  at rest instead of chattering;
+* **cable** from spool to sheath: a spring that only pulls (``T_in = k_c·max(0, x_m − s)``);
+* **sheath**: the cable inside it lumped into one massless node at position ``s`` (> 0 towards the
+  motor) held by friction proportional to the normal force ``(T_in + T_out)`` (the paper's single-bend
+  law, supplement eq. S1–S5). It sticks while ``|T_in − T_out| ≤ k_s·(T_in + T_out)`` and slides with
+  the Stribeck coefficient ``k(v)`` otherwise. Because the node is massless, each step solves its
+  position exactly (implicit Euler, piecewise linear), which is stable for any step;
+* **distal segment** (textile, tissue, cable to the anchor): a damped spring that only pulls;
+* **anchor** on the arm through the cuff geometry (REFERENCE §3): path length
+  ``L(θ) = sqrt(a² + b² − 2ab·cos(ψ − θ))`` whose derivative is minus the moment arm ``r(θ)``;
+* **arm**: prescribed kinematics, or a rigid body driven by an external torque (mannequin motor or a
+  virtual participant's muscles), gravity, passive damping and soft joint stops.
+
+Everything is plain float arithmetic on small arrays (state, parameters) indexed by the constants
+below, so the same step serves the single suit driven by the runtime loop and the batch simulation.
+Sources of each number are in :mod:`bowden.sim.parameters`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar, cast
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def jit(func: _F) -> _F:
+    """Compile ``func`` in nopython mode, cached on disk, keeping its Python signature for mypy."""
+    return cast(_F, numba.njit(cache=True, nogil=True)(func))
+
+
+GRAVITY_M_S2 = 9.81
+
+# --- parameter vector ---------------------------------------------------------------------------
+P_SPOOL_R = 0
+P_MOTOR_J = 1
+P_MOTOR_COULOMB = 2
+P_MOTOR_VISCOUS = 3
+P_CURRENT_TAU = 4
+P_KT_RATIO = 5
+P_TORQUE_LIMIT = 6
+P_K_KINETIC = 7
+P_K_STATIC = 8
+P_V_STRIBECK = 9
+P_V_STICK = 10
+P_K_CABLE = 11
+P_K_DISTAL = 12
+P_C_DISTAL = 13
+P_GEOM_A = 14
+P_GEOM_B = 15
+P_GEOM_PSI = 16
+P_ARM_I = 17
+P_ARM_G = 18
+P_ARM_DAMPING = 19
+P_ARM_MIN = 20
+P_ARM_MAX = 21
+P_STOP_K = 22
+P_STOP_C = 23
+N_PARAM = 24
+
+# --- state vector -------------------------------------------------------------------------------
+X_SPOOL_Q = 0  # spool angle, rad (> 0 reeling in)
+X_SPOOL_W = 1  # spool velocity, rad/s
+X_MOTOR_TAU = 2  # delivered motor torque, Nm
+X_NODE_S = 3  # sheath node position, m (> 0 towards the motor)
+X_SLIP_V = 4  # node velocity of the last step, m/s
+X_STUCK = 5  # 1.0 while the sheath sticks
+X_SLIP_DIR = 6  # direction of the last slip, ±1
+X_ARM_TH = 7  # elevation, rad
+X_ARM_THD = 8  # elevation velocity, rad/s
+X_T_IN = 9  # tension at the sheath entry (motor side), N
+X_T_OUT = 10  # tension at the anchor, N
+X_E_SHEATH = 11  # energy dissipated by sheath friction, J
+X_E_DISTAL = 12  # energy dissipated by the distal damper, J
+X_W_SPOOL = 13  # work done by the spool on the cable, J
+X_W_ARM = 14  # work done by the cable on the arm, J
+X_E_MOTOR = 15  # energy dissipated by motor friction, J
+X_TIME = 16  # simulated time, s
+X_NOISE = 17  # virtual participant's motor-noise state (unit-variance Ornstein–Uhlenbeck)
+N_STATE = 18
+
+# --- arm drive modes ----------------------------------------------------------------------------
+ARM_PRESCRIBED = 0  # arm_a = elevation, arm_b = elevation velocity
+ARM_TORQUE = 1  # arm_a = external torque on the arm (Nm, > 0 raises)
+ARM_HUMAN = 2  # torque from the virtual participant's controller (human parameter vector)
+
+# --- motor command modes ------------------------------------------------------------------------
+MOTOR_TORQUE = 0  # cmd[0] = torque
+MOTOR_IMPEDANCE = 1  # cmd = (position, velocity, kp, kd, torque_ff), as the AK60-6 MIT mode
+MOTOR_OFF = 2  # limp: no torque
+
+# --- recorded columns of integrate() ------------------------------------------------------------
+R_TH = 0
+R_THD = 1
+R_T_OUT = 2
+R_SPOOL_Q = 3
+R_SPOOL_W = 4
+R_MOTOR_TAU = 5
+R_ARM_TORQUE = 6
+N_RECORD = 7
+
+
+@jit
+def path_length_m(p: NDArray[np.float64], th: float) -> float:
+    """Distance from the cable exit above the shoulder to the anchor on the humerus (REFERENCE §3)."""
+    a = p[P_GEOM_A]
+    b = p[P_GEOM_B]
+    return math.sqrt(a * a + b * b - 2.0 * a * b * math.cos(p[P_GEOM_PSI] - th))
+
+
+@jit
+def moment_arm_m(p: NDArray[np.float64], th: float) -> float:
+    """Moment arm of the cable about the shoulder, ``r = ab·sin α / L``, α = ψ − θ (REFERENCE §3)."""
+    a = p[P_GEOM_A]
+    b = p[P_GEOM_B]
+    alpha = p[P_GEOM_PSI] - th
+    return a * b * math.sin(alpha) / math.sqrt(a * a + b * b - 2.0 * a * b * math.cos(alpha))
+
+
+@jit
+def anchor_pull_m(p: NDArray[np.float64], th: float) -> float:
+    """How far the anchor has pulled the cable towards the motor relative to the arm hanging (θ = 0)."""
+    return path_length_m(p, 0.0) - path_length_m(p, th)
+
+
+@jit
+def stribeck_coefficient(p: NDArray[np.float64], slip_speed: float) -> float:
+    """``k(v) = k_k + (k_s − k_k)·exp(−(v/v_s)²)``."""
+    ratio = slip_speed / p[P_V_STRIBECK]
+    return p[P_K_KINETIC] + (p[P_K_STATIC] - p[P_K_KINETIC]) * math.exp(-ratio * ratio)
+
+
+@jit
+def distal_tension_at_rest(p: NDArray[np.float64], s: float, ya: float, yda: float) -> float:
+    """Distal tension with the node still: only a stretched segment pulls, and it never pushes."""
+    stretch = s - ya
+    if stretch <= 0.0:
+        return 0.0
+    return max(0.0, p[P_K_DISTAL] * stretch - p[P_C_DISTAL] * yda)
+
+
+@jit
+def sliding_node_position(
+    p: NDArray[np.float64], dt: float, s0: float, xm: float, ya: float, yda: float, sigma: float, k: float
+) -> float:
+    """Node position after one implicit step of sliding in direction ``sigma`` with coefficient ``k``.
+
+    Sliding balances the node: ``T_in − T_out = σ·k·(T_in + T_out)``, i.e. ``T_out = g·T_in`` with
+    ``g = (1 − σk)/(1 + σk)`` (the paper's law). ``T_in`` falls and ``T_out`` rises with ``s``, so the
+    balance has one root; both tensions are piecewise linear in ``s`` and it is found in closed form.
+    """
+    kc = p[P_K_CABLE]
+    kd = p[P_K_DISTAL]
+    c = p[P_C_DISTAL] / dt
+    g = (1.0 - sigma * k) / (1.0 + sigma * k)
+    # Where the damped distal force turns positive, and where the segment is taut at all.
+    s_damped = (kd * ya + c * s0 + p[P_C_DISTAL] * yda) / (kd + c)
+    s_taut = max(ya, s_damped)
+    if s_taut < xm:
+        s_star = (g * kc * xm + kd * ya + c * s0 + p[P_C_DISTAL] * yda) / (g * kc + kd + c)
+        return min(max(s_star, s_taut), xm)
+    # Both segments slack between xm and s_taut: the node moves no further than it has to.
+    return min(max(s0, xm), s_taut)
+
+
+@jit
+def sheath_step(x: NDArray[np.float64], p: NDArray[np.float64], dt: float, xm: float, ya: float, yda: float) -> None:
+    """Advance the sheath node one step with stick–slip friction; updates tensions and energies."""
+    s0 = x[X_NODE_S]
+    kc = p[P_K_CABLE]
+    k_static = p[P_K_STATIC]
+    t_in0 = kc * max(0.0, xm - s0)
+    t_out0 = distal_tension_at_rest(p, s0, ya, yda)
+    imbalance = t_in0 - t_out0
+    inside_cone = abs(imbalance) <= k_static * (t_in0 + t_out0)
+
+    stuck = x[X_STUCK] > 0.5
+    s1 = s0
+    g = 1.0
+    if not stuck:
+        sigma = x[X_SLIP_DIR]
+        k = stribeck_coefficient(p, abs(x[X_SLIP_V]))
+        s_try = sliding_node_position(p, dt, s0, xm, ya, yda, sigma, k)
+        moved = (s_try - s0) * sigma
+        slow = abs(s_try - s0) < p[P_V_STICK] * dt
+        if moved > 0.0 and not (slow and inside_cone):
+            s1 = s_try
+            g = (1.0 - sigma * k) / (1.0 + sigma * k)
+        else:
+            stuck = True
+    if stuck:
+        if inside_cone:
+            s1 = s0
+        else:
+            # Breakaway: start sliding with the static coefficient (zero slip speed on the curve).
+            sigma = 1.0 if imbalance > 0.0 else -1.0
+            s1 = sliding_node_position(p, dt, s0, xm, ya, yda, sigma, k_static)
+            g = (1.0 - sigma * k_static) / (1.0 + sigma * k_static)
+            stuck = (s1 - s0) * sigma <= 0.0
+            if stuck:
+                s1 = s0
+            else:
+                x[X_SLIP_DIR] = sigma
+
+    t_in = kc * max(0.0, xm - s1)
+    if stuck:
+        t_out = t_out0
+        x[X_STUCK] = 1.0
+        x[X_SLIP_V] = 0.0
+    else:
+        # While sliding the node is balanced by definition of the friction law.
+        t_out = g * t_in
+        x[X_STUCK] = 0.0
+        x[X_SLIP_V] = (s1 - s0) / dt
+    x[X_E_SHEATH] += (t_in - t_out) * (s1 - s0)
+    stretch = s1 - ya
+    if t_out > 0.0 and stretch > 0.0:
+        damper = t_out - p[P_K_DISTAL] * stretch
+        x[X_E_DISTAL] += damper * ((s1 - s0) - yda * dt)
+    x[X_NODE_S] = s1
+    x[X_T_IN] = t_in
+    x[X_T_OUT] = t_out
+
+
+@jit
+def motor_step(x: NDArray[np.float64], p: NDArray[np.float64], dt: float, torque_cmd: float, lag: float) -> None:
+    """Current loop, then spool dynamics against the cable with Coulomb friction by time stepping."""
+    limit = p[P_TORQUE_LIMIT]
+    target = min(max(torque_cmd * p[P_KT_RATIO], -limit), limit)
+    x[X_MOTOR_TAU] += (target - x[X_MOTOR_TAU]) * lag
+    j = p[P_MOTOR_J]
+    radius = p[P_SPOOL_R]
+    t_in = p[P_K_CABLE] * max(0.0, radius * x[X_SPOOL_Q] - x[X_NODE_S])
+    w_free = x[X_SPOOL_W] + dt / j * (x[X_MOTOR_TAU] - radius * t_in)
+    impulse = dt * p[P_MOTOR_COULOMB] / j
+    if abs(w_free) <= impulse:
+        w_new = 0.0
+    else:
+        w_new = (w_free - math.copysign(impulse, w_free)) / (1.0 + dt * p[P_MOTOR_VISCOUS] / j)
+    x[X_E_MOTOR] += (p[P_MOTOR_COULOMB] * abs(w_new) + p[P_MOTOR_VISCOUS] * w_new * w_new) * dt
+    x[X_SPOOL_W] = w_new
+    x[X_SPOOL_Q] += dt * w_new
+    x[X_W_SPOOL] += t_in * radius * w_new * dt
+
+
+@jit
+def arm_step(x: NDArray[np.float64], p: NDArray[np.float64], dt: float, external_torque: float) -> None:
+    """Semi-implicit Euler for the rigid arm: external + cable − gravity − damping + joint stops."""
+    th = x[X_ARM_TH]
+    thd = x[X_ARM_THD]
+    torque = external_torque + moment_arm_m(p, th) * x[X_T_OUT] - p[P_ARM_G] * math.sin(th)
+    damping = p[P_ARM_DAMPING]
+    if th < p[P_ARM_MIN]:
+        torque += p[P_STOP_K] * (p[P_ARM_MIN] - th)
+        damping += p[P_STOP_C]
+    elif th > p[P_ARM_MAX]:
+        torque += p[P_STOP_K] * (p[P_ARM_MAX] - th)
+        damping += p[P_STOP_C]
+    inertia = p[P_ARM_I]
+    thd = (thd + dt * torque / inertia) / (1.0 + dt * damping / inertia)
+    x[X_ARM_THD] = thd
+    x[X_ARM_TH] = th + dt * thd
+
+
+@jit
+def plant_step(
+    x: NDArray[np.float64],
+    p: NDArray[np.float64],
+    dt: float,
+    torque_cmd: float,
+    lag: float,
+    arm_mode: int,
+    arm_a: float,
+    arm_b: float,
+) -> None:
+    """One plant step: motor, then arm, then the sheath node at the new positions."""
+    motor_step(x, p, dt, torque_cmd, lag)
+    ya_old = anchor_pull_m(p, x[X_ARM_TH])
+    if arm_mode == ARM_PRESCRIBED:
+        x[X_ARM_TH] = arm_a
+        x[X_ARM_THD] = arm_b
+    else:
+        arm_step(x, p, dt, arm_a)
+    th = x[X_ARM_TH]
+    ya = anchor_pull_m(p, th)
+    yda = moment_arm_m(p, th) * x[X_ARM_THD]
+    sheath_step(x, p, dt, p[P_SPOOL_R] * x[X_SPOOL_Q], ya, yda)
+    x[X_W_ARM] += x[X_T_OUT] * (ya - ya_old)
+    x[X_TIME] += dt
+
+
+@jit
+def impedance_torque(x: NDArray[np.float64], cmd: NDArray[np.float64]) -> float:
+    """AK60-6 MIT-mode law ``τ = kp·(p_des − p) + kd·(v_des − v) + τ_ff`` (positions absolute here)."""
+    return cmd[2] * (cmd[0] - x[X_SPOOL_Q]) + cmd[3] * (cmd[1] - x[X_SPOOL_W]) + cmd[4]
+
+
+@jit
+def integrate(
+    x: NDArray[np.float64],
+    p: NDArray[np.float64],
+    h: NDArray[np.float64],
+    dt: float,
+    n_steps: int,
+    motor_mode: int,
+    cmd: NDArray[np.float64],
+    arm_mode: int,
+    arm_a: NDArray[np.float64],
+    arm_b: NDArray[np.float64],
+    record: NDArray[np.float64],
+) -> None:
+    """Advance ``n_steps`` plant steps with a held motor command; row ``i`` of ``record`` gets the state
+    after step ``i``. For ``ARM_HUMAN``, ``arm_a`` holds unit normal draws for the motor noise and
+    ``h`` the participant (see :mod:`bowden.sim._human`)."""
+    lag = 1.0 - math.exp(-dt / p[P_CURRENT_TAU])
+    for i in range(n_steps):
+        if motor_mode == MOTOR_TORQUE:
+            torque = cmd[0]
+        elif motor_mode == MOTOR_IMPEDANCE:
+            torque = impedance_torque(x, cmd)
+        else:
+            torque = 0.0
+        if arm_mode == ARM_HUMAN:
+            external = human_torque(x, p, h, dt, arm_a[i])
+            plant_step(x, p, dt, torque, lag, ARM_TORQUE, external, 0.0)
+        else:
+            external = arm_a[i]
+            plant_step(x, p, dt, torque, lag, arm_mode, arm_a[i], arm_b[i])
+        record[i, R_TH] = x[X_ARM_TH]
+        record[i, R_THD] = x[X_ARM_THD]
+        record[i, R_T_OUT] = x[X_T_OUT]
+        record[i, R_SPOOL_Q] = x[X_SPOOL_Q]
+        record[i, R_SPOOL_W] = x[X_SPOOL_W]
+        record[i, R_MOTOR_TAU] = x[X_MOTOR_TAU]
+        record[i, R_ARM_TORQUE] = external
+
+
+# --- virtual participant: parameter vector and torque ----------------------------------------------
+H_LAG = 0  # s: the participant's movement trails the shown reference by this
+H_OFFSET = 1  # rad: constant aim offset
+H_AMPLITUDE = 2  # gain on the reference excursion above its low point
+H_INERTIA_EST = 3  # kg·m²: the participant's estimate of the arm's inertia
+H_GRAVITY_EST = 4  # Nm: estimate of the arm's gravity torque at 90° (with the hand load)
+H_STIFFNESS = 5  # Nm/rad: impedance about the intended movement
+H_DAMPING = 6  # Nm·s/rad
+H_NOISE_CONST = 7  # Nm: constant part of the motor noise
+H_NOISE_SIGNAL = 8  # fraction of the feedforward torque (signal-dependent motor noise)
+H_NOISE_TAU = 9  # s: correlation time of the motor noise
+H_REF_LOW = 10  # rad
+H_REF_HIGH = 11  # rad
+H_REF_MOVE_S = 12  # s: duration of one raising (or lowering) movement
+H_REF_START = 13  # s: time the reference starts moving
+H_REF_CYCLES = 14  # number of raise-and-lower cycles, then the reference rests at its low point
+H_EXP_SUPPORT = 15  # expected assistance: support fraction of the controller's gravity torque
+H_EXP_GRAVITY = 16  # Nm: the controller's gravity torque at 90° (anthropometric)
+H_EXP_FLOOR_N = 17  # N: floor of the expected tension
+H_EXP_ADAPT_S = 18  # s: time to learn the assistance after a condition change
+N_HUMAN = 19
+
+
+@jit
+def _minimum_jerk(tau: float) -> tuple[float, float, float]:
+    """s, ds/dτ, d²s/dτ² of 10τ³ − 15τ⁴ + 6τ⁵ (Flash & Hogan 1985) for τ clipped to [0, 1]."""
+    t = min(max(tau, 0.0), 1.0)
+    s = t * t * t * (10.0 - 15.0 * t + 6.0 * t * t)
+    ds = 30.0 * t * t * (1.0 - t) * (1.0 - t)
+    dds = 60.0 * t * (1.0 - t) * (1.0 - 2.0 * t)
+    return s, ds, dds
+
+
+@jit
+def reference_state(h: NDArray[np.float64], time_s: float) -> tuple[float, float, float]:
+    """Elevation, velocity and acceleration of the shown raise-and-lower reference at ``time_s``."""
+    low = h[H_REF_LOW]
+    span = h[H_REF_HIGH] - low
+    move = h[H_REF_MOVE_S]
+    t = time_s - h[H_REF_START]
+    if t <= 0.0 or t >= 2.0 * move * h[H_REF_CYCLES]:
+        return low, 0.0, 0.0
+    phase = t - 2.0 * move * math.floor(t / (2.0 * move))
+    if phase < move:
+        s, ds, dds = _minimum_jerk(phase / move)
+        return low + span * s, span * ds / move, span * dds / (move * move)
+    s, ds, dds = _minimum_jerk((phase - move) / move)
+    return low + span * (1.0 - s), -span * ds / move, -span * dds / (move * move)
+
+
+@jit
+def expected_assist_torque(p: NDArray[np.float64], h: NDArray[np.float64], th: float, time_s: float) -> float:
+    """The assistance the participant expects: the controller's nominal law at the intended angle,
+    ``r·max(T_floor, support·τ_g/r)``, learned over the first seconds of the condition."""
+    if h[H_EXP_SUPPORT] <= 0.0 and h[H_EXP_FLOOR_N] <= 0.0:
+        return 0.0
+    r = moment_arm_m(p, th)
+    nominal = max(h[H_EXP_FLOOR_N] * r, h[H_EXP_SUPPORT] * h[H_EXP_GRAVITY] * math.sin(th))
+    learned = 1.0 - math.exp(-max(time_s, 0.0) / h[H_EXP_ADAPT_S])
+    return nominal * learned
+
+
+@jit
+def human_torque(
+    x: NDArray[np.float64], p: NDArray[np.float64], h: NDArray[np.float64], dt: float, normal_draw: float
+) -> float:
+    """Shoulder torque of the virtual participant (elevation > 0).
+
+    Feedforward inverse dynamics of the intended movement (the reference delayed by the visuomotor
+    lag, with aim offset and amplitude error) using the participant's own estimates of inertia and
+    gravity, minus the assistance it expects from the suit; plus a muscle impedance about the intended
+    movement (co-contraction stiffness and damping) that turns unexpected cable tension into movement
+    errors; plus signal-dependent motor noise (Harris & Wolpert 1998, Nature 394:780) as a unit
+    Ornstein–Uhlenbeck process scaled by the feedforward torque.
+    """
+    time_s = x[X_TIME]
+    ref, ref_d, ref_dd = reference_state(h, time_s - h[H_LAG])
+    low = h[H_REF_LOW]
+    amp = h[H_AMPLITUDE]
+    intended = low + amp * (ref - low) + h[H_OFFSET]
+    intended_d = amp * ref_d
+    intended_dd = amp * ref_dd
+    feedforward = (
+        h[H_INERTIA_EST] * intended_dd
+        + h[H_GRAVITY_EST] * math.sin(intended)
+        - expected_assist_torque(p, h, intended, time_s)
+    )
+    th = x[X_ARM_TH]
+    thd = x[X_ARM_THD]
+    feedback = h[H_STIFFNESS] * (intended - th) + h[H_DAMPING] * (intended_d - thd)
+    decay = math.exp(-dt / h[H_NOISE_TAU])
+    x[X_NOISE] = decay * x[X_NOISE] + math.sqrt(1.0 - decay * decay) * normal_draw
+    noise = (h[H_NOISE_CONST] + h[H_NOISE_SIGNAL] * abs(feedforward)) * x[X_NOISE]
+    return feedforward + feedback + noise

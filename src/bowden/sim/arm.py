@@ -1,0 +1,193 @@
+"""What moves the arm of a simulated suit: prescribed kinematics, a mannequin, or a virtual participant.
+
+An arm driver tells the plant how the arm is driven (a mode of :mod:`bowden.sim._kernels`), which arm
+the cable pulls on, and the per-step inputs for a stretch of simulated time.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bowden.errors import ParameterError
+from bowden.protocol.minimum_jerk import MinimumJerkCycle
+from bowden.sim import _kernels as k
+from bowden.sim.parameters import ArmParameters
+from bowden.sim.participants import ExpectedAssistance, VirtualParticipant, human_vector
+
+ArrayFunction = Callable[[NDArray[np.float64]], NDArray[np.float64]]
+
+
+class ArmDriver(Protocol):
+    """How the arm of a simulated suit moves."""
+
+    @property
+    def mode(self) -> int:
+        """``ARM_PRESCRIBED``, ``ARM_TORQUE`` or ``ARM_HUMAN`` of :mod:`bowden.sim._kernels`."""
+        ...
+
+    @property
+    def arm_parameters(self) -> ArmParameters:
+        """The arm the cable pulls on."""
+        ...
+
+    def initial_elevation_rad(self) -> float:
+        """Where the arm is at time 0."""
+        ...
+
+    def inputs(
+        self, times_s: NDArray[np.float64], rng: np.random.Generator
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Per-step inputs (``arm_a``, ``arm_b``) at the end times of the coming steps."""
+        ...
+
+    def human(self) -> NDArray[np.float64] | None:
+        """The participant vector for ``ARM_HUMAN``, else None."""
+        ...
+
+
+@dataclass(frozen=True, kw_only=True)
+class PrescribedArm:
+    """An arm that moves as told whatever the cable does: enough for tension-tracking studies.
+
+    Parameters
+    ----------
+    elevation_rad, elevation_velocity_rad_s
+        Vectorised functions of time (s) → elevation (rad) and its velocity (rad/s).
+    """
+
+    elevation_rad: ArrayFunction
+    elevation_velocity_rad_s: ArrayFunction
+    arm_parameters: ArmParameters = field(default_factory=ArmParameters)
+
+    @property
+    def mode(self) -> int:
+        return k.ARM_PRESCRIBED
+
+    @classmethod
+    def hold(cls, elevation_rad: float) -> PrescribedArm:
+        """An arm held still at ``elevation_rad``."""
+        return cls(
+            elevation_rad=lambda t: np.full_like(t, elevation_rad),
+            elevation_velocity_rad_s=np.zeros_like,
+        )
+
+    @classmethod
+    def following(cls, cycle: MinimumJerkCycle, *, start_s: float = 0.0) -> PrescribedArm:
+        """An arm that follows ``cycle`` exactly from ``start_s`` on (resting at its low point before)."""
+
+        def elevation(t: NDArray[np.float64]) -> NDArray[np.float64]:
+            return cycle.elevation_rad(np.maximum(t - start_s, 0.0))
+
+        def velocity(t: NDArray[np.float64]) -> NDArray[np.float64]:
+            moving = t > start_s
+            return np.where(moving, cycle.elevation_velocity_rad_s(np.maximum(t - start_s, 0.0)), 0.0)
+
+        return cls(elevation_rad=elevation, elevation_velocity_rad_s=velocity)
+
+    def initial_elevation_rad(self) -> float:
+        return float(self.elevation_rad(np.zeros(1))[0])
+
+    def inputs(
+        self, times_s: NDArray[np.float64], rng: np.random.Generator
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self.elevation_rad(times_s), self.elevation_velocity_rad_s(times_s)
+
+    def human(self) -> NDArray[np.float64] | None:
+        return None
+
+
+class MannequinArm:
+    """The bench's motorised mannequin arm, torque-controlled to load the cable.
+
+    ``load_torque_nm`` (> 0 pulls the arm down, against the cable) is the mannequin motor's command
+    and may be changed between calls, as the bench does.
+    """
+
+    def __init__(
+        self,
+        parameters: ArmParameters | None = None,
+        *,
+        load_torque_nm: float = 0.0,
+        initial_elevation_rad: float = math.radians(20.0),
+    ) -> None:
+        self._parameters = parameters if parameters is not None else ArmParameters()
+        self.load_torque_nm = load_torque_nm
+        self._initial = initial_elevation_rad
+
+    @property
+    def mode(self) -> int:
+        return k.ARM_TORQUE
+
+    @property
+    def arm_parameters(self) -> ArmParameters:
+        return self._parameters
+
+    def initial_elevation_rad(self) -> float:
+        return self._initial
+
+    def inputs(
+        self, times_s: NDArray[np.float64], rng: np.random.Generator
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        if not math.isfinite(self.load_torque_nm):
+            raise ParameterError(f"MannequinArm.load_torque_nm must be finite, got {self.load_torque_nm!r}")
+        return np.full_like(times_s, -self.load_torque_nm), np.zeros_like(times_s)
+
+    def human(self) -> NDArray[np.float64] | None:
+        return None
+
+
+class ParticipantArm:
+    """A virtual participant's arm tracking a minimum-jerk reference shown on a screen.
+
+    Parameters
+    ----------
+    participant
+        Who moves (arm inertia and gravity, visuomotor lag, impedance, motor noise).
+    cycle
+        The reference shown (paper: 20° → 100° → 20° at 60, 120 or 180 °/s peak).
+    cycles
+        Number of raise-and-lower repetitions (paper: 10).
+    start_s
+        When the reference starts moving; before and after it rests at its low point.
+    expected
+        The assistance the participant expects (the controller's nominal law), or None without a suit.
+    """
+
+    def __init__(
+        self,
+        participant: VirtualParticipant,
+        cycle: MinimumJerkCycle,
+        *,
+        cycles: int = 10,
+        start_s: float = 1.0,
+        expected: ExpectedAssistance | None = None,
+    ) -> None:
+        self.participant = participant
+        self.cycle = cycle
+        self._h = human_vector(participant, cycle, cycles=cycles, start_s=start_s, expected=expected)
+        self._arm = participant.arm_parameters()
+
+    @property
+    def mode(self) -> int:
+        return k.ARM_HUMAN
+
+    @property
+    def arm_parameters(self) -> ArmParameters:
+        return self._arm
+
+    def initial_elevation_rad(self) -> float:
+        return float(self._h[k.H_REF_LOW] + self._h[k.H_OFFSET])
+
+    def inputs(
+        self, times_s: NDArray[np.float64], rng: np.random.Generator
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return rng.standard_normal(times_s.shape[0]), np.zeros_like(times_s)
+
+    def human(self) -> NDArray[np.float64] | None:
+        return self._h

@@ -1,0 +1,276 @@
+"""Parameters of the simulated suit, each with its source and its valid range.
+
+Defaults reproduce the paper's suit (Bardi et al., sensorless tension control of a cable-driven
+exosuit) as far as it is published; where the paper is silent the value comes from REFERENCE §6 (a
+plant that behaves like the paper's suit) or from the device's manual, and the docstring says so.
+Every class is a frozen keyword-only dataclass validated on construction: a value outside its range
+raises :class:`bowden.errors.ParameterError` naming the field.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+from bowden.errors import ParameterError
+from bowden.model import CuffGeometry
+
+
+def _check_range(owner: object, name: str, low: float, high: float, *, low_open: bool = False) -> None:
+    value = getattr(owner, name)
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ParameterError(f"{type(owner).__name__}.{name} must be a number, got {value!r}")
+    ok = math.isfinite(value) and (value > low if low_open else value >= low) and value <= high
+    if not ok:
+        bracket = "(" if low_open else "["
+        raise ParameterError(
+            f"{type(owner).__name__}.{name} = {value!r} is outside its valid range {bracket}{low}, {high}]"
+        )
+
+
+@dataclass(frozen=True, kw_only=True)
+class MotorParameters:
+    """The tendon driver unit: AK60-6 quasi-direct-drive motor and its spool, output-shaft units.
+
+    Parameters
+    ----------
+    spool_radius_m
+        Pulley radius; paper: 70 mm diameter PLA pulley → 0.035 m. Range (0.005, 0.2].
+    rotor_inertia_kgm2
+        Rotor + gearbox + spool inertia reflected to the output shaft; REFERENCE §6: ≈ 1.5e-3.
+        Range (1e-5, 0.05].
+    coulomb_friction_nm
+        Coulomb friction of motor and gearbox at the output; REFERENCE §6: 0.05–0.25 Nm. Range [0, 1].
+    viscous_friction_nms_rad
+        Viscous friction at the output. Not published; 0.005 Nm·s/rad costs ≈ 1 N of cable tension
+        at the fastest study speeds. Range [0, 0.1].
+    current_loop_time_constant_s
+        First-order lag of the driver's current (torque) loop; REFERENCE §6: ≈ 1 ms. Range (1e-5, 0.05].
+    torque_constant_ratio
+        Delivered torque per commanded (and per reported) torque: the true torque constant over the one
+        the driver assumes. REFERENCE §4: the AK60-6 constant is uncertain within 0.068–0.087 Nm/A; §6:
+        ±15 % is the largest single source of error. Range [0.5, 1.5].
+    torque_limit_nm
+        Saturation of the delivered torque; AK60-6 peak 9 Nm (REFERENCE §4). Range (0, 50].
+    """
+
+    spool_radius_m: float = 0.035
+    rotor_inertia_kgm2: float = 1.5e-3
+    coulomb_friction_nm: float = 0.15
+    viscous_friction_nms_rad: float = 0.005
+    current_loop_time_constant_s: float = 1.0e-3
+    torque_constant_ratio: float = 1.0
+    torque_limit_nm: float = 9.0
+
+    def __post_init__(self) -> None:
+        _check_range(self, "spool_radius_m", 0.005, 0.2, low_open=True)
+        _check_range(self, "rotor_inertia_kgm2", 1e-5, 0.05, low_open=True)
+        _check_range(self, "coulomb_friction_nm", 0.0, 1.0)
+        _check_range(self, "viscous_friction_nms_rad", 0.0, 0.1)
+        _check_range(self, "current_loop_time_constant_s", 1e-5, 0.05, low_open=True)
+        _check_range(self, "torque_constant_ratio", 0.5, 1.5)
+        _check_range(self, "torque_limit_nm", 0.0, 50.0, low_open=True)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SheathParameters:
+    """Bowden sheath friction as one lumped bend (supplement of the paper, REFERENCE §1 and §6).
+
+    The normal force on the cable is ``sin(φ/2)·(T_in + T_out)``; the friction coefficient times
+    ``sin(φ/2)`` is the single number ``k`` of the paper's transmission law, so the parameters are
+    given directly as ``k`` values.
+
+    Parameters
+    ----------
+    kinetic_coefficient
+        ``k = μ_k·sin(φ/2)`` while the cable slides fast. REFERENCE §6: 0.05–0.15; the paper's 50 %
+        support RMSE sits between 0.10 and 0.15. Range [0, 0.5].
+    static_to_kinetic_ratio
+        Breakaway over kinetic coefficient; REFERENCE §6: 1.0–1.6. Range [1, 3], and the static
+        coefficient must stay below 0.6 so that the sheath can still transmit tension.
+    stribeck_velocity_m_s
+        Slip speed over which friction falls from static to kinetic, ``k(v) = k_k + (k_s − k_k)·
+        exp(−(v/v_s)²)`` (Stribeck curve, Olsson et al. 1998, Eur J Control 4:176). REFERENCE §6:
+        ≈ 3 mm/s. Range (1e-5, 0.1].
+    stick_velocity_m_s
+        Slip speed below which a sliding cable that is inside the static friction cone sticks again.
+        A numerical threshold of the stick–slip switch, far below the Stribeck velocity. Range
+        (0, 0.01].
+    """
+
+    kinetic_coefficient: float = 0.12
+    static_to_kinetic_ratio: float = 1.3
+    stribeck_velocity_m_s: float = 3.0e-3
+    stick_velocity_m_s: float = 1.0e-4
+
+    def __post_init__(self) -> None:
+        _check_range(self, "kinetic_coefficient", 0.0, 0.5)
+        _check_range(self, "static_to_kinetic_ratio", 1.0, 3.0)
+        _check_range(self, "stribeck_velocity_m_s", 1e-5, 0.1, low_open=True)
+        _check_range(self, "stick_velocity_m_s", 0.0, 0.01, low_open=True)
+        if self.static_coefficient >= 0.6:
+            raise ParameterError(
+                "SheathParameters: kinetic_coefficient * static_to_kinetic_ratio = "
+                f"{self.static_coefficient:.3f} must stay below 0.6"
+            )
+
+    @property
+    def static_coefficient(self) -> float:
+        """Breakaway ``k_s = μ_s·sin(φ/2)``."""
+        return self.kinetic_coefficient * self.static_to_kinetic_ratio
+
+
+@dataclass(frozen=True, kw_only=True)
+class TransmissionParameters:
+    """Elastic parts of the transmission: the cable on the motor side and the soft distal segment.
+
+    Parameters
+    ----------
+    cable_stiffness_n_m
+        Spool to sheath exit: Dyneema cable and the sheath's axial compliance. REFERENCE §6: ≈ 3e4 N/m.
+        Range [1e3, 1e6].
+    distal_stiffness_n_m
+        Sheath exit to the arm anchor: cable, textile cuff and soft tissue. REFERENCE §6: 2e3–1e4 N/m.
+        Range [200, 1e5].
+    distal_damping_ns_m
+        Damping of the distal segment (textile and tissue are lossy). Not published; 100 N·s/m is a
+        tenth of critical for a 0.5 kg·m² arm on a 0.1 m lever. Range [0, 5000].
+    """
+
+    cable_stiffness_n_m: float = 3.0e4
+    distal_stiffness_n_m: float = 5.0e3
+    distal_damping_ns_m: float = 100.0
+
+    def __post_init__(self) -> None:
+        _check_range(self, "cable_stiffness_n_m", 1e3, 1e6)
+        _check_range(self, "distal_stiffness_n_m", 200.0, 1e5)
+        _check_range(self, "distal_damping_ns_m", 0.0, 5000.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ImuParameters:
+    """The upper-arm IMU (NGIMU): elevation from orientation, elevation speed from the gyroscope.
+
+    Parameters
+    ----------
+    sample_rate_hz
+        Output rate of the elevation sample (NGIMU rates are configurable up to 1 kHz). Range [10, 2000].
+    elevation_noise_rad
+        White noise on the elevation, 1 σ; NGIMU static accuracy is about 0.5°. Range [0, 0.1].
+    elevation_bias_rad
+        Constant offset of the elevation (strap placement, calibration pose). Range [−0.5, 0.5].
+    velocity_noise_rad_s
+        White noise on the elevation speed, 1 σ (gyroscope noise over its bandwidth). Range [0, 1].
+    velocity_bias_rad_s
+        Constant gyroscope bias projected on the elevation axis. Range [−0.5, 0.5].
+    """
+
+    sample_rate_hz: float = 400.0
+    elevation_noise_rad: float = math.radians(0.3)
+    elevation_bias_rad: float = math.radians(0.5)
+    velocity_noise_rad_s: float = math.radians(1.5)
+    velocity_bias_rad_s: float = math.radians(0.3)
+
+    def __post_init__(self) -> None:
+        _check_range(self, "sample_rate_hz", 10.0, 2000.0)
+        _check_range(self, "elevation_noise_rad", 0.0, 0.1)
+        _check_range(self, "elevation_bias_rad", -0.5, 0.5)
+        _check_range(self, "velocity_noise_rad_s", 0.0, 1.0)
+        _check_range(self, "velocity_bias_rad_s", -0.5, 0.5)
+
+
+@dataclass(frozen=True, kw_only=True)
+class LoadCellParameters:
+    """The load cell at the anchor (Futek LSB201 + amplifier + 16-bit ADS1115).
+
+    Parameters
+    ----------
+    sample_rate_hz
+        ADS1115 continuous-mode rate; its fastest is 860 SPS. Range [8, 2000].
+    noise_n
+        White noise, 1 σ. Range [0, 5].
+    offset_n
+        Zero offset left after taring. Range [−10, 10].
+    """
+
+    sample_rate_hz: float = 860.0
+    noise_n: float = 0.15
+    offset_n: float = 0.0
+
+    def __post_init__(self) -> None:
+        _check_range(self, "sample_rate_hz", 8.0, 2000.0)
+        _check_range(self, "noise_n", 0.0, 5.0)
+        _check_range(self, "offset_n", -10.0, 10.0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ArmParameters:
+    """A rigid arm about the shoulder, driven by a torque (mannequin motor or muscles).
+
+    Parameters
+    ----------
+    inertia_kgm2
+        Moment of inertia about the shoulder including any hand load. Human arms with 0.5 kg in the
+        hand: 0.45–0.65 kg·m² (REFERENCE §6); the mannequin's lighter arm defaults here. Range
+        (1e-3, 5].
+    gravity_torque_nm
+        Gravity torque with the arm horizontal (90°); the arm's gravity torque is this times sin θ.
+        The mannequin's motor carries its own arm's weight, hence 0. Range [0, 50].
+    damping_nms_rad
+        Passive viscous damping of the joint. Range [0, 10].
+    min_elevation_rad, max_elevation_rad
+        Soft joint stops; the cuff geometry needs the arm below the cable exit (REFERENCE §3).
+    """
+
+    inertia_kgm2: float = 0.08
+    gravity_torque_nm: float = 0.0
+    damping_nms_rad: float = 0.05
+    min_elevation_rad: float = 0.0
+    max_elevation_rad: float = math.radians(140.0)
+
+    def __post_init__(self) -> None:
+        _check_range(self, "inertia_kgm2", 1e-3, 5.0, low_open=True)
+        _check_range(self, "gravity_torque_nm", 0.0, 50.0)
+        _check_range(self, "damping_nms_rad", 0.0, 10.0)
+        _check_range(self, "min_elevation_rad", -0.5, math.pi)
+        _check_range(self, "max_elevation_rad", -0.5, math.pi)
+        if self.max_elevation_rad <= self.min_elevation_rad:
+            raise ParameterError("ArmParameters.max_elevation_rad must exceed min_elevation_rad")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SuitParameters:
+    """Everything the plant needs, with the integration step.
+
+    Parameters
+    ----------
+    motor, sheath, transmission, geometry, imu, load_cell
+        The parts; ``geometry`` is the cuff geometry shared with the controller (REFERENCE §3).
+    substep_s
+        Fixed integration step of the plant. The motor–cable mode is near 25 Hz and every stiff part
+        (current loop, sheath node, friction) is integrated implicitly, so 0.25 ms is an order of
+        magnitude below any stability limit. Range [1e-5, 2e-3].
+    """
+
+    motor: MotorParameters = field(default_factory=MotorParameters)
+    sheath: SheathParameters = field(default_factory=SheathParameters)
+    transmission: TransmissionParameters = field(default_factory=TransmissionParameters)
+    geometry: CuffGeometry = field(default_factory=CuffGeometry)
+    imu: ImuParameters = field(default_factory=ImuParameters)
+    load_cell: LoadCellParameters = field(default_factory=LoadCellParameters)
+    substep_s: float = 2.5e-4
+
+    def __post_init__(self) -> None:
+        expected = {
+            "motor": MotorParameters,
+            "sheath": SheathParameters,
+            "transmission": TransmissionParameters,
+            "geometry": CuffGeometry,
+            "imu": ImuParameters,
+            "load_cell": LoadCellParameters,
+        }
+        for f in fields(self):
+            kind = expected.get(f.name)
+            if kind is not None and not isinstance(getattr(self, f.name), kind):
+                raise ParameterError(f"SuitParameters.{f.name} must be a {kind.__name__}")
+        _check_range(self, "substep_s", 1e-5, 2e-3)

@@ -1,0 +1,286 @@
+"""Virtual participants: a cohort drawn like the paper's, each with arm dynamics and a human controller.
+
+The paper's cohort (Results): 17 adults analysed, 12 women and 5 men, stature 1.70 ± 0.11 m, body
+mass 63.23 ± 11.51 kg, age 29.33 ± 7.04 years. :func:`generate_cohort` draws statures by sex and body
+mass from a body-mass index, then matches the sample's mean and standard deviation to the paper's, so
+every seed gives a cohort with the paper's summary statistics and different individuals.
+
+Each participant moves its arm with the controller of :func:`bowden.sim._kernels.human_torque`:
+feedforward from an imperfect internal model of its own arm minus the assistance it expects from
+the suit, an impedance about the intended movement, a visuomotor lag and signal-dependent noise.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bowden.contracts import MUSCLES
+from bowden.errors import ParameterError
+from bowden.model import STANDARD_GRAVITY_M_S2, Subject, arm_model
+from bowden.protocol.minimum_jerk import MinimumJerkCycle
+from bowden.sim import _kernels as k
+from bowden.sim.parameters import ArmParameters
+
+# Paper, Results: cohort summary statistics.
+PAPER_COHORT_SIZE = 17
+PAPER_COHORT_FEMALE = 12
+PAPER_HEIGHT_M = (1.70, 0.11)
+PAPER_MASS_KG = (63.23, 11.51)
+PAPER_AGE_YEARS = (29.33, 7.04)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ExpectedAssistance:
+    """The assistance a participant expects: the controller's nominal law ``r·max(T_floor, s·τ_g/r)``.
+
+    Parameters
+    ----------
+    support
+        Fraction of the controller's gravity torque (0 for pretension).
+    controller_gravity_torque_nm
+        The controller's (anthropometric) gravity torque at 90°, Nm.
+    floor_tension_n
+        Tension floor, or the constant tension of the pretension condition, N.
+    """
+
+    support: float
+    controller_gravity_torque_nm: float
+    floor_tension_n: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.support) and 0.0 <= self.support <= 1.0):
+            raise ParameterError(f"ExpectedAssistance.support must be in [0, 1], got {self.support!r}")
+        if not (math.isfinite(self.controller_gravity_torque_nm) and self.controller_gravity_torque_nm >= 0):
+            raise ParameterError("ExpectedAssistance.controller_gravity_torque_nm must be >= 0")
+        if not (math.isfinite(self.floor_tension_n) and self.floor_tension_n >= 0.0):
+            raise ParameterError("ExpectedAssistance.floor_tension_n must be >= 0")
+
+    @classmethod
+    def for_condition(
+        cls,
+        support: float | str,
+        subject: Subject,
+        *,
+        hand_load_kg: float = 0.5,
+        floor_tension_n: float = 10.0,
+        pretension_n: float = 10.0,
+    ) -> ExpectedAssistance:
+        """The nominal law of a study condition (``support`` a fraction or ``"pretension"``)."""
+        gravity = STANDARD_GRAVITY_M_S2 * arm_model(subject, hand_load_kg).total_moment_kg_m
+        if support == "pretension":
+            return cls(support=0.0, controller_gravity_torque_nm=gravity, floor_tension_n=pretension_n)
+        if isinstance(support, str):
+            raise ParameterError(f"support must be a fraction or 'pretension', got {support!r}")
+        return cls(support=float(support), controller_gravity_torque_nm=gravity, floor_tension_n=floor_tension_n)
+
+
+@dataclass(frozen=True, kw_only=True)
+class VirtualParticipant:
+    """One virtual participant.
+
+    Parameters
+    ----------
+    participant_id
+        Pseudonymous id (``"P01"``...).
+    subject, age_years
+        Anthropometrics (the controller sees ``subject``).
+    hand_load_kg
+        Weight held in the hand (paper: 0.5 kg).
+    gravity_scale, inertia_scale
+        True arm gravity torque and inertia relative to de Leva's prediction (individual variation).
+    internal_model_error
+        The participant's estimate of its own arm (inertia and gravity) relative to the truth.
+    visuomotor_lag_s
+        How far the movement trails the shown reference. The paper's tracking RMSE (≈ 4.7°, 8.3°,
+        13.5° at 60, 120, 180 °/s peak, supplement Table S4) is what a lag of ≈ 0.12 s gives on its
+        minimum-jerk cycle (RMS speed 0.64 × peak).
+    aim_offset_rad, amplitude_gain
+        Constant aim error and excursion gain of the intended movement.
+    stiffness_nm_rad, damping_nms_rad
+        Shoulder impedance about the intended movement (co-contraction; 10–50 Nm/rad during
+        reaching, Burdet et al. 2001, Nature 414:446).
+    motor_noise_nm, motor_noise_fraction, motor_noise_time_s
+        Constant and signal-dependent motor noise (Harris & Wolpert 1998) and its correlation time.
+    adaptation_time_s
+        Time constant of learning the expected assistance after putting on the suit.
+    emg_gains
+        Surface-EMG amplitude per muscle (electrode placement, skin, fat), order of contracts.MUSCLES.
+    heart_rate_bpm, ecg_amplitude
+        Heart rate and ECG artefact amplitude relative to a full activation's sEMG.
+    discomfort_sensitivity
+        How strongly the participant reports discomfort under cuff pressure (questionnaires), z-score.
+    """
+
+    participant_id: str
+    subject: Subject
+    age_years: float = 29.0
+    hand_load_kg: float = 0.5
+    gravity_scale: float = 1.0
+    inertia_scale: float = 1.0
+    internal_model_error: float = 1.0
+    visuomotor_lag_s: float = 0.115
+    aim_offset_rad: float = 0.0
+    amplitude_gain: float = 1.0
+    stiffness_nm_rad: float = 25.0
+    damping_nms_rad: float = 2.5
+    motor_noise_nm: float = 0.10
+    motor_noise_fraction: float = 0.06
+    motor_noise_time_s: float = 0.06
+    adaptation_time_s: float = 2.0
+    emg_gains: tuple[float, ...] = (1.0,) * len(MUSCLES)
+    heart_rate_bpm: float = 70.0
+    ecg_amplitude: float = 0.3
+    discomfort_sensitivity: float = 0.0
+
+    def __post_init__(self) -> None:
+        checks = {
+            "hand_load_kg": (0.0, 5.0),
+            "gravity_scale": (0.5, 1.5),
+            "inertia_scale": (0.5, 1.5),
+            "internal_model_error": (0.5, 1.5),
+            "visuomotor_lag_s": (0.0, 0.5),
+            "aim_offset_rad": (-0.3, 0.3),
+            "amplitude_gain": (0.7, 1.3),
+            "stiffness_nm_rad": (1.0, 200.0),
+            "damping_nms_rad": (0.1, 20.0),
+            "motor_noise_nm": (0.0, 2.0),
+            "motor_noise_fraction": (0.0, 0.5),
+            "motor_noise_time_s": (0.005, 1.0),
+            "adaptation_time_s": (0.01, 60.0),
+            "heart_rate_bpm": (30.0, 200.0),
+            "ecg_amplitude": (0.0, 5.0),
+            "discomfort_sensitivity": (-5.0, 5.0),
+            "age_years": (10.0, 100.0),
+        }
+        for name, (low, high) in checks.items():
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and low <= value <= high):
+                raise ParameterError(f"VirtualParticipant.{name} = {value!r} is outside [{low}, {high}]")
+        if len(self.emg_gains) != len(MUSCLES) or not all(g > 0 for g in self.emg_gains):
+            raise ParameterError(f"VirtualParticipant.emg_gains needs {len(MUSCLES)} positive gains")
+
+    @property
+    def gravity_torque_nm(self) -> float:
+        """True gravity torque of arm and hand load at 90°, Nm."""
+        model = arm_model(self.subject, self.hand_load_kg)
+        return STANDARD_GRAVITY_M_S2 * model.total_moment_kg_m * self.gravity_scale
+
+    @property
+    def inertia_kgm2(self) -> float:
+        """True moment of inertia of arm and hand load about the shoulder, kg·m²."""
+        return arm_model(self.subject, self.hand_load_kg).moment_of_inertia_kg_m2 * self.inertia_scale
+
+    def arm_parameters(self) -> ArmParameters:
+        """The arm the suit's cable pulls on (passive joint damping 0.3 Nm·s/rad)."""
+        return ArmParameters(
+            inertia_kgm2=self.inertia_kgm2,
+            gravity_torque_nm=self.gravity_torque_nm,
+            damping_nms_rad=0.3,
+            min_elevation_rad=0.0,
+            max_elevation_rad=math.radians(140.0),
+        )
+
+
+def human_vector(
+    participant: VirtualParticipant,
+    cycle: MinimumJerkCycle,
+    *,
+    cycles: int,
+    start_s: float,
+    expected: ExpectedAssistance | None,
+) -> NDArray[np.float64]:
+    """The compiled human controller's parameter vector (indices ``H_*`` of the kernels)."""
+    if cycles < 0:
+        raise ParameterError(f"cycles must be >= 0, got {cycles}")
+    h = np.zeros(k.N_HUMAN)
+    h[k.H_LAG] = participant.visuomotor_lag_s
+    h[k.H_OFFSET] = participant.aim_offset_rad
+    h[k.H_AMPLITUDE] = participant.amplitude_gain
+    h[k.H_INERTIA_EST] = participant.inertia_kgm2 * participant.internal_model_error
+    h[k.H_GRAVITY_EST] = participant.gravity_torque_nm * participant.internal_model_error
+    h[k.H_STIFFNESS] = participant.stiffness_nm_rad
+    h[k.H_DAMPING] = participant.damping_nms_rad
+    h[k.H_NOISE_CONST] = participant.motor_noise_nm
+    h[k.H_NOISE_SIGNAL] = participant.motor_noise_fraction
+    h[k.H_NOISE_TAU] = participant.motor_noise_time_s
+    h[k.H_REF_LOW] = cycle.low_rad
+    h[k.H_REF_HIGH] = cycle.high_rad
+    h[k.H_REF_MOVE_S] = cycle.movement_duration_s
+    h[k.H_REF_START] = start_s
+    h[k.H_REF_CYCLES] = float(cycles)
+    if expected is not None:
+        h[k.H_EXP_SUPPORT] = expected.support
+        h[k.H_EXP_GRAVITY] = expected.controller_gravity_torque_nm
+        h[k.H_EXP_FLOOR_N] = expected.floor_tension_n
+    h[k.H_EXP_ADAPT_S] = participant.adaptation_time_s
+    return h
+
+
+def _matched(values: NDArray[np.float64], mean: float, sd: float) -> NDArray[np.float64]:
+    """Shift and scale a sample so that its mean and (n − 1) standard deviation are exactly these."""
+    centred = values - values.mean()
+    spread = centred.std(ddof=1)
+    return mean + sd * centred / spread if spread > 0 else np.full_like(values, mean)
+
+
+def generate_cohort(
+    seed: int = 0,
+    *,
+    n_participants: int = PAPER_COHORT_SIZE,
+    n_female: int = PAPER_COHORT_FEMALE,
+    height_m: tuple[float, float] = PAPER_HEIGHT_M,
+    mass_kg: tuple[float, float] = PAPER_MASS_KG,
+    age_years: tuple[float, float] = PAPER_AGE_YEARS,
+) -> tuple[VirtualParticipant, ...]:
+    """Draw a cohort like the paper's (defaults), reproducibly from ``seed``.
+
+    Statures are drawn by sex (women 1.64 ± 0.07 m, men 1.78 ± 0.07 m), body mass from a body-mass
+    index of 22 ± 2.5 kg/m², and then the sample is shifted and scaled to the requested mean and
+    standard deviation (so women stay shorter on average and mass stays correlated with stature).
+    Individual differences in arm dynamics, movement and EMG are drawn around the defaults of
+    :class:`VirtualParticipant`.
+    """
+    if not (2 <= n_participants <= 500):
+        raise ParameterError(f"n_participants must be between 2 and 500, got {n_participants}")
+    if not (0 <= n_female <= n_participants):
+        raise ParameterError(f"n_female must be between 0 and n_participants, got {n_female}")
+    rng = np.random.default_rng(seed)
+    sexes = ["female"] * n_female + ["male"] * (n_participants - n_female)
+    order = rng.permutation(n_participants)
+    sexes = [sexes[i] for i in order]
+    raw_height = np.array([rng.normal(1.64 if s == "female" else 1.78, 0.07) for s in sexes])
+    bmi = rng.normal(22.0, 2.5, n_participants)
+    heights = np.clip(_matched(raw_height, *height_m), 1.3, 2.1)
+    masses = np.clip(_matched(bmi * raw_height**2, *mass_kg), 35.0, 150.0)
+    ages = np.clip(_matched(rng.normal(0.0, 1.0, n_participants), *age_years), 18.0, 70.0)
+    cohort = []
+    for i in range(n_participants):
+        sex = "female" if sexes[i] == "female" else "male"
+        subject = Subject(height_m=float(heights[i]), mass_kg=float(masses[i]), sex=sex)
+        cohort.append(
+            VirtualParticipant(
+                participant_id=f"P{i + 1:02d}",
+                subject=subject,
+                age_years=float(ages[i]),
+                gravity_scale=float(np.clip(rng.normal(1.0, 0.06), 0.8, 1.2)),
+                inertia_scale=float(np.clip(rng.normal(1.0, 0.08), 0.75, 1.25)),
+                internal_model_error=float(np.clip(rng.normal(1.0, 0.05), 0.85, 1.15)),
+                visuomotor_lag_s=float(np.clip(rng.normal(0.115, 0.02), 0.06, 0.2)),
+                aim_offset_rad=float(np.clip(rng.normal(0.0, math.radians(1.5)), -0.1, 0.1)),
+                amplitude_gain=float(np.clip(rng.normal(1.0, 0.03), 0.9, 1.1)),
+                stiffness_nm_rad=float(np.clip(rng.normal(25.0, 5.0), 12.0, 45.0)),
+                damping_nms_rad=float(np.clip(rng.normal(2.5, 0.4), 1.2, 4.0)),
+                motor_noise_nm=float(np.clip(rng.normal(0.10, 0.03), 0.02, 0.25)),
+                motor_noise_fraction=float(np.clip(rng.normal(0.06, 0.015), 0.02, 0.12)),
+                adaptation_time_s=float(np.clip(rng.normal(2.0, 0.6), 0.5, 5.0)),
+                emg_gains=tuple(float(g) for g in rng.lognormal(0.0, 0.25, len(MUSCLES))),
+                heart_rate_bpm=float(np.clip(rng.normal(70.0, 8.0), 50.0, 100.0)),
+                ecg_amplitude=float(np.clip(rng.lognormal(math.log(0.3), 0.3), 0.05, 1.5)),
+                discomfort_sensitivity=float(np.clip(rng.normal(0.0, 1.0), -3.0, 3.0)),
+            )
+        )
+    return tuple(cohort)
