@@ -57,8 +57,9 @@ def smooth_activation(n: int, rng: np.random.Generator, period_s: float = 2.5) -
     return np.asarray(a, dtype=np.float64)
 
 
-def ecg_wave(n: int, rng: np.random.Generator, *, amplitude_v: float = 1e-3,
-             heart_rate_bpm: float = 72.0) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+def ecg_wave(
+    n: int, rng: np.random.Generator, *, amplitude_v: float = 1e-3, heart_rate_bpm: float = 72.0
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Synthetic ECG and its R-peak sample indices (variable RR, amplitude, QRS width)."""
     t = np.arange(n) / RATE_HZ
     rr_mean = 60.0 / heart_rate_bpm
@@ -78,7 +79,7 @@ def ecg_wave(n: int, rng: np.random.Generator, *, amplitude_v: float = 1e-3,
         for i, (amp, centre, width) in enumerate(_WAVES):
             scale = qrs_scale if 1 <= i <= 3 else 1.0
             ecg[lo:hi] += gain * amp * np.exp(-0.5 * ((local - centre * scale) / (width * scale)) ** 2)
-        peaks.append(int(round(r_time * RATE_HZ)))
+        peaks.append(round(r_time * RATE_HZ))
     return ecg, np.asarray(peaks, dtype=np.int64)
 
 
@@ -86,8 +87,9 @@ def ecg_wave(n: int, rng: np.random.Generator, *, amplitude_v: float = 1e-3,
 def contaminated_emg() -> Callable[..., ContaminatedEmg]:
     """Factory: ``contaminated_emg(duration_s, seed, emg_rms_v, ecg_amplitude_v)``."""
 
-    def make(duration_s: float = 30.0, seed: int = 0, emg_rms_v: float = 100e-6,
-             ecg_amplitude_v: float = 1e-3) -> ContaminatedEmg:
+    def make(
+        duration_s: float = 30.0, seed: int = 0, emg_rms_v: float = 100e-6, ecg_amplitude_v: float = 1e-3
+    ) -> ContaminatedEmg:
         rng = np.random.default_rng(seed)
         n = int(duration_s * RATE_HZ)
         activation = smooth_activation(n, rng)

@@ -1,1 +1,73 @@
-"""Study analysis: EMG processing with ECG removal, segmentation, and the paper's outcome measures."""
+"""Study analysis: EMG with ECG removal, segmentation, and the paper's outcome measures.
+
+Each EMG step is an ``emg_<verb>`` function on an :class:`EmgSignal` (the sampling rate travels
+with the samples); :func:`emg_process` composes them into the paper's pipeline. Trials are
+segmented into repetitions and phases on normalised time, and :func:`analyse_study` turns a study's
+DataFrames into the tidy outcome table and mean ± SD curves; :func:`methods_text` describes it all.
+"""
+
+from bowden.analysis.emg_ecg import EcgRemovalParameters, emg_remove_ecg
+from bowden.analysis.emg_filter import emg_envelope, emg_filter, emg_rectify
+from bowden.analysis.emg_io import EmgCheckParameters, emg_align, emg_check, read_emg_csv, read_emg_edf
+from bowden.analysis.emg_normalize import emg_mean_peak, emg_normalize
+from bowden.analysis.emg_process import (
+    EmgProcessInfo,
+    EmgProcessParameters,
+    EmgResult,
+    emg_pipeline,
+    emg_process,
+)
+from bowden.analysis.emg_rpeaks import emg_detect_r_peaks
+from bowden.analysis.emg_signal import EmgSignal
+from bowden.analysis.methods_text import MethodsText, methods_text
+from bowden.analysis.outcomes import (
+    AnalysisInfo,
+    AnalysisParameters,
+    StudyOutcomes,
+    TrialMetadata,
+    analyse_study,
+)
+from bowden.analysis.segmentation import (
+    Repetition,
+    Segmentation,
+    SegmentationParameters,
+    resample_repetition,
+    segment_repetitions,
+)
+from bowden.analysis.sparc import SparcParameters, sparc
+
+__all__ = [
+    "AnalysisInfo",
+    "AnalysisParameters",
+    "EcgRemovalParameters",
+    "EmgCheckParameters",
+    "EmgProcessInfo",
+    "EmgProcessParameters",
+    "EmgResult",
+    "EmgSignal",
+    "MethodsText",
+    "Repetition",
+    "Segmentation",
+    "SegmentationParameters",
+    "SparcParameters",
+    "StudyOutcomes",
+    "TrialMetadata",
+    "analyse_study",
+    "emg_align",
+    "emg_check",
+    "emg_detect_r_peaks",
+    "emg_envelope",
+    "emg_filter",
+    "emg_mean_peak",
+    "emg_normalize",
+    "emg_pipeline",
+    "emg_process",
+    "emg_rectify",
+    "emg_remove_ecg",
+    "methods_text",
+    "read_emg_csv",
+    "read_emg_edf",
+    "resample_repetition",
+    "segment_repetitions",
+    "sparc",
+]

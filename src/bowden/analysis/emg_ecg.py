@@ -105,9 +105,7 @@ def emg_remove_ecg(
     params = parameters or EcgRemovalParameters()
     peaks = np.asarray(r_peaks, dtype=np.int64).ravel()
     if peaks.size and (peaks[0] < 0 or peaks[-1] >= emg.n_samples or np.any(np.diff(peaks) <= 0)):
-        raise RecordingError(
-            f"r_peaks must be increasing sample indices within 0..{emg.n_samples - 1}"
-        )
+        raise RecordingError(f"r_peaks must be increasing sample indices within 0..{emg.n_samples - 1}")
     names = emg.channels if channels is None else channels
     out = np.array(emg.values)
     for name in names:
@@ -123,14 +121,14 @@ def remove_ecg_from_channel(
     """One channel of :func:`emg_remove_ecg` (1-D in, cleaned copy out)."""
     y = np.asarray(samples, dtype=np.float64)
     n = y.size
-    qrs = int(round(params.qrs_half_width_s * rate_hz))
+    qrs = round(params.qrs_half_width_s * rate_hz)
     stretch = params.stretch_samples if params.method == "adaptive" else 0
     shift = params.max_shift_samples if params.method == "adaptive" else 0
     reach = qrs + stretch + shift
     peaks = r_peaks[(r_peaks - reach >= 0) & (r_peaks + reach < n)]
     if peaks.size < 2:
         return y.copy()
-    start, end = _beat_bounds(peaks, n, int(round(_MAX_HALF_BEAT_S * rate_hz)))
+    start, end = _beat_bounds(peaks, n, round(_MAX_HALF_BEAT_S * rate_hz))
     half = int(max(np.max(peaks - start), np.max(end - 1 - peaks))) + shift
     offsets = np.arange(-half, half + 1)
     template = _moving_templates(y, peaks, start, end, offsets, params.template_beats)
@@ -186,7 +184,7 @@ def _moving_templates(
     hi = np.clip(k + (n_beats - n_beats // 2) + 1, 0, peaks.size)
     total = sums[hi] - sums[lo] - beats
     count = counts[hi] - counts[lo] - inside
-    return np.divide(total, count, out=np.zeros_like(total), where=count > 0)
+    return np.asarray(np.divide(total, count, out=np.zeros_like(total), where=count > 0), dtype=np.float64)
 
 
 def _alignment_shifts(
@@ -253,8 +251,14 @@ def _fit_adaptive(
         variants[d] = t_qrs
         y_qrs = y[aligned[:, np.newaxis] + qrs_offsets]
         qrs_sums = np.stack(
-            [np.full(n_beats, float(qrs_offsets.size)), t_qrs.sum(1), (t_qrs**2).sum(1),
-             y_qrs.sum(1), (t_qrs * y_qrs).sum(1), (y_qrs**2).sum(1)]
+            [
+                np.full(n_beats, float(qrs_offsets.size)),
+                t_qrs.sum(1),
+                (t_qrs**2).sum(1),
+                y_qrs.sum(1),
+                (t_qrs * y_qrs).sum(1),
+                (y_qrs**2).sum(1),
+            ]
         )
         sse = (
             _section_sse(section_sums(lo, np.full(n_beats, -width)))

@@ -50,9 +50,7 @@ def butterworth_bandpass_sos(
     return np.asarray(sos, dtype=np.float64)
 
 
-def emg_filter(
-    emg: EmgSignal, *, low_hz: float = 20.0, high_hz: float = 400.0, order: int = 3
-) -> EmgSignal:
+def emg_filter(emg: EmgSignal, *, low_hz: float = 20.0, high_hz: float = 400.0, order: int = 3) -> EmgSignal:
     """Zero-phase Butterworth band-pass of every channel (paper: order 3, 20–400 Hz).
 
     The filter runs forwards and backwards (``scipy.signal.sosfiltfilt``, odd padding), so it adds
@@ -109,7 +107,7 @@ def emg_envelope(emg: EmgSignal, *, window_s: float = 0.1) -> EmgSignal:
     """
     if not (math.isfinite(window_s) and window_s > 0.0):
         raise ParameterError(f"window_s must be positive, got {window_s}")
-    width = int(round(window_s * emg.rate_hz))
+    width = round(window_s * emg.rate_hz)
     if width < 1:
         raise ParameterError(f"window_s={window_s} s is shorter than one sample at {emg.rate_hz} Hz")
     _require_finite(emg, "emg_envelope")
@@ -130,6 +128,7 @@ def _require_finite(emg: EmgSignal, step: str) -> None:
     bad_rows, bad_columns = np.nonzero(~np.isfinite(emg.values))
     if bad_rows.size:
         raise RecordingError(
-            f"{step}: EMG channel {emg.channels[bad_columns[0]]!r} is not finite at sample {int(bad_rows[0])}; "
+            f"{step}: EMG channel {emg.channels[bad_columns[0]]!r} is not finite at sample "
+            f"{int(bad_rows[0])}; "
             "run emg_check and remove or interpolate the gap first"
         )

@@ -88,14 +88,16 @@ def emg_check(emg: EmgSignal, parameters: EmgCheckParameters | None = None) -> N
     for name in params.expected_channels:
         if name not in emg.channels:
             problems.append(f"channel {name!r} is missing (channels are {list(emg.channels)})")
-    stuck_limit = max(2, int(round(params.max_stuck_s * emg.rate_hz)))
+    stuck_limit = max(2, round(params.max_stuck_s * emg.rate_hz))
     # Only the channels the analysis uses are judged: a sync or trigger channel is meant to clip.
     judged = [name for name in emg.channels if name in params.expected_channels] or list(emg.channels)
     for name in judged:
         x = np.asarray(emg.channel(name))
         bad = np.flatnonzero(~np.isfinite(x))
         if bad.size:
-            problems.append(f"channel {name!r} is missing data: {bad.size} non-finite samples from sample {bad[0]}")
+            problems.append(
+                f"channel {name!r} is missing data: {bad.size} non-finite samples from sample {bad[0]}"
+            )
             continue
         std = float(np.std(x))
         if std < params.flat_std_v:
@@ -114,7 +116,8 @@ def emg_check(emg: EmgSignal, parameters: EmgCheckParameters | None = None) -> N
         if stuck:
             first, length = max(stuck, key=lambda run: run[1])
             problems.append(
-                f"channel {name!r} is flat for {length / emg.rate_hz:.3f} s from sample {first} (stuck signal)"
+                f"channel {name!r} is flat for {length / emg.rate_hz:.3f} s from sample {first} "
+                "(stuck signal)"
             )
     if problems:
         raise RecordingError("EMG recording unusable:\n  " + "\n  ".join(problems))
@@ -159,7 +162,9 @@ def read_emg_edf(
         raise RecordingError(f"{file.name} lacks channel(s) {missing}; it has {list(by_name)}")
     rates = {name: float(by_name[name].sampling_frequency) for name in names}
     if len(set(rates.values())) > 1:
-        raise RecordingError(f"{file.name}: channels have different sampling rates {rates}; read them separately")
+        raise RecordingError(
+            f"{file.name}: channels have different sampling rates {rates}; read them separately"
+        )
     columns = []
     for name in names:
         signal = by_name[name]
@@ -172,7 +177,9 @@ def read_emg_edf(
         columns.append(np.asarray(signal.data, dtype=np.float64) * _VOLT_SCALE[unit])
     if not columns:
         raise RecordingError(f"{file.name} has no signals to read")
-    return EmgSignal(values=np.column_stack(columns), rate_hz=next(iter(rates.values())), channels=tuple(names))
+    return EmgSignal(
+        values=np.column_stack(columns), rate_hz=next(iter(rates.values())), channels=tuple(names)
+    )
 
 
 def read_emg_csv(
@@ -238,7 +245,8 @@ def emg_align(
         residual = float(np.max(np.abs(intercept + slope * edges - events)))
         if residual > 2.0 / emg.rate_hz + 1e-3:
             raise RecordingError(
-                f"sync pulses do not line up with the controller's times (largest misfit {residual * 1e3:.1f} ms)"
+                "sync pulses do not line up with the controller's times "
+                f"(largest misfit {residual * 1e3:.1f} ms)"
             )
     remaining = tuple(name for name in emg.channels if name != sync_channel)
     kept = emg.select(remaining)

@@ -56,6 +56,8 @@ def emg_normalize(envelope: EmgSignal, reference: Mapping[str, float]) -> EmgSig
             raise RecordingError(f"no normalisation reference for EMG channel {name!r}")
         value = float(reference[name])
         if not (np.isfinite(value) and value > 0.0):
-            raise RecordingError(f"normalisation reference of channel {name!r} is {value}; it must be positive")
+            raise RecordingError(
+                f"normalisation reference of channel {name!r} is {value}; it must be positive"
+            )
         scale.append(value)
     return envelope.with_values(envelope.values / np.asarray(scale))

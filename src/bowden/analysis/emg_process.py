@@ -68,10 +68,14 @@ class EmgProcessParameters:
 
     def __post_init__(self) -> None:
         if self.ecg_removal not in ("adaptive", "template", "none"):
-            raise ParameterError(f"ecg_removal must be 'adaptive', 'template' or 'none', got {self.ecg_removal!r}")
+            raise ParameterError(
+                f"ecg_removal must be 'adaptive', 'template' or 'none', got {self.ecg_removal!r}"
+            )
         if not (isinstance(self.filter_order, int) and self.filter_order >= 1):
             raise ParameterError(f"filter_order must be a positive integer, got {self.filter_order!r}")
-        if not (math.isfinite(self.low_hz) and math.isfinite(self.high_hz) and 0.0 < self.low_hz < self.high_hz):
+        if not (
+            math.isfinite(self.low_hz) and math.isfinite(self.high_hz) and 0.0 < self.low_hz < self.high_hz
+        ):
             raise ParameterError(f"need 0 < low_hz < high_hz, got {self.low_hz}, {self.high_hz}")
         if not (math.isfinite(self.envelope_window_s) and self.envelope_window_s > 0.0):
             raise ParameterError(f"envelope_window_s must be positive, got {self.envelope_window_s}")
@@ -128,7 +132,9 @@ def emg_pipeline(emg: EmgSignal, parameters: EmgProcessParameters | None = None)
             shared = emg_detect_r_peaks(emg, channel=params.ecg_reference_channel, min_rr_s=params.min_rr_s)
             peaks = dict.fromkeys(targets, shared)
         else:
-            peaks = {name: emg_detect_r_peaks(emg, channel=name, min_rr_s=params.min_rr_s) for name in targets}
+            peaks = {
+                name: emg_detect_r_peaks(emg, channel=name, min_rr_s=params.min_rr_s) for name in targets
+            }
     filtered = emg_filter(emg, low_hz=params.low_hz, high_hz=params.high_hz, order=params.filter_order)
     if params.ecg_removal != "none":
         ecg_params = EcgRemovalParameters(

@@ -77,7 +77,7 @@ def emg_detect_r_peaks(
     rate = emg.rate_hz
     copy = ecg_detection_copy(np.asarray(emg.channel(channel)), rate, band_hz=band_hz)
     feature = _integrated_energy(copy, rate)
-    refractory = max(1, int(round(min_rr_s * rate)))
+    refractory = max(1, round(min_rr_s * rate))
     candidates, _ = sps.find_peaks(feature, distance=refractory)
     if candidates.size == 0:
         return np.empty(0, dtype=np.int64)
@@ -88,7 +88,7 @@ def emg_detect_r_peaks(
 def _integrated_energy(copy: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
     """Pan–Tompkins feature: squared derivative integrated over a centred 150 ms window."""
     slope = np.gradient(copy) * rate_hz
-    width = max(1, int(round(_INTEGRATION_WINDOW_S * rate_hz)))
+    width = max(1, round(_INTEGRATION_WINDOW_S * rate_hz))
     kernel = np.full(width, 1.0 / width)
     return np.asarray(np.convolve(slope * slope, kernel, mode="same"), dtype=np.float64)
 
@@ -134,7 +134,7 @@ def _refine_to_r_wave(
     """Move each beat to the R-wave extremum of the detection copy, majority polarity."""
     if beats.size == 0:
         return np.empty(0, dtype=np.int64)
-    half = max(1, int(round(_REFINE_HALF_WIDTH_S * rate_hz)))
+    half = max(1, round(_REFINE_HALF_WIDTH_S * rate_hz))
     offsets = np.arange(-half, half + 1)
     windows = np.clip(beats[:, np.newaxis] + offsets, 0, copy.size - 1)
     segments = copy[windows]

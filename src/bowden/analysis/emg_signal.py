@@ -65,9 +65,7 @@ class EmgSignal:
             raise ParameterError(f"start_s must be finite, got {self.start_s}")
         channels = tuple(self.channels) or tuple(f"ch{i}" for i in range(values.shape[1]))
         if len(channels) != values.shape[1]:
-            raise ParameterError(
-                f"channels names {len(channels)} columns but values has {values.shape[1]}"
-            )
+            raise ParameterError(f"channels names {len(channels)} columns but values has {values.shape[1]}")
         if len(set(channels)) != len(channels):
             raise ParameterError(f"channels must be unique, got {channels}")
         object.__setattr__(self, "channels", channels)
@@ -92,7 +90,9 @@ class EmgSignal:
         try:
             index = self.channels.index(name)
         except ValueError:
-            raise RecordingError(f"EMG channel {name!r} not found; channels are {list(self.channels)}") from None
+            raise RecordingError(
+                f"EMG channel {name!r} not found; channels are {list(self.channels)}"
+            ) from None
         return self.values[:, index]
 
     def with_values(self, values: ArrayLike, channels: Sequence[str] | None = None) -> EmgSignal:
@@ -106,7 +106,9 @@ class EmgSignal:
     def select(self, channels: Sequence[str]) -> EmgSignal:
         """The named channels only, in the given order."""
         columns = [self.channel(name) for name in channels]
-        return self.with_values(np.column_stack(columns) if columns else np.empty((self.n_samples, 0)), channels)
+        return self.with_values(
+            np.column_stack(columns) if columns else np.empty((self.n_samples, 0)), channels
+        )
 
     @classmethod
     def from_frame(
@@ -124,14 +126,22 @@ class EmgSignal:
         channel is missing or not numeric.
         """
         if time_column not in frame.columns:
-            raise RecordingError(f"EMG table has no {time_column!r} column; columns are {list(frame.columns)}")
+            raise RecordingError(
+                f"EMG table has no {time_column!r} column; columns are {list(frame.columns)}"
+            )
         names = [str(c) for c in frame.columns if c != time_column] if channels is None else list(channels)
         missing = [name for name in names if name not in frame.columns]
         if missing:
-            raise RecordingError(f"EMG table lacks channel column(s) {missing}; columns are {list(frame.columns)}")
+            raise RecordingError(
+                f"EMG table lacks channel column(s) {missing}; columns are {list(frame.columns)}"
+            )
         time = _numeric_column(frame, time_column)
         rate_hz = rate_from_time(time, what=f"EMG column {time_column!r}")
-        data = np.column_stack([_numeric_column(frame, name) for name in names]) if names else np.empty((len(time), 0))
+        data = (
+            np.column_stack([_numeric_column(frame, name) for name in names])
+            if names
+            else np.empty((len(time), 0))
+        )
         return cls(values=data, rate_hz=rate_hz, channels=tuple(names), start_s=float(time[0]))
 
     def to_frame(self, *, time_column: str = TRIAL_TIME) -> pd.DataFrame:

@@ -68,7 +68,9 @@ class SegmentationParameters:
         if self.expected_repetitions is not None and not (
             isinstance(self.expected_repetitions, int) and self.expected_repetitions >= 1
         ):
-            raise ParameterError(f"expected_repetitions must be a positive integer or None, got {self.expected_repetitions!r}")
+            raise ParameterError(
+                f"expected_repetitions must be a positive integer or None, got {self.expected_repetitions!r}"
+            )
         if not (isinstance(self.drop_first, int) and self.drop_first >= 0):
             raise ParameterError(f"drop_first must be a non-negative integer, got {self.drop_first!r}")
         if self.expected_repetitions is not None and self.drop_first >= self.expected_repetitions:
@@ -178,7 +180,9 @@ def find_cycles(time_s: ArrayLike, elevation: ArrayLike) -> list[Repetition]:
         plateau = rise + np.flatnonzero(top >= top.max() - tolerance)
         turn = 0.5 * (t[plateau[0]] + t[plateau[-1]])
         cycles.append(
-            Repetition(number=len(cycles) + 1, start_s=float(t[start]), turn_s=float(turn), end_s=float(t[end]))
+            Repetition(
+                number=len(cycles) + 1, start_s=float(t[start]), turn_s=float(turn), end_s=float(t[end])
+            )
         )
     return cycles
 
@@ -218,7 +222,9 @@ def _segmentation_signal(
             )
         return "reference", np.asarray(trial[TRIAL_REFERENCE_ELEVATION], dtype=np.float64)
     if TRIAL_ELEVATION not in trial.columns:
-        raise RecordingError(f"trial recording has neither {TRIAL_REFERENCE_ELEVATION!r} nor {TRIAL_ELEVATION!r}")
+        raise RecordingError(
+            f"trial recording has neither {TRIAL_REFERENCE_ELEVATION!r} nor {TRIAL_ELEVATION!r}"
+        )
     elevation = np.asarray(trial[TRIAL_ELEVATION], dtype=np.float64)
     bad = np.flatnonzero(~np.isfinite(elevation))
     if bad.size:

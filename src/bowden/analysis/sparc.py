@@ -72,7 +72,9 @@ def sparc(speed: ArrayLike, rate_hz: float, parameters: SparcParameters | None =
     if x.ndim != 1 or x.size < 2:
         raise RecordingError(f"sparc needs a 1-D speed profile of at least 2 samples, got shape {x.shape}")
     if not np.all(np.isfinite(x)):
-        raise RecordingError(f"sparc: speed is not finite at sample {int(np.flatnonzero(~np.isfinite(x))[0])}")
+        raise RecordingError(
+            f"sparc: speed is not finite at sample {int(np.flatnonzero(~np.isfinite(x))[0])}"
+        )
     if not (math.isfinite(rate_hz) and rate_hz > 2.0 * params.fc_hz):
         raise ParameterError(f"rate_hz ({rate_hz}) must exceed twice fc_hz ({params.fc_hz})")
     n_fft = 2 ** (math.ceil(math.log2(x.size)) + params.padlevel)
