@@ -11,6 +11,7 @@ are the same, so tests of the drivers against the peers test the wire protocol, 
 """
 
 from bowden.sim.peers.ak60_peer import AK60Peer
+from bowden.sim.peers.ngimu_peer import NgimuPeer
 from bowden.sim.peers.wall_time import Plant, WallTimePlant
 
-__all__ = ["AK60Peer", "Plant", "WallTimePlant"]
+__all__ = ["AK60Peer", "NgimuPeer", "Plant", "WallTimePlant"]
