@@ -123,7 +123,7 @@ def test_implausible_slope_is_a_fit_error() -> None:
     frame = law_bench_frame()
     frame[BENCH_MOTOR_TORQUE] *= -1.0  # torque sign flipped: negative slope
     settings = PreprocessSettings(min_torque_nm=-100.0)
-    with pytest.raises(FitError, match="the raising line has slope -0.04"):
+    with pytest.raises(FitError, match=r"the raising line has slope -0\.04"):
         TransmissionIdentifier(preprocessing=settings).fit(frame)
 
 
