@@ -10,8 +10,9 @@ The drivers in :mod:`bowden.hardware` cannot tell them from the real devices: th
 are the same, so tests of the drivers against the peers test the wire protocol, not mocks.
 """
 
+from bowden.sim.peers.ads1115_peer import ADS1115Peer, FakeSMBus
 from bowden.sim.peers.ak60_peer import AK60Peer
 from bowden.sim.peers.ngimu_peer import NgimuPeer
 from bowden.sim.peers.wall_time import Plant, WallTimePlant
 
-__all__ = ["AK60Peer", "NgimuPeer", "Plant", "WallTimePlant"]
+__all__ = ["ADS1115Peer", "AK60Peer", "FakeSMBus", "NgimuPeer", "Plant", "WallTimePlant"]
