@@ -218,7 +218,7 @@ def emg_align(
 
     Either ``offset_s`` (controller time of the EMG's first sample, when both clocks are known to
     agree), or ``sync_channel`` plus ``controller_times_s``: the rising edges of the sync channel
-    (crossings of the midpoint between its 5th and 95th percentiles) are matched one to one with the
+    (crossings of the midpoint between its minimum and maximum) are matched one to one with the
     controller's logged pulse times. One pulse fixes the offset; two or more fit
     t_controller = a + b·t_emg by least squares, which also corrects the drift between the two
     clocks (the rate becomes rate/b). The sync channel is dropped from the result.
@@ -256,7 +256,7 @@ def emg_align(
 def sync_edge_times(emg: EmgSignal, sync_channel: str) -> NDArray[np.float64]:
     """Times (EMG clock, s) of the rising edges of a sync/trigger channel, interpolated within a sample."""
     x = np.asarray(emg.channel(sync_channel))
-    low, high = np.percentile(x, [5.0, 95.0])
+    low, high = float(np.min(x)), float(np.max(x))
     if not high > low:
         return np.empty(0)
     level = 0.5 * (low + high)

@@ -33,7 +33,10 @@ from bowden.errors import ParameterError, RecordingError
 SegmentationSource = Literal["auto", "reference", "elevation"]
 _LOW_FRACTION = 0.35
 _HIGH_FRACTION = 0.65
-_PLATEAU_TOLERANCE = 1e-4  # fraction of the range within which samples count as the extreme
+# Samples within this fraction of the range count as the same extreme (a held plateau). It must be
+# tiny: a minimum-jerk profile is so flat near its ends (x ∝ τ³) that a looser tolerance would move
+# the start of a movement by tens of milliseconds.
+_PLATEAU_TOLERANCE = 1e-9
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -176,6 +179,8 @@ def find_cycles(time_s: ArrayLike, elevation: ArrayLike) -> list[Repetition]:
             continue  # the cycle is cut by the start or the end of the record
         start = previous_fall + int(np.flatnonzero(before <= before.min() + tolerance)[-1])
         end = next_fall + int(np.flatnonzero(after <= after.min() + tolerance)[0])
+        if end == x.size - 1 and x[end - 1] - x[end] > tolerance:
+            continue  # still descending when the record stops: the cycle is incomplete
         top = x[rise : next_fall + 1]
         plateau = rise + np.flatnonzero(top >= top.max() - tolerance)
         turn = 0.5 * (t[plateau[0]] + t[plateau[-1]])

@@ -1,0 +1,47 @@
+import math
+
+import numpy as np
+import pytest
+
+from bowden.analysis.metrics import integrate_between, percent_error, rmse, root_mean_square, signed_peak
+from bowden.errors import ParameterError, RecordingError
+
+
+def test_rmse_hand_values_and_nan_handling():
+    assert rmse([1.0, 2.0, 3.0], [1.0, 2.0, 5.0]) == pytest.approx(math.sqrt(4.0 / 3.0))
+    assert rmse([1.0, np.nan, 3.0], [0.0, 0.0, 0.0]) == pytest.approx(math.sqrt(5.0))
+    assert math.isnan(rmse([np.nan], [1.0]))
+
+
+def test_percent_error_is_torque_invariant_and_masks_small_references():
+    tension = np.array([11.0, 9.0, 0.5, 22.0])
+    desired = np.array([10.0, 10.0, 0.4, 20.0])
+    arm = np.array([0.05, 0.08, 0.1, 0.12])
+    pe = percent_error(tension, desired, min_reference=1.0)
+    assert pe[[0, 1, 3]] == pytest.approx([10.0, -10.0, 10.0])
+    assert math.isnan(pe[2])
+    # Percent error of torque = tension x moment arm is the same (supplement, Table S1).
+    assert percent_error(tension * arm, desired * arm, min_reference=0.1 * 1.0)[[0, 1, 3]] == pytest.approx(pe[[0, 1, 3]])
+    assert root_mean_square(pe) == pytest.approx(10.0)
+    with pytest.raises(RecordingError, match="shape"):
+        percent_error([1.0], [1.0, 2.0])
+    with pytest.raises(ParameterError, match="min_reference"):
+        percent_error([1.0], [1.0], min_reference=-1.0)
+
+
+def test_signed_peak_keeps_the_sign_of_the_largest_magnitude():
+    assert signed_peak([1.0, -5.0, 4.0, np.nan]) == (-5.0, 1)
+    value, index = signed_peak([np.nan, np.nan])
+    assert math.isnan(value) and index == -1
+
+
+def test_integral_splits_exactly_at_a_boundary_between_grid_points():
+    tau = np.linspace(0.0, 1.0, 11)
+    y = 2.0 * tau + 1.0  # linear: trapezoid is exact
+    turn = 0.537
+    whole = integrate_between(tau, y, 0.0, 1.0)
+    assert whole == pytest.approx(2.0)
+    assert integrate_between(tau, y, 0.0, turn) == pytest.approx(turn**2 + turn)
+    assert integrate_between(tau, y, 0.0, turn) + integrate_between(tau, y, turn, 1.0) == pytest.approx(whole)
+    with pytest.raises(ParameterError, match="outside"):
+        integrate_between(tau, y, -0.1, 0.5)
