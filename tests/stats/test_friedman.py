@@ -10,7 +10,14 @@ from scipy import stats
 from bowden.errors import OutcomeTableError, ParameterError
 from bowden.stats import friedman, friedman_multcompare, friedman_test
 
-POPCORN = [[5.5, 4.5, 3.5], [5.5, 4.5, 4.0], [6.0, 4.0, 3.0], [6.5, 5.0, 4.0], [7.0, 5.5, 5.0], [7.0, 5.0, 4.5]]
+POPCORN = [
+    [5.5, 4.5, 3.5],
+    [5.5, 4.5, 4.0],
+    [6.0, 4.0, 3.0],
+    [6.5, 5.0, 4.0],
+    [7.0, 5.5, 5.0],
+    [7.0, 5.0, 4.5],
+]
 
 
 def test_popcorn_reproduces_matlab_exactly() -> None:
@@ -84,8 +91,13 @@ def test_bad_matrices_are_rejected(data: object, reps: int, message: str) -> Non
 
 
 def test_incomplete_participant_is_named() -> None:
-    tidy = pd.DataFrame({"participant": ["a", "a", "b"], "condition": ["no_suit", "pretension", "no_suit"],
-                         "value": [1.0, 2.0, 3.0]})
+    tidy = pd.DataFrame(
+        {
+            "participant": ["a", "a", "b"],
+            "condition": ["no_suit", "pretension", "no_suit"],
+            "value": [1.0, 2.0, 3.0],
+        }
+    )
     with pytest.raises(OutcomeTableError, match=r"\['b'\]"):
         friedman_test(tidy)
 

@@ -8,8 +8,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pytest
-from statsmodels.regression.mixed_linear_model import MixedLM
 from scipy import integrate, special
+from statsmodels.regression.mixed_linear_model import MixedLM
 
 from bowden.errors import FitError, OutcomeTableError, ParameterError
 from bowden.stats import GlmmOptions, GlmmResult, fit_gamma_glmm, simulate_gamma_glmm
@@ -26,7 +26,9 @@ def _theta(ref: dict[str, Any]) -> np.ndarray:
     return np.concatenate([beta, [0.5 * np.log(ref["participant_var"]), np.log(ref["dispersion"])]])
 
 
-def test_quadrature_loglik_matches_r_numerical_integration(reference: dict[str, Any], dataset: Loader) -> None:
+def test_quadrature_loglik_matches_r_numerical_integration(
+    reference: dict[str, Any], dataset: Loader
+) -> None:
     # R integrated each participant's random intercept with stats::integrate at glmmTMB's estimates.
     for name in ("balanced", "unbalanced"):
         ref = reference[name]["marginal_loglik"]
@@ -43,10 +45,10 @@ def test_quadrature_integral_of_one_participant_matches_scipy(dataset: Loader) -
     sub = build_design(
         pd.DataFrame(
             {
-                "participant": ["a"] * int(rows.sum()) + ["b"],
-                "condition": np.asarray(design.conditions)[design.condition_index[rows]].tolist() + ["no_suit"],
-                "speed": np.asarray(design.speeds)[design.speed_index[rows]].tolist() + ["V1"],
-                "value": design.y[rows].tolist() + [1.0],
+                "participant": [*(["a"] * int(rows.sum())), "b"],
+                "condition": [*np.asarray(design.conditions)[design.condition_index[rows]], "no_suit"],
+                "speed": [*np.asarray(design.speeds)[design.speed_index[rows]], "V1"],
+                "value": [*design.y[rows], 1.0],
             }
         )
     )
@@ -75,7 +77,9 @@ def test_quadrature_integral_of_one_participant_matches_scipy(dataset: Loader) -
 
 
 @pytest.mark.parametrize("n_nodes", [1, 7])
-def test_gradient_matches_finite_differences(dataset: Loader, reference: dict[str, Any], n_nodes: int) -> None:
+def test_gradient_matches_finite_differences(
+    dataset: Loader, reference: dict[str, Any], n_nodes: int
+) -> None:
     model = MarginalLikelihood(build_design(dataset("unbalanced")), n_nodes=n_nodes)
     theta = _theta(reference["unbalanced"]["glmmtmb"]) + 0.01  # away from the optimum: non-zero gradient
     grad = model.gradient(theta)
@@ -85,8 +89,12 @@ def test_gradient_matches_finite_differences(dataset: Loader, reference: dict[st
         e = np.zeros_like(theta)
         e[k] = h
         # Fourth-order central difference.
-        fd[k] = (-model.loglik(theta + 2 * e) + 8 * model.loglik(theta + e) - 8 * model.loglik(theta - e)
-                 + model.loglik(theta - 2 * e)) / (12 * h)
+        fd[k] = (
+            -model.loglik(theta + 2 * e)
+            + 8 * model.loglik(theta + e)
+            - 8 * model.loglik(theta - e)
+            + model.loglik(theta - 2 * e)
+        ) / (12 * h)
     np.testing.assert_allclose(grad, fd, rtol=1e-6, atol=1e-5)
 
 
@@ -136,18 +144,23 @@ def test_recovers_the_simulated_truth_on_a_large_study() -> None:
     fit = fit_gamma_glmm(data)
     assert fit.dispersion == pytest.approx(1 / 9.0, rel=0.08)
     assert np.sqrt(fit.participant_var) == pytest.approx(0.25, rel=0.35)
-    # no_suit (sum-coded level 1) minus the mean of the condition effects (0, -.03, -.05, -.08) + interaction mean.
-    truth = 0.04 - 0.0 * 1.0  # = 0 - mean(0, -0.03, -0.05, -0.08) + 0 (interaction row mean of no_suit is 0)
-    inter_mean = np.mean([[0, 0, 0], [0, 0.02, -0.02], [0, 0.03, 0.01], [0, -0.01, 0.03]])
-    assert fit.coef.iloc[1] == pytest.approx(truth - inter_mean, abs=3 * fit.se.iloc[1])
+    # Sum coding: the no_suit coefficient is its log effect minus the mean over conditions, with the
+    # interaction averaged over speeds (no_suit's interaction row is zero).
+    inter = np.array([[0, 0, 0], [0, 0.02, -0.02], [0, 0.03, 0.01], [0, -0.01, 0.03]])
+    cond = np.array([0.0, -0.03, -0.05, -0.08]) + inter.mean(axis=1)
+    truth = cond[0] - cond.mean()
+    assert fit.coef.iloc[1] == pytest.approx(truth, abs=3 * fit.se.iloc[1])
 
 
 def test_level_order_follows_contracts_then_data() -> None:
     data = simulate_gamma_glmm(seed=2).sample(frac=1.0, random_state=1)
     design = build_design(data)
     assert design.conditions == ("no_suit", "pretension", "support_25", "support_50")
-    other = data.assign(condition=data["condition"].map({"no_suit": "B", "pretension": "A",
-                                                         "support_25": "C", "support_50": "D"}))
+    other = data.assign(
+        condition=data["condition"].map(
+            {"no_suit": "B", "pretension": "A", "support_25": "C", "support_50": "D"}
+        )
+    )
     assert build_design(other).conditions == tuple(dict.fromkeys(other["condition"]))
 
 
@@ -168,8 +181,9 @@ def test_custom_column_names() -> None:
         (lambda d: d[d["participant"] == "P01"], "at least two levels"),
     ],
 )
-def test_bad_tables_are_rejected_with_a_clear_message(mutate: Callable[[pd.DataFrame], pd.DataFrame],
-                                                      message: str) -> None:
+def test_bad_tables_are_rejected_with_a_clear_message(
+    mutate: Callable[[pd.DataFrame], pd.DataFrame], message: str
+) -> None:
     with pytest.raises(OutcomeTableError, match=message):
         fit_gamma_glmm(mutate(simulate_gamma_glmm(seed=5)))
 

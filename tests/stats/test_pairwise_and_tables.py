@@ -93,9 +93,13 @@ def test_effects_table_shows_participant_means_and_p_values(analyses: list) -> N
     table = effects_table(analyses)
     assert list(table.columns) == ["no", "pre", "25%", "50%", "p (C)", "p (V)", "p (C x V)"]
     data = analyses[0].data
-    cell = data[(data.condition == "support_25") & (data.speed == "V2")].groupby("participant")["value"].mean()
+    cell = (
+        data[(data.condition == "support_25") & (data.speed == "V2")].groupby("participant")["value"].mean()
+    )
     assert table.loc[("Ant. delt.", "V2"), "25%"] == f"{cell.mean():.3f} ({cell.std():.3f})"
-    assert table.loc[("Ant. delt.", "V1"), "p (C)"] == format_p(float(analyses[0].tests.loc["condition", "p"]))
+    assert table.loc[("Ant. delt.", "V1"), "p (C)"] == format_p(
+        float(analyses[0].tests.loc["condition", "p"])
+    )
     se = effects_table(analyses, spread="se").loc[("Ant. delt.", "V2"), "25%"]
     assert se == f"{cell.mean():.3f} ({cell.std() / np.sqrt(17):.3f})"
 
@@ -103,8 +107,14 @@ def test_effects_table_shows_participant_means_and_p_values(analyses: list) -> N
 def test_pairwise_table_is_na_without_a_significant_effect(analyses: list) -> None:  # type: ignore[type-arg]
     assert analyses[0].tests.loc["condition", "p"] < 0.05 < analyses[1].tests.loc["condition", "p"]
     table = pairwise_table(analyses)
-    assert list(dict.fromkeys(c for c, _ in table.columns)) == ["pre-no", "25%-no", "50%-no", "25%-pre",
-                                                                 "50%-pre", "50%-25%"]
+    assert list(dict.fromkeys(c for c, _ in table.columns)) == [
+        "pre-no",
+        "25%-no",
+        "50%-no",
+        "25%-pre",
+        "50%-pre",
+        "50%-25%",
+    ]
     assert (table.loc["Null"] == "N/A").all()
     row = analyses[0].condition_pairs.iloc[2]
     assert table.loc["Ant. delt.", ("50%-no", "p")] == format_p(row["p_holm"])
@@ -119,7 +129,7 @@ def test_significance_colour_table(analyses: list) -> None:  # type: ignore[type
     p = float(table.loc["Ant. delt.", ("50%-no", "p")])
     fragment = significance_html(table, caption="Raising phase")
     assert fragment.startswith("<table") and "<caption>Raising phase</caption>" in fragment
-    assert f'background:{change_colour(pct)}' in fragment
+    assert f"background:{change_colour(pct)}" in fragment
     assert f">{significance_code(p)}</td>" in fragment
     styled = significance_styler(table).to_html()
     assert change_colour(pct) in styled

@@ -132,7 +132,7 @@ def build_design(
     for col in (participant, condition, speed):
         missing = data[col].isna().to_numpy()
         if missing.any():
-            raise OutcomeTableError(f"column {col!r} is empty in row {data.index[np.argmax(missing)]!r}")
+            raise OutcomeTableError(f"column {col!r} is empty in row {data.index[int(np.argmax(missing))]!r}")
     y = pd.to_numeric(data[value], errors="coerce").to_numpy(dtype=float)
     bad = ~(np.isfinite(y) & (y > 0.0))
     if bad.any():

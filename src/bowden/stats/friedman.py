@@ -92,7 +92,9 @@ def friedman(x: npt.ArrayLike, reps: int = 1, *, labels: Sequence[str] | None = 
         raise OutcomeTableError(f"{rows} rows do not split into blocks of reps={reps}")
     bad = np.argwhere(~np.isfinite(arr))
     if bad.size:
-        raise OutcomeTableError(f"x holds a missing or non-finite value at row {bad[0][0]}, column {bad[0][1]}")
+        raise OutcomeTableError(
+            f"x holds a missing or non-finite value at row {bad[0][0]}, column {bad[0][1]}"
+        )
     n = rows // reps
     if n < 2:
         raise OutcomeTableError("Friedman's test needs at least two blocks")
@@ -216,8 +218,11 @@ def friedman_test(
         raise OutcomeTableError(f"column {value!r} has no numeric score in row {row!r}")
     levels = order_levels(data[condition], CONDITIONS)
     frame = pd.DataFrame(
-        {"p": data[participant].astype(str).to_numpy(), "c": data[condition].astype(str).to_numpy(),
-         "v": scores.to_numpy(dtype=float)}
+        {
+            "p": data[participant].astype(str).to_numpy(),
+            "c": data[condition].astype(str).to_numpy(),
+            "v": scores.to_numpy(dtype=float),
+        }
     )
     counts = frame.groupby(["p", "c"], sort=False).size().unstack("c").reindex(columns=list(levels))
     table = counts.to_numpy(dtype=float)
@@ -227,7 +232,7 @@ def friedman_test(
             f"every participant needs the same number of scores in every {condition!r}; "
             f"check participant(s) {uneven}"
         )
-    reps = int(counts.iloc[0, 0])
+    reps = int(table[0, 0])
     frame["k"] = frame.groupby(["p", "c"], sort=False).cumcount()
     wide = frame.pivot(index=["p", "k"], columns="c", values="v")
     wide = wide.reindex(columns=list(levels))

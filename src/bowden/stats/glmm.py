@@ -220,9 +220,18 @@ def _fit_pql(design: Design, options: GlmmOptions, lmm_method: Literal["REML", "
             f"PQL did not converge in {options.max_iterations} iterations "
             f"(last change of the linear predictor {change:.3g}); raise max_iterations or check the data"
         )
-    return _result(design, options.method if options.method.startswith("pql") else "pql-" + lmm_method.lower(),
-                   fit.beta, fit.vcov, fit.participant_var, fit.sigma2, fit.random_effects, fit.loglik,
-                   iteration, change)
+    return _result(
+        design,
+        options.method if options.method.startswith("pql") else "pql-" + lmm_method.lower(),
+        fit.beta,
+        fit.vcov,
+        fit.participant_var,
+        fit.sigma2,
+        fit.random_effects,
+        fit.loglik,
+        iteration,
+        change,
+    )
 
 
 def _result(

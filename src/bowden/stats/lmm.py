@@ -160,7 +160,7 @@ def fit_random_intercept_lmm(
         raise FitError(f"method must be 'REML' or 'ML', got {method!r}")
     reml = method == "REML"
     n_obs = z.size
-    zs = np.bincount(group, weights=z, minlength=sums.n.size)
+    zs = np.asarray(np.bincount(group, weights=z, minlength=sums.n.size), dtype=float)
     xtz = x.T @ z
     ztz = float(z @ z)
 
@@ -183,7 +183,7 @@ def fit_random_intercept_lmm(
     loglik = -0.5 * (obj + dof * (1.0 + np.log(2.0 * np.pi)))
     return LmmFit(
         beta=beta,
-        vcov=sigma2 * np.linalg.inv(a),
+        vcov=np.asarray(sigma2 * np.linalg.inv(a), dtype=float),
         sigma2=float(sigma2),
         participant_var=float(ratio * sigma2),
         random_effects=blup,

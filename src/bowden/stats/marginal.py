@@ -59,7 +59,7 @@ class MarginalLikelihood:
             group=design.group,
             n=np.bincount(design.group, minlength=m).astype(float),
             xs=xs,
-            log_y=np.bincount(design.group, weights=np.log(design.y), minlength=m),
+            log_y=np.asarray(np.bincount(design.group, weights=np.log(design.y), minlength=m), dtype=float),
         )
         nodes, weights = np.polynomial.hermite.hermgauss(n_nodes)
         self._nodes = nodes
@@ -75,14 +75,22 @@ class MarginalLikelihood:
         eta = d.x @ beta
         e = d.y * np.exp(-eta)
         m = d.n.size
-        a = np.bincount(d.group, weights=e, minlength=m)
+        a = np.asarray(np.bincount(d.group, weights=e, minlength=m), dtype=float)
         s = np.zeros((m, self.p))
         np.add.at(s, d.group, d.x * e[:, None])
         eta_sum = np.bincount(d.group, weights=eta, minlength=m)
         mode = self._mode(a, nu, var_b)
         curvature = nu * a * np.exp(-mode) + 1.0 / var_b
-        return {"nu": nu, "var_b": var_b, "tau": tau, "a": a, "s": s, "eta_sum": eta_sum,
-                "mode": mode, "curvature": curvature}
+        return {
+            "nu": nu,
+            "var_b": var_b,
+            "tau": tau,
+            "a": a,
+            "s": s,
+            "eta_sum": eta_sum,
+            "mode": mode,
+            "curvature": curvature,
+        }
 
     def _mode(self, a: FloatArray, nu: float, var_b: float) -> FloatArray:
         n = self._d.n
@@ -143,7 +151,9 @@ class MarginalLikelihood:
             db = dgp / curv
             dh_tot = dh + h_b * db
             dlog_s = -0.5 * dh_tot / curv
-            return np.asarray(dlog_s + np.sum(post * (dg_nodes + g1 * (db[:, None] + sqrt2x * dlog_s[:, None])), axis=1))
+            return np.asarray(
+                dlog_s + np.sum(post * (dg_nodes + g1 * (db[:, None] + sqrt2x * dlog_s[:, None])), axis=1)
+            )
 
         grad = np.empty(self.p + 2)
         # beta: dg/dbeta(b) = nu (S e^-b - xs); dg'/dbeta = dH/dbeta = -nu e^-b S.
@@ -162,8 +172,11 @@ class MarginalLikelihood:
         )
         grad[: self.p] = per_beta.sum(axis=0)
         # log sigma_b: dg/dtau = b^2/var_b - 1; dg'/dtau = 2 b / var_b; dH/dtau = -2 / var_b.
-        grad[self.p] = np.sum(total(points**2 / var_b - 1.0, 2.0 * mode / var_b, np.full_like(mode, -2.0 / var_b)))
-        # log phi (nu = e^-omega): dg/domega = -nu dg/dnu; dg'/domega = -nu (A e^-b - n); dH/domega = -nu A e^-b.
+        grad[self.p] = np.sum(
+            total(points**2 / var_b - 1.0, 2.0 * mode / var_b, np.full_like(mode, -2.0 / var_b))
+        )
+        # log phi (nu = e^-omega): dg/domega = -nu dg/dnu; dg'/domega = -nu (A e^-b - n);
+        # dH/domega = -nu A e^-b.
         dg_dnu = (
             n[:, None] * (np.log(nu) + 1.0 - special.digamma(nu))
             - (np.asarray(pc["eta_sum"])[:, None] + n[:, None] * points)
@@ -234,8 +247,13 @@ def fit_marginal_ml(design: Design, start: GlmmResult, *, n_nodes: int, options:
             converged = True
             break
     if not converged:
-        res = optimize.minimize(lambda t: -model.loglik(t), theta, jac=lambda t: -model.gradient(t),
-                                method="BFGS", options={"gtol": 1e-9, "maxiter": 10 * options.max_iterations})
+        res = optimize.minimize(
+            lambda t: -model.loglik(t),
+            theta,
+            jac=lambda t: -model.gradient(t),
+            method="BFGS",
+            options={"gtol": 1e-9, "maxiter": 10 * options.max_iterations},
+        )
         theta = np.asarray(res.x)
         step_norm = float(np.max(np.abs(model.gradient(theta))))
         converged = step_norm < 1e-5
@@ -247,7 +265,7 @@ def fit_marginal_ml(design: Design, start: GlmmResult, *, n_nodes: int, options:
             )
     hess = hessian_of_gradient(model.gradient, theta)
     try:
-        cov = np.linalg.inv(-hess)
+        cov = np.asarray(np.linalg.inv(-hess), dtype=float)
     except np.linalg.LinAlgError as exc:
         raise FitError("the Hessian of the marginal likelihood is singular at the optimum") from exc
     if not np.all(np.diag(cov) > 0.0):

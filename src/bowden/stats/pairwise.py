@@ -115,7 +115,9 @@ def pairwise_comparisons(
             log_se = float(np.sqrt(diff_l @ cov @ diff_l))
             estimate = float(mu[a] - mu[b])
             statistic = estimate / se
-            p_raw = float(2.0 * (stats.t.sf(abs(statistic), df) if np.isfinite(df) else stats.norm.sf(abs(statistic))))
+            p_raw = float(
+                2.0 * (stats.t.sf(abs(statistic), df) if np.isfinite(df) else stats.norm.sf(abs(statistic)))
+            )
             ratio = float(mu[a] / mu[b])
             record = {
                 "contrast": f"{names[a]} - {names[b]}",
@@ -142,6 +144,8 @@ def pairwise_comparisons(
         )
     else:
         table["p_holm"] = holm_adjust(table["p_raw"].to_numpy())
-    columns = [c for c in table.columns if c not in ("ratio", "percent_change", "percent_change_se", "p_holm")]
+    columns = [
+        c for c in table.columns if c not in ("ratio", "percent_change", "percent_change_se", "p_holm")
+    ]
     columns += ["p_holm", "ratio", "percent_change", "percent_change_se"]
     return table[columns]

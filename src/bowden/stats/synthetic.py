@@ -140,4 +140,3 @@ def simulate_gamma_glmm(
         }
     )
     return frame.reset_index(drop=True)
-

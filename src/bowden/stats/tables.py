@@ -35,6 +35,11 @@ def significance_code(p: float) -> str:
     return "**" if p < 0.001 else "*" if p < 0.05 else ""
 
 
+def _num(value: Any) -> float:
+    """A pandas scalar as a float (pandas' stubs type cell access as any scalar)."""
+    return float(value)
+
+
 def _label(level: str) -> str:
     return CONDITION_LABELS.get(level, level)
 
@@ -66,14 +71,18 @@ def effects_table(
     for analysis in analyses:
         design = analysis.fit.design
         per_participant = (
-            analysis.data.groupby(["condition", "speed", "participant"], sort=False)["value"].mean().reset_index()
+            analysis.data.groupby(["condition", "speed", "participant"], sort=False)["value"]
+            .mean()
+            .reset_index()
         )
-        stats_ = per_participant.groupby(["condition", "speed"], sort=False)["value"].agg(["mean", "std", "count"])
-        p_values = {TERM_COLUMNS[t]: format_p(float(analysis.tests.loc[t, "p"])) for t in TERM_COLUMNS}
+        stats_ = per_participant.groupby(["condition", "speed"], sort=False)["value"].agg(
+            ["mean", "std", "count"]
+        )
+        p_values = {TERM_COLUMNS[t]: format_p(_num(analysis.tests.loc[t, "p"])) for t in TERM_COLUMNS}
         for speed in design.speeds:
             row: dict[str, Any] = {"outcome": analysis.name, "speed": speed}
             for cond in design.conditions:
-                mean, sd, count = stats_.loc[(cond, speed)]
+                mean, sd, count = (_num(stats_.at[(cond, speed), k]) for k in ("mean", "std", "count"))
                 value = sd if spread == "sd" else sd / np.sqrt(count)
                 row[_label(cond)] = f"{mean:.{decimals}f} ({value:.{decimals}f})"
             row.update(p_values)
@@ -109,7 +118,7 @@ def pairwise_table(
     records: dict[str, dict[tuple[str, str], str]] = {}
     for analysis in analyses:
         pairs = analysis.condition_pairs if factor == "condition" else analysis.speed_pairs
-        show = not only_if_significant or float(analysis.tests.loc[factor, "p"]) < alpha
+        show = not only_if_significant or _num(analysis.tests.loc[factor, "p"]) < alpha
         cells: dict[tuple[str, str], str] = {}
         for _, row in pairs.iterrows():
             label = _contrast_label(row)
@@ -122,7 +131,7 @@ def pairwise_table(
                     cells[(label, part)] = "N/A"
         records[analysis.name] = cells
     table = pd.DataFrame.from_dict(records, orient="index")
-    table.columns = pd.MultiIndex.from_tuples(table.columns)
+    table.columns = pd.MultiIndex.from_tuples([tuple(col) for col in table.columns])
     table.index.name = "outcome"
     return table
 
@@ -148,7 +157,7 @@ def significance_table(
             cells[(_contrast_label(row), "p")] = float(row["p_holm"])
         records[analysis.name] = cells
     table = pd.DataFrame.from_dict(records, orient="index")
-    table.columns = pd.MultiIndex.from_tuples(table.columns)
+    table.columns = pd.MultiIndex.from_tuples([tuple(col) for col in table.columns])
     table.index.name = "outcome"
     return table
 
@@ -168,7 +177,7 @@ def change_colour(percent: float, *, full_scale_percent: float = 60.0) -> str:
 
 
 def _cells(table: pd.DataFrame) -> tuple[list[str], list[str]]:
-    contrasts = list(dict.fromkeys(c for c, _ in table.columns))
+    contrasts = list(dict.fromkeys(str(col[0]) for col in table.columns))
     return contrasts, [str(i) for i in table.index]
 
 
@@ -188,8 +197,8 @@ def significance_html(
     for outcome in outcomes:
         cells = []
         for contrast in contrasts:
-            pct = float(table.loc[outcome, (contrast, "percent")])
-            p = float(table.loc[outcome, (contrast, "p")])
+            pct = _num(table.loc[outcome, (contrast, "percent")])
+            p = _num(table.loc[outcome, (contrast, "p")])
             colour = change_colour(pct, full_scale_percent=full_scale_percent)
             cells.append(
                 f'<td style="background:{colour};text-align:center;padding:2px 8px;font-weight:bold" '
@@ -208,15 +217,20 @@ def significance_styler(table: pd.DataFrame, *, full_scale_percent: float = 60.0
     try:
         import jinja2  # noqa: F401 - only checks that Styler can render
     except ImportError as exc:  # pragma: no cover - depends on the environment
-        raise ImportError("significance_styler needs jinja2 (pip install jinja2); use significance_html") from exc
+        raise ImportError(
+            "significance_styler needs jinja2 (pip install jinja2); use significance_html"
+        ) from exc
     contrasts, _ = _cells(table)
     codes = pd.DataFrame(
         {c: [significance_code(float(p)) for p in table[(c, "p")]] for c in contrasts}, index=table.index
     )
     colours = pd.DataFrame(
         {
-            c: [f"background-color: {change_colour(float(v), full_scale_percent=full_scale_percent)}; "
-                "text-align: center; font-weight: bold" for v in table[(c, "percent")]]
+            c: [
+                f"background-color: {change_colour(float(v), full_scale_percent=full_scale_percent)}; "
+                "text-align: center; font-weight: bold"
+                for v in table[(c, "percent")]
+            ]
             for c in contrasts
         },
         index=table.index,

@@ -128,8 +128,10 @@ def estimated_marginal_means(
     log_mean = rows @ beta
     log_se = np.sqrt(np.einsum("ij,jk,ik->i", rows, cov, rows))
     df = degrees_of_freedom(result, df_method)
-    crit = float(stats.t.ppf(0.5 + confidence / 2.0, df)) if np.isfinite(df) else float(
-        stats.norm.ppf(0.5 + confidence / 2.0)
+    crit = (
+        float(stats.t.ppf(0.5 + confidence / 2.0, df))
+        if np.isfinite(df)
+        else float(stats.norm.ppf(0.5 + confidence / 2.0))
     )
     out = levels.copy()
     out["mean"] = np.exp(log_mean)
