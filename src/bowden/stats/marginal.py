@@ -18,6 +18,7 @@ Parameters: ``theta = (beta, log sigma_b, log phi)`` with ``phi = 1 / nu``.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -192,9 +193,11 @@ class MarginalLikelihood:
         return self._modes.copy()
 
 
-def hessian_of_gradient(grad: object, theta: FloatArray, rel_step: float = 1e-5) -> FloatArray:
+def hessian_of_gradient(
+    grad: Callable[[FloatArray], FloatArray], theta: FloatArray, rel_step: float = 1e-5
+) -> FloatArray:
     """Symmetrised central-difference Jacobian of a gradient function."""
-    fn = grad  # callable FloatArray -> FloatArray
+    fn = grad
     k = theta.size
     hess = np.empty((k, k))
     for j in range(k):
@@ -202,7 +205,7 @@ def hessian_of_gradient(grad: object, theta: FloatArray, rel_step: float = 1e-5)
         up, down = theta.copy(), theta.copy()
         up[j] += h
         down[j] -= h
-        hess[:, j] = (fn(up) - fn(down)) / (2.0 * h)  # type: ignore[operator]
+        hess[:, j] = (fn(up) - fn(down)) / (2.0 * h)
     return 0.5 * (hess + hess.T)
 
 
