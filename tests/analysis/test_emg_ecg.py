@@ -23,8 +23,11 @@ def sar_db(output, truth):
 
 def _case(contaminated_emg, seed, emg_rms_v):
     case = contaminated_emg(duration_s=40.0, seed=seed, emg_rms_v=emg_rms_v)
-    raw = EmgSignal(values=np.column_stack([case.raw_v, case.emg_v]), rate_hz=RATE_HZ,
-                    channels=("pectoralis_major", "biceps"))
+    raw = EmgSignal(
+        values=np.column_stack([case.raw_v, case.emg_v]),
+        rate_hz=RATE_HZ,
+        channels=("pectoralis_major", "biceps"),
+    )
     truth = emg_filter(EmgSignal(values=case.emg_v, rate_hz=RATE_HZ)).values[:, 0]
     return case, raw, truth
 
@@ -49,23 +52,26 @@ def test_r_peaks_respect_refractory_interval_and_handle_inverted_leads():
 
 @pytest.mark.parametrize(("emg_rms_v", "min_gain_db"), [(30e-6, 15.0), (100e-6, 9.0)])
 def test_adaptive_removal_raises_sar_and_beats_high_pass_and_plain(contaminated_emg, emg_rms_v, min_gain_db):
-    case, raw, truth = _case(contaminated_emg, 0, emg_rms_v)
+    _, raw, truth = _case(contaminated_emg, 0, emg_rms_v)
     peaks = emg_detect_r_peaks(raw, channel="pectoralis_major")
     banded = emg_filter(raw)
     adaptive = emg_remove_ecg(banded, peaks, channels=("pectoralis_major",)).channel("pectoralis_major")
     plain = emg_remove_ecg(
         banded, peaks, channels=("pectoralis_major",), parameters=EcgRemovalParameters(method="template")
     ).channel("pectoralis_major")
-    high_pass = sps.sosfiltfilt(sps.butter(4, 30.0, "highpass", fs=RATE_HZ, output="sos"),
-                                banded.channel("pectoralis_major"))
+    high_pass = sps.sosfiltfilt(
+        sps.butter(4, 30.0, "highpass", fs=RATE_HZ, output="sos"), banded.channel("pectoralis_major")
+    )
     before = sar_db(banded.channel("pectoralis_major"), truth)
     after = sar_db(adaptive, truth)
     assert after - before >= min_gain_db
     assert after > sar_db(high_pass, truth) + 1.0
     assert after > sar_db(plain, truth) + 1.0
     # The uncontaminated channel passes through untouched.
-    assert np.array_equal(emg_remove_ecg(banded, peaks, channels=("pectoralis_major",)).channel("biceps"),
-                          banded.channel("biceps"))
+    assert np.array_equal(
+        emg_remove_ecg(banded, peaks, channels=("pectoralis_major",)).channel("biceps"),
+        banded.channel("biceps"),
+    )
 
 
 def test_template_methods_remove_a_pure_repeating_ecg_exactly():

@@ -21,8 +21,13 @@ def test_edf_and_bdf_files_read_back_in_volts(tmp_path, suffix, signal_class):
     emg = _emg()
     labels = [f"EMG{i}" for i in range(len(MUSCLES))]
     signals = [
-        signal_class(emg.values[:, i] * 1e6, RATE_HZ, label=labels[i], physical_dimension="uV",
-                     physical_range=(-1000.0, 1000.0))
+        signal_class(
+            emg.values[:, i] * 1e6,
+            RATE_HZ,
+            label=labels[i],
+            physical_dimension="uV",
+            physical_range=(-1000.0, 1000.0),
+        )
         for i in range(len(MUSCLES))
     ]
     path = tmp_path / f"emg{suffix}"
@@ -39,11 +44,19 @@ def test_edf_and_bdf_files_read_back_in_volts(tmp_path, suffix, signal_class):
 
 def test_edf_with_unknown_unit_or_mixed_rates_is_refused(tmp_path):
     path = tmp_path / "mixed.edf"
-    edfio.Edf([
-        edfio.EdfSignal(np.zeros(2000), 2000.0, label="a", physical_dimension="uV", physical_range=(-1, 1)),
-        edfio.EdfSignal(np.zeros(1000), 1000.0, label="b", physical_dimension="uV", physical_range=(-1, 1)),
-        edfio.EdfSignal(np.zeros(2000), 2000.0, label="c", physical_dimension="degC", physical_range=(-1, 1)),
-    ]).write(path)
+    edfio.Edf(
+        [
+            edfio.EdfSignal(
+                np.zeros(2000), 2000.0, label="a", physical_dimension="uV", physical_range=(-1, 1)
+            ),
+            edfio.EdfSignal(
+                np.zeros(1000), 1000.0, label="b", physical_dimension="uV", physical_range=(-1, 1)
+            ),
+            edfio.EdfSignal(
+                np.zeros(2000), 2000.0, label="c", physical_dimension="degC", physical_range=(-1, 1)
+            ),
+        ]
+    ).write(path)
     with pytest.raises(RecordingError, match="different sampling rates"):
         read_emg_edf(path, channels=["a", "b"])
     with pytest.raises(RecordingError, match="physical dimension 'degC'"):
@@ -94,7 +107,9 @@ def test_align_by_sync_pulses_corrects_offset_and_drift():
     t_emg_true = offset + np.arange(n) / 2000.0  # true controller time of each EMG sample
     for p in pulses_controller:
         sync[(t_emg_true >= p) & (t_emg_true < p + 0.05)] = 5.0
-    emg = EmgSignal(values=np.column_stack([np.zeros(n), sync]), rate_hz=rate_emg, channels=("biceps", "sync"))
+    emg = EmgSignal(
+        values=np.column_stack([np.zeros(n), sync]), rate_hz=rate_emg, channels=("biceps", "sync")
+    )
     aligned = emg_align(emg, sync_channel="sync", controller_times_s=pulses_controller)
     assert aligned.channels == ("biceps",)
     assert aligned.start_s == pytest.approx(offset, abs=1e-3)

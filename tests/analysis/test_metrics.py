@@ -21,7 +21,9 @@ def test_percent_error_is_torque_invariant_and_masks_small_references():
     assert pe[[0, 1, 3]] == pytest.approx([10.0, -10.0, 10.0])
     assert math.isnan(pe[2])
     # Percent error of torque = tension x moment arm is the same (supplement, Table S1).
-    assert percent_error(tension * arm, desired * arm, min_reference=0.1 * 1.0)[[0, 1, 3]] == pytest.approx(pe[[0, 1, 3]])
+    assert percent_error(tension * arm, desired * arm, min_reference=0.1 * 1.0)[[0, 1, 3]] == pytest.approx(
+        pe[[0, 1, 3]]
+    )
     assert root_mean_square(pe) == pytest.approx(10.0)
     with pytest.raises(RecordingError, match="shape"):
         percent_error([1.0], [1.0, 2.0])

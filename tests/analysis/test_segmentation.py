@@ -41,8 +41,11 @@ def test_pauses_between_repetitions_are_not_part_of_them():
     pieces = []
     for _ in range(10):
         t = np.arange(0.0, cycle.period_s + 0.5, 1.0 / RATE)
-        pieces.append(np.where(t <= cycle.period_s, cycle.elevation_rad(np.minimum(t, cycle.period_s - 1e-9)),
-                               cycle.low_rad))
+        pieces.append(
+            np.where(
+                t <= cycle.period_s, cycle.elevation_rad(np.minimum(t, cycle.period_s - 1e-9)), cycle.low_rad
+            )
+        )
     x = np.concatenate([np.full(100, cycle.low_rad), *pieces])
     t = np.arange(x.size) / RATE
     cycles = find_cycles(t, x)
@@ -69,7 +72,7 @@ def test_fallback_to_measured_elevation_with_noise_and_lag():
 def test_wrong_repetition_count_is_a_clear_error():
     cycle = MinimumJerkCycle(peak_speed_rad_s=math.radians(180.0))
     trial = _trial(cycle, reps=7)
-    with pytest.raises(RecordingError, match="found 7 complete repetitions.*expected 10"):
+    with pytest.raises(RecordingError, match=r"found 7 complete repetitions.*expected 10"):
         segment_repetitions(trial)
     seg = segment_repetitions(trial, SegmentationParameters(expected_repetitions=None, drop_first=2))
     assert [r.number for r in seg.repetitions] == [3, 4, 5, 6, 7]

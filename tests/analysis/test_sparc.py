@@ -33,7 +33,9 @@ def test_published_minimum_jerk_values(rate_hz, expected):
 def test_matches_monalysa_on_random_signals(seed, n, rate_hz, padlevel, fc_hz, threshold):
     rng = np.random.default_rng(seed)
     speed = np.abs(np.cumsum(rng.standard_normal(n))) + rng.random(n)
-    ours = sparc(speed, rate_hz, SparcParameters(padlevel=padlevel, fc_hz=fc_hz, amplitude_threshold=threshold))
+    ours = sparc(
+        speed, rate_hz, SparcParameters(padlevel=padlevel, fc_hz=fc_hz, amplitude_threshold=threshold)
+    )
     theirs = monalysa_sparc(speed, rate_hz, padlevel=padlevel, fc=fc_hz, amp_th=threshold)[0]
     assert ours == pytest.approx(theirs, abs=1e-9)
 

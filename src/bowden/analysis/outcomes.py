@@ -430,11 +430,14 @@ def _mean_sd_curves(
             for r in range(data.shape[0])
         ]
     )
-    count = np.sum(np.isfinite(coarse), axis=0)
-    with np.errstate(invalid="ignore"):
-        mean = np.nanmean(np.where(count > 0, coarse, 0.0), axis=0) if coarse.size else coarse
-        sd = np.nanstd(coarse, axis=0, ddof=1) if coarse.shape[0] > 1 else np.full_like(mean, np.nan)
-    mean = np.where(count > 0, mean, np.nan)
+    finite = np.isfinite(coarse)
+    count = np.sum(finite, axis=0)
+    filled = np.where(finite, coarse, 0.0)
+    # Explicit sums rather than nanmean/nanstd: signals absent in a trial (tension without a load
+    # cell) are all-NaN and must give NaN quietly, and one repetition has no SD.
+    mean = np.divide(filled.sum(axis=0), count, out=np.full(count.shape, np.nan), where=count > 0)
+    squares = np.where(finite, (coarse - mean) ** 2, 0.0).sum(axis=0)
+    sd = np.sqrt(np.divide(squares, count - 1, out=np.full(count.shape, np.nan), where=count > 1))
     m = result.metadata
     frame = pd.DataFrame(
         {
