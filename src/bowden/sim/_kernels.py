@@ -100,6 +100,7 @@ ARM_HUMAN = 2  # torque from the virtual participant's controller (human paramet
 MOTOR_TORQUE = 0  # cmd[0] = torque
 MOTOR_IMPEDANCE = 1  # cmd = (position, velocity, kp, kd, torque_ff), as the AK60-6 MIT mode
 MOTOR_OFF = 2  # limp: no torque
+MOTOR_TRAJECTORY = 3  # as MOTOR_IMPEDANCE, with the position target advancing at cmd[1] (host ramp)
 
 # --- recorded columns of integrate() ------------------------------------------------------------
 R_TH = 0
@@ -320,15 +321,21 @@ def integrate(
     arm_a: NDArray[np.float64],
     arm_b: NDArray[np.float64],
     record: NDArray[np.float64],
-) -> None:
-    """Advance ``n_steps`` plant steps with a held motor command; row ``i`` of ``record`` gets the state
-    after step ``i``. For ``ARM_HUMAN``, ``arm_a`` holds unit normal draws for the motor noise and
-    ``h`` the participant (see :mod:`bowden.sim._human`)."""
+    stop_direction: int,
+    stop_elevation: float,
+) -> int:
+    """Advance up to ``n_steps`` plant steps with a held motor command; row ``i`` of ``record`` gets
+    the state after step ``i``. For ``ARM_HUMAN``, ``arm_a`` holds unit normal draws for the motor
+    noise and ``h`` the participant (``H_*``). With ``stop_direction`` +1 (−1) integration stops after
+    the step where the elevation reaches ``stop_elevation`` from below (above); returns the steps done."""
     lag = 1.0 - math.exp(-dt / p[P_CURRENT_TAU])
     for i in range(n_steps):
         if motor_mode == MOTOR_TORQUE:
             torque = cmd[0]
         elif motor_mode == MOTOR_IMPEDANCE:
+            torque = impedance_torque(x, cmd)
+        elif motor_mode == MOTOR_TRAJECTORY:
+            cmd[0] += cmd[1] * dt
             torque = impedance_torque(x, cmd)
         else:
             torque = 0.0
@@ -345,6 +352,9 @@ def integrate(
         record[i, R_SPOOL_W] = x[X_SPOOL_W]
         record[i, R_MOTOR_TAU] = x[X_MOTOR_TAU]
         record[i, R_ARM_TORQUE] = external
+        if stop_direction != 0 and (x[X_ARM_TH] - stop_elevation) * stop_direction >= 0.0:
+            return i + 1
+    return n_steps
 
 
 # --- virtual participant: parameter vector and torque ----------------------------------------------

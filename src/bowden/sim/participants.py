@@ -75,7 +75,9 @@ class ExpectedAssistance:
             return cls(support=0.0, controller_gravity_torque_nm=gravity, floor_tension_n=pretension_n)
         if isinstance(support, str):
             raise ParameterError(f"support must be a fraction or 'pretension', got {support!r}")
-        return cls(support=float(support), controller_gravity_torque_nm=gravity, floor_tension_n=floor_tension_n)
+        return cls(
+            support=float(support), controller_gravity_torque_nm=gravity, floor_tension_n=floor_tension_n
+        )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -113,6 +115,9 @@ class VirtualParticipant:
         Heart rate and ECG artefact amplitude relative to a full activation's sEMG.
     discomfort_sensitivity
         How strongly the participant reports discomfort under cuff pressure (questionnaires), z-score.
+    sheath_friction_scale
+        The suit's sheath friction on this body relative to the bench: the sheath's bends (wrap angle
+        φ) follow the wearer's back and shoulder, so ``k = μ·sin(φ/2)`` differs between wearers.
     """
 
     participant_id: str
@@ -135,6 +140,7 @@ class VirtualParticipant:
     heart_rate_bpm: float = 70.0
     ecg_amplitude: float = 0.3
     discomfort_sensitivity: float = 0.0
+    sheath_friction_scale: float = 1.0
 
     def __post_init__(self) -> None:
         checks = {
@@ -155,6 +161,7 @@ class VirtualParticipant:
             "ecg_amplitude": (0.0, 5.0),
             "discomfort_sensitivity": (-5.0, 5.0),
             "age_years": (10.0, 100.0),
+            "sheath_friction_scale": (0.3, 2.0),
         }
         for name, (low, high) in checks.items():
             value = getattr(self, name)
@@ -281,6 +288,7 @@ def generate_cohort(
                 heart_rate_bpm=float(np.clip(rng.normal(70.0, 8.0), 50.0, 100.0)),
                 ecg_amplitude=float(np.clip(rng.lognormal(math.log(0.3), 0.3), 0.05, 1.5)),
                 discomfort_sensitivity=float(np.clip(rng.normal(0.0, 1.0), -3.0, 3.0)),
+                sheath_friction_scale=float(np.clip(rng.normal(1.0, 0.12), 0.7, 1.3)),
             )
         )
     return tuple(cohort)

@@ -172,13 +172,18 @@ class Plant:
         arm_a: NDArray[np.float64],
         arm_b: NDArray[np.float64],
         human: NDArray[np.float64] | None = None,
+        stop_direction: int = 0,
+        stop_elevation_rad: float = 0.0,
     ) -> NDArray[np.float64]:
-        """Advance ``n_steps`` steps; returns the per-step record (columns ``R_*`` of the kernels)."""
+        """Advance ``n_steps`` steps; returns the per-step record (columns ``R_*`` of the kernels).
+
+        With ``stop_direction`` +1 (−1) it stops early, after the step where the elevation reaches
+        ``stop_elevation_rad`` from below (above); the record then has fewer rows."""
         record = np.empty((n_steps, k.N_RECORD))
         if n_steps <= 0:
             return record
         h = human if human is not None else np.zeros(k.N_HUMAN)
-        k.integrate(
+        done = k.integrate(
             self.state_vector,
             self.vector,
             h,
@@ -190,9 +195,11 @@ class Plant:
             np.ascontiguousarray(arm_a, dtype=np.float64),
             np.ascontiguousarray(arm_b, dtype=np.float64),
             record,
+            stop_direction,
+            stop_elevation_rad,
         )
-        self.steps_done += n_steps
-        return record
+        self.steps_done += done
+        return record[:done]
 
     def state(self) -> PlantState:
         return PlantState.from_vector(self.state_vector)

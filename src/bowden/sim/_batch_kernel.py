@@ -1,0 +1,289 @@
+"""Compiled loop of one study trial: IMU → the paper's controller → motor → plant ← participant.
+
+The controller arithmetic of :meth:`bowden.control.Controller.step` is restated here on a parameter
+vector so that a whole trial runs as one compiled loop; ``tests/sim/test_batch.py`` checks that both
+agree to 1e-12 on the same inputs. Keep the two in step: any change there is a change here.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bowden.control import Controller
+from bowden.model import STANDARD_GRAVITY_M_S2
+from bowden.sim import _kernels as k
+from bowden.sim._kernels import jit
+
+# --- controller parameter vector -----------------------------------------------------------------
+C_PRETENSION = 0  # NaN: support law
+C_SUPPORT_MOMENT = 1  # support·g·Σ m·d, Nm
+C_FLOOR = 2
+C_MAX_TENSION = 3
+C_LOW_INTERCEPT = 4
+C_LOW_SLOPE = 5
+C_D_INTERCEPT = 6
+C_D_SLOPE = 7
+C_BLEND_MID = 8
+C_BLEND_STEEP = 9
+C_MIN_TORQUE = 10
+C_MAX_TORQUE = 11
+C_MAX_RATE = 12
+C_NOMINAL_DT = 13
+C_ELEV_MIN = 14
+C_ELEV_MAX = 15
+C_MAX_VEL = 16
+C_MAX_MOTOR_VEL = 17
+C_GEOM_A = 18
+C_GEOM_B = 19
+C_GEOM_PSI = 20
+N_CONTROLLER = 21
+
+# Controller state: last torque and its time.
+CS_TORQUE = 0
+CS_TIME = 1
+
+# Fault and limit bits (bowden.control.faults; recording contract, never renumbered).
+FAULT_NONFINITE = 1
+FAULT_ELEVATION = 2
+FAULT_VELOCITY = 4
+FAULT_OVERSPEED = 8
+LIMIT_TENSION = 1
+LIMIT_TORQUE = 2
+LIMIT_RATE = 4
+
+
+def controller_vector(controller: Controller) -> NDArray[np.float64]:
+    """Pack a built controller's constants the way its step closure folds them."""
+    c = np.zeros(N_CONTROLLER)
+    model, arm, geometry = controller.model, controller.arm, controller.geometry
+    assistance, limits = controller.assistance, controller.limits
+    if assistance.is_pretension:
+        c[C_PRETENSION] = assistance.pretension_n
+        c[C_SUPPORT_MOMENT] = 0.0
+    else:
+        c[C_PRETENSION] = math.nan
+        c[C_SUPPORT_MOMENT] = float(assistance.support) * STANDARD_GRAVITY_M_S2 * arm.total_moment_kg_m
+    c[C_FLOOR] = assistance.floor_tension_n
+    c[C_MAX_TENSION] = limits.max_tension_n
+    c[C_LOW_INTERCEPT] = model.lowering.intercept_nm
+    c[C_LOW_SLOPE] = model.lowering.slope_m
+    c[C_D_INTERCEPT] = model.raising.intercept_nm - model.lowering.intercept_nm
+    c[C_D_SLOPE] = model.raising.slope_m - model.lowering.slope_m
+    c[C_BLEND_MID] = model.blend_midpoint_rad_s
+    c[C_BLEND_STEEP] = model.blend_steepness_s_rad
+    c[C_MIN_TORQUE] = limits.min_torque_nm
+    c[C_MAX_TORQUE] = limits.max_torque_nm
+    c[C_MAX_RATE] = limits.max_torque_rate_nm_s
+    c[C_NOMINAL_DT] = limits.nominal_period_s
+    c[C_ELEV_MIN] = limits.elevation_min_rad
+    c[C_ELEV_MAX] = min(limits.elevation_max_rad, geometry.max_elevation_rad)
+    c[C_MAX_VEL] = limits.max_elevation_velocity_rad_s
+    c[C_MAX_MOTOR_VEL] = limits.max_motor_velocity_rad_s
+    c[C_GEOM_A] = geometry.exit_distance_m
+    c[C_GEOM_B] = geometry.anchor_distance_m
+    c[C_GEOM_PSI] = geometry.rest_angle_rad
+    return c
+
+
+@jit
+def controller_step(
+    c: NDArray[np.float64],
+    cs: NDArray[np.float64],
+    time_s: float,
+    elevation: float,
+    velocity: float,
+    motor_velocity: float,
+    motor_torque: float,
+    out: NDArray[np.float64],
+) -> None:
+    """One cycle of the paper's controller; ``out`` = (torque, tension, moment arm, faults, limits)."""
+    motor_velocity_bad = motor_velocity == motor_velocity and not (
+        -c[C_MAX_MOTOR_VEL] <= motor_velocity <= c[C_MAX_MOTOR_VEL]
+    )
+    motor_torque_bad = motor_torque - motor_torque != 0.0 and motor_torque == motor_torque
+    if (
+        not (
+            c[C_ELEV_MIN] <= elevation <= c[C_ELEV_MAX]
+            and -c[C_MAX_VEL] <= velocity <= c[C_MAX_VEL]
+            and time_s - time_s == 0.0
+        )
+        or motor_velocity_bad
+        or motor_torque_bad
+    ):
+        cs[CS_TORQUE] = 0.0
+        cs[CS_TIME] = math.nan
+        faults = 0
+        finite = math.isfinite(time_s) and math.isfinite(elevation) and math.isfinite(velocity)
+        if not finite or math.isinf(motor_velocity) or math.isinf(motor_torque):
+            faults |= FAULT_NONFINITE
+        if math.isfinite(elevation) and not (c[C_ELEV_MIN] <= elevation <= c[C_ELEV_MAX]):
+            faults |= FAULT_ELEVATION
+        if math.isfinite(velocity) and abs(velocity) > c[C_MAX_VEL]:
+            faults |= FAULT_VELOCITY
+        if math.isfinite(motor_velocity) and abs(motor_velocity) > c[C_MAX_MOTOR_VEL]:
+            faults |= FAULT_OVERSPEED
+        out[0] = 0.0
+        out[1] = math.nan
+        out[2] = math.nan
+        out[3] = faults
+        out[4] = 0.0
+        return
+    a = c[C_GEOM_A]
+    b = c[C_GEOM_B]
+    alpha = c[C_GEOM_PSI] - elevation
+    moment_arm = a * b * math.sin(alpha) / math.sqrt((a * a + b * b) - (2.0 * a * b) * math.cos(alpha))
+    limited = 0
+    tension = c[C_PRETENSION]
+    if tension != tension:
+        tension = c[C_FLOOR]
+        if moment_arm > 0.0:
+            supported = c[C_SUPPORT_MOMENT] * math.sin(elevation) / moment_arm
+            if supported > tension:
+                tension = supported
+    if tension > c[C_MAX_TENSION]:
+        tension = c[C_MAX_TENSION]
+        limited = LIMIT_TENSION
+    xb = c[C_BLEND_STEEP] * (velocity - c[C_BLEND_MID])
+    if xb >= 0.0:
+        weight = 1.0 / (1.0 + math.exp(-xb))
+    else:
+        e = math.exp(xb)
+        weight = e / (1.0 + e)
+    torque = c[C_LOW_INTERCEPT] + c[C_LOW_SLOPE] * tension + (c[C_D_INTERCEPT] + c[C_D_SLOPE] * tension) * weight
+    if torque > c[C_MAX_TORQUE]:
+        torque = c[C_MAX_TORQUE]
+        limited |= LIMIT_TORQUE
+    elif torque < c[C_MIN_TORQUE]:
+        torque = c[C_MIN_TORQUE]
+        limited |= LIMIT_TORQUE
+    dt = time_s - cs[CS_TIME]
+    if not (0.0 < dt < 0.1):
+        dt = c[C_NOMINAL_DT]
+    step_max = c[C_MAX_RATE] * dt
+    if torque > cs[CS_TORQUE] + step_max:
+        torque = cs[CS_TORQUE] + step_max
+        limited |= LIMIT_RATE
+    elif torque < cs[CS_TORQUE] - step_max:
+        torque = cs[CS_TORQUE] - step_max
+        limited |= LIMIT_RATE
+    cs[CS_TORQUE] = torque
+    cs[CS_TIME] = time_s
+    out[0] = torque
+    out[1] = tension
+    out[2] = moment_arm
+    out[3] = 0.0
+    out[4] = limited
+
+
+# --- recorded signals of a trial, one row per control cycle ----------------------------------------
+O_REFERENCE = 0
+O_ELEVATION = 1
+O_VELOCITY = 2
+O_DESIRED_TENSION = 3
+O_MOMENT_ARM = 4
+O_COMMANDED_TORQUE = 5
+O_MOTOR_TORQUE = 6
+O_MOTOR_VELOCITY = 7
+O_TENSION = 8
+O_FAULT = 9
+O_LIMITS = 10
+O_TRUE_TENSION = 11
+O_TRUE_ELEVATION = 12
+O_TRUE_VELOCITY = 13
+O_SHOULDER_TORQUE = 14
+O_STUCK = 15
+N_OUT = 16
+
+# Sensor settings vector of a trial.
+S_IMU_EL_NOISE = 0
+S_IMU_EL_BIAS = 1
+S_IMU_VEL_NOISE = 2
+S_IMU_VEL_BIAS = 3
+S_LOAD_NOISE = 4
+S_LOAD_OFFSET = 5
+N_SENSOR = 6
+
+
+@jit
+def run_trial(
+    x: NDArray[np.float64],
+    p: NDArray[np.float64],
+    h: NDArray[np.float64],
+    c: NDArray[np.float64],
+    sensors: NDArray[np.float64],
+    wears_suit: bool,
+    control_dt: float,
+    substeps: int,
+    draws_control: NDArray[np.float64],
+    draws_human: NDArray[np.float64],
+    out: NDArray[np.float64],
+) -> None:
+    """Run one trial of ``out.shape[0]`` control cycles.
+
+    Each cycle at ``t = i·control_dt``: the IMU and the load cell sample the true state (with noise),
+    the controller computes a torque from the IMU, the motor reply of that moment is recorded, then the
+    plant runs ``substeps`` steps with that command while the participant moves. Without the suit the
+    arm moves freely (no cable, controller not run, suit signals NaN). ``draws_control`` holds three
+    unit normal draws per cycle (IMU elevation, IMU velocity, load cell), ``draws_human`` one per step.
+    """
+    dt = control_dt / substeps
+    lag = 1.0 - math.exp(-dt / p[k.P_CURRENT_TAU])
+    cs = np.zeros(2)
+    cs[CS_TIME] = math.nan
+    command = np.zeros(5)
+    shoulder = 0.0
+    nan = math.nan
+    for i in range(out.shape[0]):
+        t = i * control_dt
+        ref, _, _ = k.reference_state(h, t)
+        th = x[k.X_ARM_TH]
+        thd = x[k.X_ARM_THD]
+        elevation = th + sensors[S_IMU_EL_BIAS] + sensors[S_IMU_EL_NOISE] * draws_control[i, 0]
+        velocity = thd + sensors[S_IMU_VEL_BIAS] + sensors[S_IMU_VEL_NOISE] * draws_control[i, 1]
+        row = out[i]
+        row[O_REFERENCE] = ref
+        row[O_ELEVATION] = elevation
+        row[O_VELOCITY] = velocity
+        row[O_TRUE_ELEVATION] = th
+        row[O_TRUE_VELOCITY] = thd
+        row[O_SHOULDER_TORQUE] = shoulder
+        if wears_suit:
+            motor_velocity = x[k.X_SPOOL_W]
+            motor_torque = x[k.X_MOTOR_TAU] / p[k.P_KT_RATIO]
+            controller_step(c, cs, t, elevation, velocity, motor_velocity, motor_torque, command)
+            row[O_DESIRED_TENSION] = command[1]
+            row[O_MOMENT_ARM] = command[2]
+            row[O_COMMANDED_TORQUE] = command[0]
+            row[O_MOTOR_TORQUE] = motor_torque
+            row[O_MOTOR_VELOCITY] = motor_velocity
+            row[O_TENSION] = (
+                x[k.X_T_OUT] + sensors[S_LOAD_OFFSET] + sensors[S_LOAD_NOISE] * draws_control[i, 2]
+            )
+            row[O_FAULT] = command[3]
+            row[O_LIMITS] = command[4]
+            row[O_TRUE_TENSION] = x[k.X_T_OUT]
+            row[O_STUCK] = x[k.X_STUCK]
+        else:
+            row[O_DESIRED_TENSION] = nan
+            row[O_MOMENT_ARM] = nan
+            row[O_COMMANDED_TORQUE] = nan
+            row[O_MOTOR_TORQUE] = nan
+            row[O_MOTOR_VELOCITY] = nan
+            row[O_TENSION] = nan
+            row[O_FAULT] = 0.0
+            row[O_LIMITS] = 0.0
+            row[O_TRUE_TENSION] = nan
+            row[O_STUCK] = nan
+        torque_cmd = command[0]
+        base = i * substeps
+        for j in range(substeps):
+            shoulder = k.human_torque(x, p, h, dt, draws_human[base + j])
+            if wears_suit:
+                k.plant_step(x, p, dt, torque_cmd, lag, k.ARM_TORQUE, shoulder, 0.0)
+            else:
+                x[k.X_T_OUT] = 0.0
+                k.arm_step(x, p, dt, shoulder)
+                x[k.X_TIME] += dt

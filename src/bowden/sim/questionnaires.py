@@ -1,0 +1,66 @@
+"""Questionnaire answers of virtual participants, driven by what they went through in each condition.
+
+The paper (supplement, Questionnaires) used a 16-site modified Nordic questionnaire of discomfort
+(7-point Likert, 1 = no discomfort), the Borg RPE scale (6–20) and a 6-site muscular fatigue diagram
+(7-point Likert). It found mild discomfort at the upper neck and moderate discomfort at the right
+shoulder growing with support (cuff pressure) and no change of exertion or fatigue (floor effect).
+Here a latent score per item is a baseline, plus cuff pressure (mean anchor tension) at the neck and
+shoulder sites, plus effort (mean agonist activation) for exertion and fatigue, plus the participant's
+response style and noise, rounded and clipped to the scale.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+
+from bowden.contracts import MUSCLES
+
+if TYPE_CHECKING:
+    from bowden.sim.results import TrialSimulation
+
+NORDIC_SITES = (
+    "upper_neck", "lower_neck", "right_shoulder", "left_shoulder", "upper_back", "right_upper_arm",
+    "left_upper_arm", "right_elbow", "left_elbow", "right_forearm", "left_forearm", "right_wrist_hand",
+    "left_wrist_hand", "middle_back", "lower_back", "hips",
+)
+FATIGUE_SITES = ("pectoralis_major", "deltoids", "trapezius", "biceps", "triceps", "latissimus_dorsi")
+# Sites pressed by the shoulder cuff and the backpack frame, with latent points per 10 N of tension.
+_PRESSURE_POINTS_PER_10N = {"upper_neck": 0.55, "right_shoulder": 0.75, "lower_neck": 0.25, "upper_back": 0.2}
+_AGONISTS = [MUSCLES.index(m) for m in ("anterior_deltoid", "medial_deltoid", "trapezius")]
+
+
+def _likert(latent: float, low: int, high: int) -> int:
+    return int(np.clip(np.rint(latent), low, high))
+
+
+def questionnaire_answers(trials: Sequence[TrialSimulation], *, seed: int) -> pd.DataFrame:
+    """Answers after each condition: columns ``participant_id, condition, questionnaire, item, score``.
+
+    ``questionnaire`` is ``"nordic"`` (items :data:`NORDIC_SITES`, 1–7), ``"borg_rpe"`` (item
+    ``"rpe"``, 6–20) or ``"fatigue"`` (items :data:`FATIGUE_SITES`, 1–7).
+    """
+    groups: dict[tuple[str, str], list[TrialSimulation]] = {}
+    for trial in trials:
+        groups.setdefault((trial.participant.participant_id, trial.condition), []).append(trial)
+    rows: list[tuple[str, str, str, str, int]] = []
+    for (pid, condition), group in groups.items():
+        participant = group[0].participant
+        rng = np.random.default_rng([seed, int(pid.lstrip("P") or 0), len(condition), 7])
+        tensions = [np.nanmean(t.signals["true_tension_n"]) for t in group if t.wears_suit]
+        tension = float(np.mean(tensions)) if tensions else 0.0
+        effort = float(np.mean([t.activations().iloc[:, 1:].to_numpy()[:, _AGONISTS].mean() for t in group]))
+        style = 0.35 * participant.discomfort_sensitivity
+        for site in NORDIC_SITES:
+            pressure = _PRESSURE_POINTS_PER_10N.get(site, 0.0) * tension / 10.0
+            latent = 1.0 + pressure * (1.0 + 0.3 * participant.discomfort_sensitivity) + style
+            rows.append((pid, condition, "nordic", site, _likert(latent + 0.4 * rng.standard_normal(), 1, 7)))
+        rpe = 8.0 + 12.0 * effort + 0.8 * participant.discomfort_sensitivity + 1.2 * rng.standard_normal()
+        rows.append((pid, condition, "borg_rpe", "rpe", _likert(rpe, 6, 20)))
+        for site in FATIGUE_SITES:
+            latent = 1.4 + 4.0 * effort + style + 0.5 * rng.standard_normal()
+            rows.append((pid, condition, "fatigue", site, _likert(latent, 1, 7)))
+    return pd.DataFrame(rows, columns=["participant_id", "condition", "questionnaire", "item", "score"])
