@@ -131,6 +131,7 @@ def test_significance_colour_table(analyses: list) -> None:  # type: ignore[type
     assert fragment.startswith("<table") and "<caption>Raising phase</caption>" in fragment
     assert f"background:{change_colour(pct)}" in fragment
     assert f">{significance_code(p)}</td>" in fragment
+    pytest.importorskip("jinja2")  # pandas' Styler needs it (comes with the dev extra via distributed)
     styled = significance_styler(table).to_html()
     assert change_colour(pct) in styled
     assert isinstance(table, pd.DataFrame) and table.shape == (2, 12)
