@@ -61,16 +61,12 @@ def law_recording(rate_hz: float) -> pd.DataFrame:
 
 
 def simulated_recording() -> pd.DataFrame | None:
-    """The simulated bench's full recording, when bowden.sim offers one."""
+    """The simulated bench's full paper protocol (``bowden.sim.bench.run_bench``), when available."""
     try:
-        from bowden.sim import bench  # type: ignore[attr-defined]
+        from bowden.sim.bench import run_bench
     except ImportError:
         return None
-    run = getattr(bench, "run_bench_protocol", None) or getattr(bench, "simulate_bench", None)
-    if run is None:
-        return None
-    result = run()
-    return result if isinstance(result, pd.DataFrame) else getattr(result, "frame", None)
+    return run_bench()
 
 
 def median_time(fn: Callable[[], object], repeats: int) -> float:
@@ -86,16 +82,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rate-hz", type=float, default=500.0, help="sampling rate of the law recording")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--law", action="store_true", help="use the law recording even if bowden.sim exists")
     args = parser.parse_args()
 
-    frame = simulated_recording()
-    source = "simulated bench (bowden.sim)"
+    frame = None if args.law else simulated_recording()
+    source = "simulated bench, paper protocol (bowden.sim.bench.run_bench)"
     if frame is None:
         frame = law_recording(args.rate_hz)
         source = f"transmission-law recording at {args.rate_hz:g} Hz"
-    duration_s = (
-        frame.groupby("trial")["time_s"].max().sum() if "trial" in frame else frame["time_s"].iloc[-1]
-    )
+    if "trial" in frame:
+        spans = frame.groupby("trial")["time_s"].agg(["min", "max"])
+        duration_s = float((spans["max"] - spans["min"]).sum())
+    else:
+        duration_s = float(frame["time_s"].iloc[-1] - frame["time_s"].iloc[0])
     print(f"recording: {source}, {len(frame)} samples, {duration_s / 60:.1f} min of bench time")
 
     with tempfile.TemporaryDirectory() as tmp:
