@@ -55,3 +55,34 @@ def test_torque_constant_error_on_the_simulated_bench_is_flagged() -> None:
     assert identifier.model_.lowering.slope_m == pytest.approx(lowering, rel=0.03)
     assert identifier.summary_.radius_deviation == pytest.approx(1.0 / 1.15 - 1.0, abs=0.02)
     assert not identifier.summary_.consistent_with_one_k
+
+
+def test_identified_model_controls_the_simulated_suit() -> None:
+    # Closed loop: the controller with the identified model on the simulated suit, 50 % support.
+    # It must track far better than ignoring friction (k = 0, the naive R·T law) and better than the
+    # right k without the motor-friction intercepts, and stay under the paper's worst tension RMSE
+    # (9.07 N, Table of tension RMSE; REFERENCE §6 puts its 50 % support values at 6.1–8.2 N).
+    batch = pytest.importorskip("bowden.sim.batch")
+    participants = pytest.importorskip("bowden.sim.participants")
+    results = pytest.importorskip("bowden.sim.results")
+    from bowden.contracts import TRIAL_DESIRED_TENSION
+    from bowden.model import CompensationModel
+
+    suit = parameters.SuitParameters()
+    frame = bench.run_bench(suit, bench.BenchProtocol(**PROTOCOL), seed=3)
+    identified = TransmissionIdentifier().fit(frame).model_
+    no_friction = CompensationModel.from_friction(k=0.0)
+    slopes_only = CompensationModel.from_friction(k=suit.sheath.kinetic_coefficient)
+    participant = participants.generate_cohort(0)[0]
+    settings = batch.ProtocolSettings(repetitions=3)
+
+    def tension_rmse_n(model: CompensationModel, speed: str) -> float:
+        trial = batch.simulate_trial(participant, "support_50", speed, model=model, settings=settings, seed=5)
+        inside = results.phase_masks(trial)["entire"]
+        return float(results.rmse(trial[results.TRUE_TENSION][inside], trial[TRIAL_DESIRED_TENSION][inside]))
+
+    for speed in ("V1", "V3"):
+        achieved = tension_rmse_n(identified, speed)
+        assert achieved < 9.07
+        assert achieved < 0.5 * tension_rmse_n(no_friction, speed)
+        assert achieved < tension_rmse_n(slopes_only, speed)
