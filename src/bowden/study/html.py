@@ -53,9 +53,7 @@ class HtmlDocument:
 
     def table(self, frame: pd.DataFrame, caption: str, float_format: str = "{:.3g}") -> None:
         """A DataFrame as an HTML table with a caption; floats formatted with ``float_format``."""
-        body = frame.to_html(
-            float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True
-        )
+        body = frame.to_html(float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True)
         opening_end = body.index(">") + 1  # after pandas' "<table ...>"
         self.parts.append(
             f"{body[:opening_end]}<caption>{html.escape(caption)}</caption>{body[opening_end:]}"
@@ -81,7 +79,7 @@ class HtmlDocument:
     def render(self) -> str:
         body = "\n".join(self.parts)
         return (
-            "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             f"<title>{html.escape(self.title)}</title><style>{_STYLE}</style></head>\n"
             f"<body>\n<h1>{html.escape(self.title)}</h1>\n{body}\n</body></html>\n"
         )
@@ -99,4 +97,3 @@ class HtmlDocument:
             Path(tmp).unlink(missing_ok=True)
             raise
         return path
-

@@ -1,0 +1,393 @@
+"""The study store: one SQLite file per study.
+
+It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``trials``, ``samples``,
+``events``) — so a trial recorded live on the suit and a simulated one land in the same tables — with
+
+``participants``
+    pseudonymous id, sex, height, mass (never a name);
+``emg``
+    one row per trial and muscle: rate, start time on the controller time base, and the samples as a
+    16-bit integer blob with its gain (the resolution of EDF/BDF-16 files, 2 bytes a sample);
+``questionnaires``
+    one row per answered item: participant, condition, questionnaire, item, score;
+``outcomes``
+    the tidy outcome table of the analysis;
+``artifacts``
+    named text documents of the study (the identified ``model.json``, the identification summary,
+    the settings the study ran with).
+
+Why SQLite over DuckDB: the recorder must commit every 0.1 s from a small ARM board and survive
+``kill -9``; SQLite's WAL gives that from the standard library. Analyses read whole trials into
+pandas, where DuckDB's column engine would buy little.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import sqlite3
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Final, Self
+
+import numpy as np
+import pandas as pd
+
+from bowden.contracts import CONDITIONS, MUSCLES, TRIAL_COLUMNS, TRIAL_TIME
+from bowden.errors import StoreError
+from bowden.model import Subject
+from bowden.runtime.recorder import TrialInfo, utc_now_iso
+from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection, create_schema
+
+PARTICIPANT_ID_PATTERN: Final = re.compile(r"^[A-Za-z]{0,4}[0-9]{1,4}$")
+
+_STUDY_DDL: Final = (
+    """
+CREATE TABLE IF NOT EXISTS participants (
+    id TEXT PRIMARY KEY,
+    sex TEXT NOT NULL CHECK (sex IN ('female', 'male')),
+    height_m REAL NOT NULL,
+    mass_kg REAL NOT NULL,
+    metadata TEXT NOT NULL DEFAULT '{}'
+) STRICT
+""",
+    """
+CREATE TABLE IF NOT EXISTS emg (
+    trial_id INTEGER NOT NULL REFERENCES trials(id),
+    muscle TEXT NOT NULL,
+    rate_hz REAL NOT NULL,
+    start_time_s REAL NOT NULL,
+    gain REAL NOT NULL,
+    data BLOB NOT NULL,
+    PRIMARY KEY (trial_id, muscle)
+) STRICT
+""",
+    """
+CREATE TABLE IF NOT EXISTS questionnaires (
+    participant TEXT NOT NULL,
+    condition TEXT NOT NULL,
+    questionnaire TEXT NOT NULL,
+    item TEXT NOT NULL,
+    score INTEGER NOT NULL,
+    answered_utc TEXT NOT NULL,
+    PRIMARY KEY (participant, condition, questionnaire, item)
+) STRICT
+""",
+    """
+CREATE TABLE IF NOT EXISTS outcomes (
+    participant TEXT NOT NULL,
+    condition TEXT NOT NULL,
+    speed TEXT NOT NULL,
+    repetition INTEGER NOT NULL,
+    phase TEXT NOT NULL,
+    measure TEXT NOT NULL,
+    value REAL
+) STRICT
+""",
+    """
+CREATE TABLE IF NOT EXISTS artifacts (
+    name TEXT PRIMARY KEY,
+    content TEXT NOT NULL,
+    updated_utc TEXT NOT NULL
+) STRICT
+""",
+)
+
+
+def check_participant_id(participant: str) -> str:
+    """Accept pseudonymous ids such as ``P07`` or ``S112``; refuse anything that could be a name."""
+    if not isinstance(participant, str) or not PARTICIPANT_ID_PATTERN.match(participant):
+        raise StoreError(
+            f"participant id {participant!r} is not pseudonymous: use up to four letters and a number "
+            "(e.g. P07); never store names"
+        )
+    return participant
+
+
+@dataclass(frozen=True, kw_only=True)
+class StoredTrial:
+    """A completed trial of the store."""
+
+    trial_id: int
+    participant: str
+    condition: str
+    speed: str
+    support: float | None
+
+
+class StudyStore:
+    """Open (or create) a study store file; use as a context manager.
+
+    ``synchronous="FULL"`` fsyncs every commit (live recording on a battery-powered suit);
+    ``"NORMAL"`` is enough for simulated studies (crash-safe, not power-cut-safe) and much faster.
+    """
+
+    def __init__(self, path: str | Path, *, synchronous: str = "NORMAL") -> None:
+        self.path = Path(path)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._db = sqlite3.connect(self.path)
+            configure_connection(self._db, synchronous=synchronous)
+            create_schema(self._db)
+            with self._db:
+                for ddl in _STUDY_DDL:
+                    self._db.execute(ddl)
+        except sqlite3.Error as error:
+            raise StoreError(f"cannot open the study store {self.path}: {error}") from None
+
+    def close(self) -> None:
+        self._db.close()
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    # --- participants ----------------------------------------------------------------------------
+    def add_participant(
+        self, participant: str, subject: Subject, metadata: Mapping[str, Any] | None = None
+    ) -> None:
+        """Insert or update a participant's anthropometrics."""
+        check_participant_id(participant)
+        with self._db:
+            self._db.execute(
+                "INSERT INTO participants (id, sex, height_m, mass_kg, metadata) VALUES (?, ?, ?, ?, ?) "
+                "ON CONFLICT(id) DO UPDATE SET sex=excluded.sex, height_m=excluded.height_m, "
+                "mass_kg=excluded.mass_kg, metadata=excluded.metadata",
+                (
+                    participant,
+                    subject.sex,
+                    subject.height_m,
+                    subject.mass_kg,
+                    json.dumps(dict(metadata or {}), allow_nan=False),
+                ),
+            )
+
+    def participants(self) -> pd.DataFrame:
+        """Participants: id, sex, height_m, mass_kg."""
+        return pd.read_sql_query("SELECT id, sex, height_m, mass_kg FROM participants ORDER BY id", self._db)
+
+    def subject(self, participant: str) -> Subject:
+        row = self._db.execute(
+            "SELECT sex, height_m, mass_kg FROM participants WHERE id = ?", (participant,)
+        ).fetchone()
+        if row is None:
+            raise StoreError(f"participant {participant!r} is not in {self.path}")
+        return Subject(sex=row[0], height_m=row[1], mass_kg=row[2])
+
+    # --- trials ----------------------------------------------------------------------------------
+    def write_trial(
+        self,
+        info: TrialInfo,
+        samples: pd.DataFrame,
+        *,
+        emg: pd.DataFrame | None = None,
+        stop_reason: str = "completed",
+    ) -> int:
+        """Store a whole trial (samples and optional EMG) in one transaction; return its id.
+
+        ``samples`` has the ``contracts.TRIAL_COLUMNS``; ``emg`` has ``time_s`` (controller time base)
+        and one column per muscle at a constant rate. Either all of it is committed or none.
+        """
+        check_participant_id(info.participant)
+        missing = [name for name in TRIAL_COLUMNS if name not in samples.columns]
+        if missing:
+            raise StoreError(f"trial samples lack the column(s) {missing}")
+        rows = samples.loc[:, list(TRIAL_COLUMNS)].astype(object).where(samples.notna(), None)
+        try:
+            with self._db:
+                cursor = self._db.execute(
+                    "INSERT INTO trials (participant, condition, speed, support, started_utc, metadata) "
+                    "VALUES (?, ?, ?, ?, ?, ?)",
+                    (
+                        info.participant,
+                        info.condition,
+                        info.speed,
+                        info.support,
+                        utc_now_iso(),
+                        json.dumps(dict(info.metadata), allow_nan=False),
+                    ),
+                )
+                trial_id = int(cursor.lastrowid or 0)
+                self._db.executemany(
+                    INSERT_SAMPLE_SQL, ((trial_id, *row) for row in rows.itertuples(index=False, name=None))
+                )
+                if emg is not None:
+                    self._insert_emg(trial_id, emg)
+                self._db.execute(
+                    "UPDATE trials SET ended_utc = ?, stop_reason = ? WHERE id = ?",
+                    (utc_now_iso(), stop_reason, trial_id),
+                )
+        except sqlite3.Error as error:
+            raise StoreError(f"cannot write the trial into {self.path}: {error}") from None
+        return trial_id
+
+    def _insert_emg(self, trial_id: int, emg: pd.DataFrame) -> None:
+        if TRIAL_TIME not in emg.columns or len(emg) < 2:
+            raise StoreError("EMG needs a time_s column and at least two samples")
+        time = emg[TRIAL_TIME].to_numpy(dtype=np.float64)
+        steps = np.diff(time)
+        rate = 1.0 / float(np.median(steps))
+        if not np.allclose(steps, 1.0 / rate, rtol=1e-3, atol=0.0):
+            raise StoreError("EMG samples must be evenly spaced to be stored")
+        for muscle in emg.columns:
+            if muscle == TRIAL_TIME:
+                continue
+            values = emg[muscle].to_numpy(dtype=np.float64)
+            peak = float(np.max(np.abs(values))) if values.size else 0.0
+            if not math.isfinite(peak):
+                raise StoreError(f"EMG channel {muscle!r} has non-finite samples")
+            gain = peak / 32767.0 if peak > 0.0 else 1.0
+            data = np.rint(values / gain).astype("<i2").tobytes()
+            self._db.execute(
+                "INSERT INTO emg (trial_id, muscle, rate_hz, start_time_s, gain, data) VALUES (?, ?, ?, ?, ?, ?)",
+                (trial_id, muscle, rate, float(time[0]), gain, data),
+            )
+
+    def completed_trials(self) -> list[StoredTrial]:
+        """Trials that finished (``ended_utc`` set), in recording order."""
+        rows = self._db.execute(
+            "SELECT id, participant, condition, speed, support FROM trials "
+            "WHERE ended_utc IS NOT NULL AND speed IS NOT NULL ORDER BY id"
+        ).fetchall()
+        return [
+            StoredTrial(trial_id=r[0], participant=r[1], condition=r[2], speed=r[3], support=r[4])
+            for r in rows
+        ]
+
+    def discard_unfinished_trials(self) -> int:
+        """Delete trials a crash left open (with their samples and EMG); return how many."""
+        with self._db:
+            ids = [r[0] for r in self._db.execute("SELECT id FROM trials WHERE ended_utc IS NULL")]
+            for trial_id in ids:
+                for table in ("samples", "emg", "events"):
+                    self._db.execute(f"DELETE FROM {table} WHERE trial_id = ?", (trial_id,))
+                self._db.execute("DELETE FROM trials WHERE id = ?", (trial_id,))
+        return len(ids)
+
+    def trial_samples(self, trial_id: int) -> pd.DataFrame:
+        """The samples of a trial (NULL back to NaN), ordered by time."""
+        frame = pd.read_sql_query(
+            f"SELECT {', '.join(TRIAL_COLUMNS)} FROM samples WHERE trial_id = ? ORDER BY {TRIAL_TIME}",
+            self._db,
+            params=(trial_id,),
+        )
+        return frame.astype({name: np.float64 for name in TRIAL_COLUMNS if frame[name].dtype == object})
+
+    def trial_emg(self, trial_id: int) -> pd.DataFrame | None:
+        """The EMG of a trial as ``time_s`` + one column per muscle, or None if none was stored."""
+        rows = self._db.execute(
+            "SELECT muscle, rate_hz, start_time_s, gain, data FROM emg WHERE trial_id = ?", (trial_id,)
+        ).fetchall()
+        if not rows:
+            return None
+        columns: dict[str, np.ndarray] = {}
+        rate, start, length = rows[0][1], rows[0][2], None
+        for muscle, _rate, _start, gain, data in rows:
+            values = np.frombuffer(data, dtype="<i2").astype(np.float64) * gain
+            length = values.size if length is None else min(length, values.size)
+            columns[muscle] = values
+        assert length is not None
+        order = [m for m in MUSCLES if m in columns] + [m for m in columns if m not in MUSCLES]
+        frame = pd.DataFrame({TRIAL_TIME: start + np.arange(length) / rate})
+        for muscle in order:
+            frame[muscle] = columns[muscle][:length]
+        return frame
+
+    def iter_trials(
+        self, *, with_emg: bool = True
+    ) -> Iterator[tuple[StoredTrial, pd.DataFrame, pd.DataFrame | None]]:
+        """Every completed trial with its samples (and EMG), one at a time (bounded memory)."""
+        for trial in self.completed_trials():
+            emg = self.trial_emg(trial.trial_id) if with_emg else None
+            yield trial, self.trial_samples(trial.trial_id), emg
+
+    # --- questionnaires --------------------------------------------------------------------------
+    def write_questionnaires(self, answers: pd.DataFrame) -> None:
+        """Store answers: columns participant, condition, questionnaire, item, score (replaces repeats)."""
+        needed = ("participant", "condition", "questionnaire", "item", "score")
+        missing = [name for name in needed if name not in answers.columns]
+        if missing:
+            raise StoreError(f"questionnaire answers lack the column(s) {missing}")
+        now = utc_now_iso()
+        rows = []
+        for participant, condition, questionnaire, item, score in answers.loc[:, list(needed)].itertuples(
+            index=False, name=None
+        ):
+            check_participant_id(participant)
+            if condition not in CONDITIONS:
+                raise StoreError(f"unknown condition {condition!r} in questionnaire answers")
+            rows.append((participant, condition, questionnaire, item, int(score), now))
+        with self._db:
+            self._db.executemany("INSERT OR REPLACE INTO questionnaires VALUES (?, ?, ?, ?, ?, ?)", rows)
+
+    def questionnaires(self) -> pd.DataFrame:
+        return pd.read_sql_query(
+            "SELECT participant, condition, questionnaire, item, score FROM questionnaires "
+            "ORDER BY participant, condition, questionnaire, item",
+            self._db,
+        )
+
+    # --- outcomes and artifacts ------------------------------------------------------------------
+    def replace_outcomes(self, outcomes: pd.DataFrame) -> None:
+        columns = ("participant", "condition", "speed", "repetition", "phase", "measure", "value")
+        frame = outcomes.loc[:, list(columns)]
+        with self._db:
+            self._db.execute("DELETE FROM outcomes")
+            self._db.executemany(
+                "INSERT INTO outcomes VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (
+                    (p, c, s, int(r), ph, m, None if not math.isfinite(v) else float(v))
+                    for p, c, s, r, ph, m, v in frame.itertuples(index=False, name=None)
+                ),
+            )
+
+    def outcomes(self) -> pd.DataFrame:
+        frame = pd.read_sql_query("SELECT * FROM outcomes", self._db)
+        frame["value"] = frame["value"].astype(np.float64)
+        return frame
+
+    def put_artifact(self, name: str, content: str) -> None:
+        with self._db:
+            self._db.execute(
+                "INSERT OR REPLACE INTO artifacts (name, content, updated_utc) VALUES (?, ?, ?)",
+                (name, content, utc_now_iso()),
+            )
+
+    def artifact(self, name: str) -> str | None:
+        row = self._db.execute("SELECT content FROM artifacts WHERE name = ?", (name,)).fetchone()
+        return None if row is None else str(row[0])
+
+    # --- export ----------------------------------------------------------------------------------
+    def export(self, directory: str | Path, *, file_format: str = "parquet") -> list[Path]:
+        """Write every table (samples with their trial's labels) for R, SPSS and MATLAB users."""
+        if file_format not in ("parquet", "csv"):
+            raise StoreError(f"export format must be 'parquet' or 'csv', got {file_format!r}")
+        out = Path(directory)
+        out.mkdir(parents=True, exist_ok=True)
+        tables = {
+            "participants": self.participants(),
+            "trials": pd.read_sql_query("SELECT * FROM trials ORDER BY id", self._db),
+            "samples": pd.read_sql_query(
+                "SELECT t.participant, t.condition, t.speed, s.* FROM samples s JOIN trials t "
+                "ON t.id = s.trial_id ORDER BY s.trial_id, s.time_s",
+                self._db,
+            ),
+            "questionnaires": self.questionnaires(),
+            "outcomes": self.outcomes(),
+        }
+        written = []
+        for name, frame in tables.items():
+            path = out / f"{name}.{file_format}"
+            if file_format == "parquet":
+                frame.to_parquet(path, index=False)
+            else:
+                frame.to_csv(path, index=False)
+            written.append(path)
+        return written
