@@ -69,7 +69,8 @@ def test_unfinished_trials_are_discarded(tmp_path):
     with StudyStore(path) as store:
         store.write_trial(INFO, samples())
         store._db.execute(
-            "INSERT INTO trials (participant, condition, speed, started_utc) VALUES ('P02', 'no_suit', 'V1', 'x')"
+            "INSERT INTO trials (participant, condition, speed, started_utc) "
+            "VALUES ('P02', 'no_suit', 'V1', 'x')"
         )
         store._db.commit()
         assert len(store.completed_trials()) == 1

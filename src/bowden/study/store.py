@@ -246,7 +246,8 @@ class StudyStore:
             gain = peak / 32767.0 if peak > 0.0 else 1.0
             data = np.rint(values / gain).astype("<i2").tobytes()
             self._db.execute(
-                "INSERT INTO emg (trial_id, muscle, rate_hz, start_time_s, gain, data) VALUES (?, ?, ?, ?, ?, ?)",
+                "INSERT INTO emg (trial_id, muscle, rate_hz, start_time_s, gain, data) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
                 (trial_id, muscle, rate, float(time[0]), gain, data),
             )
 
