@@ -112,7 +112,7 @@ def emg_remove_ecg(
         emg.channel(name)  # raises a RecordingError naming a missing channel
         column = emg.channels.index(name)
         out[:, column] = remove_ecg_from_channel(out[:, column], peaks, emg.rate_hz, params)
-    return emg.with_values(out)
+    return emg.with_values(out, adopt=True)
 
 
 def remove_ecg_from_channel(
@@ -121,8 +121,9 @@ def remove_ecg_from_channel(
     """One channel of :func:`emg_remove_ecg` (1-D in, cleaned copy out)."""
     y = np.asarray(samples, dtype=np.float64)
     n = y.size
-    qrs = round(params.qrs_half_width_s * rate_hz)
-    stretch = params.stretch_samples if params.method == "adaptive" else 0
+    qrs = max(1, round(params.qrs_half_width_s * rate_hz))
+    # A QRS section must keep at least one sample per side whatever the stretch.
+    stretch = max(0, min(params.stretch_samples, qrs - 1)) if params.method == "adaptive" else 0
     shift = params.max_shift_samples if params.method == "adaptive" else 0
     reach = qrs + stretch + shift
     peaks = r_peaks[(r_peaks - reach >= 0) & (r_peaks + reach < n)]
@@ -130,6 +131,7 @@ def remove_ecg_from_channel(
         return y.copy()
     start, end = _beat_bounds(peaks, n, round(_MAX_HALF_BEAT_S * rate_hz))
     half = int(max(np.max(peaks - start), np.max(end - 1 - peaks))) + shift
+    half = max(half, qrs + stretch + 1)  # the grid always holds every QRS variant
     offsets = np.arange(-half, half + 1)
     template = _moving_templates(y, peaks, start, end, offsets, params.template_beats)
     cleaned = y.copy()
@@ -138,9 +140,8 @@ def remove_ecg_from_channel(
             cleaned[start[k] : end[k]] -= template[k, start[k] - r + half : end[k] - r + half]
         return cleaned
     aligned = peaks + _alignment_shifts(y, peaks, template, half, qrs, shift)
-    artefact = _fit_adaptive(y, aligned, start, end, template, half, qrs, stretch)
-    for k in range(peaks.size):
-        cleaned[start[k] : end[k]] -= artefact[k][: end[k] - start[k]]
+    where, artefact = _fit_adaptive(y, aligned, start, end, template, half, qrs, stretch)
+    cleaned[where] -= artefact
     return cleaned
 
 
@@ -217,10 +218,13 @@ def _fit_adaptive(
     half: int,
     qrs: int,
     stretch: int,
-) -> list[NDArray[np.float64]]:
-    """Best stretched variant per beat with per-section LS scale and offset; the fitted artefacts."""
+) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+    """Best stretched variant per beat with per-section LS scale and offset.
+
+    Returns the sample indices of every beat's samples and the fitted artefact at those samples
+    (beats do not overlap, so each index appears once).
+    """
     n_beats = aligned.size
-    rows = np.arange(n_beats)
     lo = start - aligned  # first offset of each beat relative to its aligned R-peak
     hi = end - aligned  # one past the last offset
     offsets = np.arange(-half, half + 1)
@@ -228,27 +232,35 @@ def _fit_adaptive(
     inside = (offsets >= lo[:, np.newaxis]) & (offsets < hi[:, np.newaxis])
     ys = np.where(inside, y[index], 0.0)
     ts = np.where(inside, template, 0.0)
-    # Prefix sums (along offsets) of 1, t, t², y, t·y, y² for the P and T sections.
-    stack = np.stack([inside.astype(np.float64), ts, ts * ts, ys, ts * ys, ys * ys])
-    prefix = np.concatenate([np.zeros((6, n_beats, 1)), np.cumsum(stack, axis=2)], axis=2)
+    # Sums of 1, t, t², y, t·y, y² per beat over column slices (t and y are 0 outside the beat).
+    # The P section of variant d is [lo, -(qrs+d)): a part that no variant touches,
+    # [lo, -(qrs+stretch)), plus a narrow band whose prefix sums give every variant's share;
+    # likewise the T section (qrs+d, hi). No full-width cumulative sums are needed.
+    quantities = (inside.astype(np.float64), ts, ts * ts, ys, ts * ys, ys * ys)
 
-    def section_sums(first: NDArray[np.int64], stop: NDArray[np.int64]) -> NDArray[np.float64]:
-        a = np.clip(first + half, 0, offsets.size)
-        b = np.clip(stop + half, 0, offsets.size)
-        b = np.maximum(a, b)
-        return np.asarray(prefix[:, rows, b] - prefix[:, rows, a], dtype=np.float64)
+    def column_sums(first: int, stop: int) -> NDArray[np.float64]:
+        return np.stack([q[:, first:stop].sum(axis=1) for q in quantities])
+
+    def band_prefix(first: int, stop: int) -> NDArray[np.float64]:
+        band = np.stack([q[:, first:stop] for q in quantities])
+        return np.concatenate([np.zeros((6, n_beats, 1)), np.cumsum(band, axis=2)], axis=2)
+
+    outer = qrs + stretch
+    p_fixed = column_sums(0, half - outer)
+    t_fixed = column_sums(half + outer + 1, offsets.size)
+    p_band = band_prefix(half - outer, half - qrs + stretch)  # offsets -(qrs+S) … -(qrs-S)-1
+    t_band = band_prefix(half + qrs - stretch + 1, half + outer + 1)  # offsets qrs-S+1 … qrs+S
+    t_band_total = t_band[:, :, -1]
 
     base_qrs = PchipInterpolator(np.arange(-qrs, qrs + 1), template[:, half - qrs : half + qrs + 1], axis=1)
     best_sse = np.full(n_beats, np.inf)
-    best_variant = np.zeros(n_beats, dtype=np.int64)
-    variants: dict[int, NDArray[np.float64]] = {}
+    best_width = np.full(n_beats, qrs)
+    best_fit = np.zeros((6, n_beats))  # scale and offset of the P, QRS and T sections
+    best_qrs = np.zeros((n_beats, offsets.size))  # the chosen QRS variant on the offset grid
     for d in range(-stretch, stretch + 1):
         width = qrs + d
-        if width < 1:
-            continue
         qrs_offsets = np.arange(-width, width + 1)
         t_qrs = np.asarray(base_qrs(qrs_offsets * (qrs / width)), dtype=np.float64)
-        variants[d] = t_qrs
         y_qrs = y[aligned[:, np.newaxis] + qrs_offsets]
         qrs_sums = np.stack(
             [
@@ -260,51 +272,43 @@ def _fit_adaptive(
                 (y_qrs**2).sum(1),
             ]
         )
-        sse = (
-            _section_sse(section_sums(lo, np.full(n_beats, -width)))
-            + _section_sse(qrs_sums)
-            + _section_sse(section_sums(np.full(n_beats, width + 1), hi))
-        )
+        fits = [
+            _section_fit(p_fixed + p_band[:, :, stretch - d]),
+            _section_fit(qrs_sums),
+            _section_fit(t_fixed + t_band_total - t_band[:, :, d + stretch]),
+        ]
+        sse = fits[0][2] + fits[1][2] + fits[2][2]
         better = sse < best_sse
+        if not np.any(better):
+            continue
         best_sse[better] = sse[better]
-        best_variant[better] = d
-    artefacts: list[NDArray[np.float64]] = []
-    for k in range(n_beats):
-        width = qrs + int(best_variant[k])
-        beat_offsets = np.arange(lo[k], hi[k])
-        values = template[k, np.clip(beat_offsets + half, 0, offsets.size - 1)].copy()
-        in_qrs = (beat_offsets >= -width) & (beat_offsets <= width)
-        values[in_qrs] = variants[int(best_variant[k])][k, beat_offsets[in_qrs] + width]
-        observed = y[aligned[k] + beat_offsets]
-        fitted = np.empty_like(values)
-        for mask in (beat_offsets < -width, in_qrs, beat_offsets > width):
-            scale, offset = _line_fit(values[mask], observed[mask])
-            fitted[mask] = scale * values[mask] + offset
-        # Express the artefact on the beat's own [start, end) grid (alignment moved its origin).
-        artefact = np.zeros(end[k] - start[k])
-        position = aligned[k] + beat_offsets - start[k]
-        artefact[position] = fitted
-        artefacts.append(artefact)
-    return artefacts
+        best_width[better] = width
+        for section, (scale, offset, _) in enumerate(fits):
+            best_fit[2 * section, better] = scale[better]
+            best_fit[2 * section + 1, better] = offset[better]
+        best_qrs[better] = 0.0
+        best_qrs[better, half - width : half + width + 1] = t_qrs[better]
+    w = best_width[:, np.newaxis]
+    in_p = offsets < -w
+    in_t = offsets > w
+    scale = np.where(in_p, best_fit[0][:, None], np.where(in_t, best_fit[4][:, None], best_fit[2][:, None]))
+    offset = np.where(in_p, best_fit[1][:, None], np.where(in_t, best_fit[5][:, None], best_fit[3][:, None]))
+    values = np.where(in_p | in_t, ts, best_qrs)
+    artefact = scale * values + offset
+    return np.asarray(index[inside], dtype=np.int64), np.asarray(artefact[inside], dtype=np.float64)
 
 
-def _section_sse(sums: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Residual energy of the LS fit y ≈ a·t + b from the sums (n, Σt, Σt², Σy, Σty, Σy²)."""
+def _section_fit(
+    sums: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """LS scale a, offset b and residual energy of y ≈ a·t + b from (n, Σt, Σt², Σy, Σty, Σy²).
+
+    A flat or empty template section gets a = 0 (the offset alone is fitted).
+    """
     n, st, stt, sy, sty, syy = sums
     det = n * stt - st * st
     ok = det > 1e-12 * np.maximum(n * stt, 1e-300)
     a = np.where(ok, (n * sty - st * sy) / np.where(ok, det, 1.0), 0.0)
     b = np.where(n > 0, (sy - a * st) / np.maximum(n, 1.0), 0.0)
-    return np.asarray(np.maximum(syy - a * sty - b * sy, 0.0), dtype=np.float64)
-
-
-def _line_fit(t: NDArray[np.float64], y: NDArray[np.float64]) -> tuple[float, float]:
-    """Least-squares scale and offset of y ≈ a·t + b (a = 0 for a flat or empty template)."""
-    if y.size == 0:
-        return 0.0, 0.0
-    t_centred = t - t.mean()
-    denominator = float(np.dot(t_centred, t_centred))
-    if denominator <= 1e-12 * max(float(np.dot(t, t)), 1e-300):
-        return 0.0, float(y.mean())
-    a = float(np.dot(t_centred, y - y.mean()) / denominator)
-    return a, float(y.mean() - a * t.mean())
+    sse = np.maximum(syy - a * sty - b * sy, 0.0)
+    return np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64), np.asarray(sse, dtype=np.float64)

@@ -75,12 +75,12 @@ def emg_filter(emg: EmgSignal, *, low_hz: float = 20.0, high_hz: float = 400.0, 
         filtered = sps.sosfiltfilt(sos, emg.values, axis=0)
     except ValueError as exc:  # SciPy's only complaint here: the record is shorter than the padding
         raise RecordingError(f"emg_filter: the EMG ({emg.n_samples} samples) is too short: {exc}") from None
-    return emg.with_values(filtered)
+    return emg.with_values(filtered, adopt=True)
 
 
 def emg_rectify(emg: EmgSignal) -> EmgSignal:
     """Full-wave rectification, |x| per sample."""
-    return emg.with_values(np.abs(emg.values))
+    return emg.with_values(np.abs(emg.values), adopt=True)
 
 
 def emg_envelope(emg: EmgSignal, *, window_s: float = 0.1) -> EmgSignal:
@@ -116,12 +116,17 @@ def emg_envelope(emg: EmgSignal, *, window_s: float = 0.1) -> EmgSignal:
     # below EMG noise for hour-long records.
     cumulative = np.zeros((n + 1, emg.values.shape[1]))
     np.cumsum(np.square(emg.values), axis=0, out=cumulative[1:])
-    index = np.arange(n)
     back = width // 2
-    lo = np.clip(index - back, 0, n)
-    hi = np.clip(index - back + width, 0, n)
-    mean_square = (cumulative[hi] - cumulative[lo]) / (hi - lo)[:, np.newaxis]
-    return emg.with_values(np.sqrt(np.maximum(mean_square, 0.0)))
+    mean_square = np.empty((n, emg.values.shape[1]))
+    # Full windows (contiguous slices, no gathers): sample i uses cumulative[i - back + width] - [i - back].
+    first, last = back, n - width + back  # first and last sample whose window fits
+    if last >= first:
+        mean_square[first : last + 1] = (cumulative[width:] - cumulative[: n + 1 - width]) / width
+    edges = np.r_[0 : min(first, n), max(last + 1, first, 0) : n]
+    lo = np.clip(edges - back, 0, n)
+    hi = np.clip(edges - back + width, 0, n)
+    mean_square[edges] = (cumulative[hi] - cumulative[lo]) / (hi - lo)[:, np.newaxis]
+    return emg.with_values(np.sqrt(np.maximum(mean_square, 0.0)), adopt=True)
 
 
 def _require_finite(emg: EmgSignal, step: str) -> None:

@@ -268,8 +268,10 @@ def sync_edge_times(emg: EmgSignal, sync_channel: str) -> NDArray[np.float64]:
 
 def _runs_of_equal(x: NDArray[np.float64]) -> list[tuple[int, int]]:
     """(first index, length) of every run of identical consecutive samples longer than one."""
-    change = np.flatnonzero(np.diff(x) != 0.0) + 1
-    starts = np.concatenate([[0], change])
-    lengths = np.diff(np.concatenate([starts, [x.size]]))
-    long = lengths > 1
-    return [(int(s), int(n)) for s, n in zip(starts[long], lengths[long], strict=True)]
+    equal = x[1:] == x[:-1]
+    if not equal.any():  # the usual case for live EMG: answer without building run arrays
+        return []
+    edges = np.diff(np.concatenate([[False], equal, [False]]).astype(np.int8))
+    starts = np.flatnonzero(edges == 1)
+    stops = np.flatnonzero(edges == -1)  # x[starts[i] : stops[i] + 1] are all equal
+    return [(int(s), int(e - s + 1)) for s, e in zip(starts, stops, strict=True)]

@@ -60,4 +60,4 @@ def emg_normalize(envelope: EmgSignal, reference: Mapping[str, float]) -> EmgSig
                 f"normalisation reference of channel {name!r} is {value}; it must be positive"
             )
         scale.append(value)
-    return envelope.with_values(envelope.values / np.asarray(scale))
+    return envelope.with_values(envelope.values / np.asarray(scale), adopt=True)

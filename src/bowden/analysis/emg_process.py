@@ -11,7 +11,7 @@ is then subtracted from the band-passed EMG, and rectification and the RMS envel
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -136,16 +136,13 @@ def emg_pipeline(emg: EmgSignal, parameters: EmgProcessParameters | None = None)
                 name: emg_detect_r_peaks(emg, channel=name, min_rr_s=params.min_rr_s) for name in targets
             }
     filtered = emg_filter(emg, low_hz=params.low_hz, high_hz=params.high_hz, order=params.filter_order)
-    if params.ecg_removal != "none":
-        ecg_params = EcgRemovalParameters(
-            method=params.ecg_removal,
-            template_beats=params.ecg.template_beats,
-            qrs_half_width_s=params.ecg.qrs_half_width_s,
-            stretch_samples=params.ecg.stretch_samples,
-            max_shift_samples=params.ecg.max_shift_samples,
-        )
-        for name in targets:
-            filtered = emg_remove_ecg(filtered, peaks[name], channels=(name,), parameters=ecg_params)
+    if params.ecg_removal != "none" and targets:
+        ecg_params = replace(params.ecg, method=params.ecg_removal)
+        if len({id(p) for p in peaks.values()}) == 1:  # one shared reference: one call cleans all
+            filtered = emg_remove_ecg(filtered, peaks[targets[0]], channels=targets, parameters=ecg_params)
+        else:
+            for name in targets:
+                filtered = emg_remove_ecg(filtered, peaks[name], channels=(name,), parameters=ecg_params)
     envelope = emg_envelope(emg_rectify(filtered), window_s=params.envelope_window_s)
     info = EmgProcessInfo(
         rate_hz=emg.rate_hz,

@@ -89,8 +89,12 @@ def _integrated_energy(copy: NDArray[np.float64], rate_hz: float) -> NDArray[np.
     """Pan–Tompkins feature: squared derivative integrated over a centred 150 ms window."""
     slope = np.gradient(copy) * rate_hz
     width = max(1, round(_INTEGRATION_WINDOW_S * rate_hz))
-    kernel = np.full(width, 1.0 / width)
-    return np.asarray(np.convolve(slope * slope, kernel, mode="same"), dtype=np.float64)
+    # Centred moving average through a running sum (what np.convolve(..., mode="same") computes).
+    running = np.concatenate([[0.0], np.cumsum(slope * slope)])
+    index = np.arange(copy.size) - (width - 1) // 2
+    lo = np.clip(index, 0, copy.size)
+    hi = np.clip(index + width, 0, copy.size)
+    return np.asarray((running[hi] - running[lo]) / width, dtype=np.float64)
 
 
 def _adaptive_threshold(

@@ -95,13 +95,18 @@ class EmgSignal:
             ) from None
         return self.values[:, index]
 
-    def with_values(self, values: ArrayLike, channels: Sequence[str] | None = None) -> EmgSignal:
-        """A signal with the same rate and start but new samples (same length or not)."""
-        return replace(
-            self,
-            values=np.asarray(values, dtype=np.float64),
-            channels=tuple(self.channels if channels is None else channels),
-        )
+    def with_values(
+        self, values: ArrayLike, channels: Sequence[str] | None = None, *, adopt: bool = False
+    ) -> EmgSignal:
+        """A signal with the same rate and start but new samples (same length or not).
+
+        ``adopt=True`` takes ownership of a freshly computed float64 array (it is made read-only
+        instead of copied); processing steps use it to avoid copying every intermediate result.
+        """
+        array = np.asarray(values, dtype=np.float64)
+        if adopt and array.flags.owndata:
+            array.flags.writeable = False
+        return replace(self, values=array, channels=tuple(self.channels if channels is None else channels))
 
     def select(self, channels: Sequence[str]) -> EmgSignal:
         """The named channels only, in the given order."""

@@ -1,0 +1,123 @@
+"""Benchmark: EMG processing of a whole simulated study, and the same steps in pyemgpipeline.
+
+A study of the paper's size: 17 participants x 12 trials (4 conditions x 3 speeds) x 8 muscles at
+2 kHz, each trial 50–90 s long. Synthetic EMG (amplitude-modulated band-limited noise) with a
+synthetic ECG on pectoralis major and latissimus dorsi is generated per trial (not timed); the
+timed part is bowden's paper pipeline (channel checks, R-peaks, 20–400 Hz zero-phase band-pass,
+adaptive ECG template subtraction, rectification, 100 ms RMS envelope) and, in the same run,
+pyemgpipeline's closest chain (its zero-phase Butterworth band-pass of effective order 6 = order 3
+forward-backward, full-wave rectifier, linear envelope; it has no ECG removal and no RMS window).
+
+Target (issue 6): ≤ 15 s for the whole study here. Prints the times and their ratios; no assertion.
+
+Usage: ``python benchmarks/analysis.py [--participants 17] [--seed 0]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import signal as sps
+
+from bowden.analysis import (
+    EmgProcessParameters,
+    EmgSignal,
+    emg_envelope,
+    emg_filter,
+    emg_pipeline,
+    emg_rectify,
+)
+from bowden.contracts import CONDITIONS, EMG_RATE_HZ, MUSCLES, SPEEDS
+
+TARGET_S = 15.0
+
+
+def synthetic_trial(rng: np.random.Generator, duration_s: float) -> EmgSignal:
+    """Eight muscles of amplitude-modulated 20–450 Hz noise; ECG added to the two trunk muscles."""
+    n = int(duration_s * EMG_RATE_HZ)
+    t = np.arange(n) / EMG_RATE_HZ
+    sos = sps.butter(2, [20.0, 450.0], btype="bandpass", fs=EMG_RATE_HZ, output="sos")
+    noise = sps.sosfilt(sos, rng.standard_normal((n, len(MUSCLES))), axis=0)
+    period = rng.uniform(1.6, 5.0)
+    activation = 0.3 + np.sin(np.pi * np.mod(t, period) / period) ** 2
+    emg = 40e-6 * activation[:, None] * noise / noise.std(axis=0)
+    ecg = _ecg(n, rng)
+    for name in ("pectoralis_major", "latissimus_dorsi"):
+        emg[:, MUSCLES.index(name)] += ecg * rng.uniform(0.3, 1.0)
+    return EmgSignal(values=emg, rate_hz=EMG_RATE_HZ, channels=MUSCLES)
+
+
+def _ecg(n: int, rng: np.random.Generator) -> NDArray[np.float64]:
+    offsets = np.arange(-0.3, 0.45, 1.0 / EMG_RATE_HZ)
+    beat = 1e-3 * (
+        np.exp(-0.5 * (offsets / 0.01) ** 2)
+        - 0.25 * np.exp(-0.5 * ((offsets - 0.028) / 0.008) ** 2)
+        + 0.3 * np.exp(-0.5 * ((offsets - 0.3) / 0.05) ** 2)
+    )
+    ecg = np.zeros(n + beat.size)
+    position = 0.4
+    while position * EMG_RATE_HZ < n:
+        start = int(position * EMG_RATE_HZ)
+        ecg[start : start + beat.size] += beat * (1.0 + 0.1 * rng.standard_normal())
+        position += 0.8 * (1.0 + 0.05 * rng.standard_normal())
+    return ecg[:n]
+
+
+def bowden_steps(emg: EmgSignal, params: EmgProcessParameters) -> NDArray[np.float64]:
+    return np.asarray(emg_pipeline(emg, params).envelope.values)
+
+
+def bowden_same_steps(emg: EmgSignal) -> NDArray[np.float64]:
+    return np.asarray(emg_envelope(emg_rectify(emg_filter(emg))).values)
+
+
+def pyemgpipeline_steps(emg: EmgSignal) -> NDArray[np.float64]:
+    from pyemgpipeline.processors import BandpassFilter, FullWaveRectifier, LinearEnvelope
+
+    x = BandpassFilter(emg.rate_hz, bf_order=6, bf_cutoff_fq_lo=20, bf_cutoff_fq_hi=400).apply(emg.values)
+    x = FullWaveRectifier().apply(x)
+    return np.asarray(LinearEnvelope(emg.rate_hz, le_order=4, le_cutoff_fq=6).apply(x))
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--participants", type=int, default=17)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    rng = np.random.default_rng(args.seed)
+    params = EmgProcessParameters()
+    timings = {"bowden paper pipeline": 0.0, "bowden same steps (no ECG)": 0.0, "pyemgpipeline": 0.0}
+    samples = 0
+    n_trials = args.participants * len(CONDITIONS) * len(SPEEDS)
+    for _ in range(n_trials):
+        emg = synthetic_trial(rng, rng.uniform(50.0, 90.0))
+        samples += emg.values.size
+        for name, run in (
+            ("bowden paper pipeline", lambda e=emg: bowden_steps(e, params)),
+            ("bowden same steps (no ECG)", lambda e=emg: bowden_same_steps(e)),
+            ("pyemgpipeline", lambda e=emg: pyemgpipeline_steps(e)),
+        ):
+            start = time.perf_counter()
+            run()
+            timings[name] += time.perf_counter() - start
+    print(
+        f"study: {args.participants} participants, {n_trials} trials, 8 muscles, {samples / 1e6:.0f} M samples"
+    )
+    for name, seconds in timings.items():
+        print(f"  {name:28s} {seconds:7.2f} s")
+    ours = timings["bowden paper pipeline"]
+    print(
+        f"target {TARGET_S:.0f} s: {'met' if ours <= TARGET_S else 'NOT met'} ({ours / TARGET_S:.2f} of the budget)"
+    )
+    print(f"ratio bowden paper pipeline / pyemgpipeline: {ours / timings['pyemgpipeline']:.2f}")
+    print(
+        f"ratio bowden same steps / pyemgpipeline:     "
+        f"{timings['bowden same steps (no ECG)'] / timings['pyemgpipeline']:.2f}"
+    )
+
+
+if __name__ == "__main__":
+    main()
