@@ -152,7 +152,8 @@ def controller_step(
     else:
         e = math.exp(xb)
         weight = e / (1.0 + e)
-    torque = c[C_LOW_INTERCEPT] + c[C_LOW_SLOPE] * tension + (c[C_D_INTERCEPT] + c[C_D_SLOPE] * tension) * weight
+    torque = c[C_LOW_INTERCEPT] + c[C_LOW_SLOPE] * tension
+    torque += (c[C_D_INTERCEPT] + c[C_D_SLOPE] * tension) * weight
     if torque > c[C_MAX_TORQUE]:
         torque = c[C_MAX_TORQUE]
         limited |= LIMIT_TORQUE
@@ -204,7 +205,8 @@ S_IMU_VEL_NOISE = 2
 S_IMU_VEL_BIAS = 3
 S_LOAD_NOISE = 4
 S_LOAD_OFFSET = 5
-N_SENSOR = 6
+S_IMU_DELAY_CYCLES = 6  # IMU latency in whole control cycles
+N_SENSOR = 7
 
 
 @jit
@@ -234,6 +236,9 @@ def run_trial(
     cs = np.zeros(2)
     cs[CS_TIME] = math.nan
     command = np.zeros(5)
+    delay = int(sensors[S_IMU_DELAY_CYCLES])
+    history_th = np.full(delay + 1, x[k.X_ARM_TH])
+    history_thd = np.full(delay + 1, x[k.X_ARM_THD])
     shoulder = 0.0
     nan = math.nan
     for i in range(out.shape[0]):
@@ -241,8 +246,14 @@ def run_trial(
         ref, _, _ = k.reference_state(h, t)
         th = x[k.X_ARM_TH]
         thd = x[k.X_ARM_THD]
-        elevation = th + sensors[S_IMU_EL_BIAS] + sensors[S_IMU_EL_NOISE] * draws_control[i, 0]
-        velocity = thd + sensors[S_IMU_VEL_BIAS] + sensors[S_IMU_VEL_NOISE] * draws_control[i, 1]
+        slot = i % (delay + 1)  # ring buffer: the oldest entry is the sample the IMU delivers now
+        history_th[slot] = th
+        history_thd[slot] = thd
+        late = (i + 1) % (delay + 1)
+        elevation = history_th[late] + sensors[S_IMU_EL_BIAS]
+        elevation += sensors[S_IMU_EL_NOISE] * draws_control[i, 0]
+        velocity = history_thd[late] + sensors[S_IMU_VEL_BIAS]
+        velocity += sensors[S_IMU_VEL_NOISE] * draws_control[i, 1]
         row = out[i]
         row[O_REFERENCE] = ref
         row[O_ELEVATION] = elevation

@@ -127,7 +127,7 @@ def moment_arm_m(p: NDArray[np.float64], th: float) -> float:
     a = p[P_GEOM_A]
     b = p[P_GEOM_B]
     alpha = p[P_GEOM_PSI] - th
-    return a * b * math.sin(alpha) / math.sqrt(a * a + b * b - 2.0 * a * b * math.cos(alpha))
+    return float(a * b * math.sin(alpha) / math.sqrt(a * a + b * b - 2.0 * a * b * math.cos(alpha)))
 
 
 @jit
@@ -140,7 +140,7 @@ def anchor_pull_m(p: NDArray[np.float64], th: float) -> float:
 def stribeck_coefficient(p: NDArray[np.float64], slip_speed: float) -> float:
     """``k(v) = k_k + (k_s − k_k)·exp(−(v/v_s)²)``."""
     ratio = slip_speed / p[P_V_STRIBECK]
-    return p[P_K_KINETIC] + (p[P_K_STATIC] - p[P_K_KINETIC]) * math.exp(-ratio * ratio)
+    return float(p[P_K_KINETIC] + (p[P_K_STATIC] - p[P_K_KINETIC]) * math.exp(-ratio * ratio))
 
 
 @jit
@@ -149,7 +149,7 @@ def distal_tension_at_rest(p: NDArray[np.float64], s: float, ya: float, yda: flo
     stretch = s - ya
     if stretch <= 0.0:
         return 0.0
-    return max(0.0, p[P_K_DISTAL] * stretch - p[P_C_DISTAL] * yda)
+    return float(max(0.0, p[P_K_DISTAL] * stretch - p[P_C_DISTAL] * yda))
 
 
 @jit
@@ -171,13 +171,15 @@ def sliding_node_position(
     s_taut = max(ya, s_damped)
     if s_taut < xm:
         s_star = (g * kc * xm + kd * ya + c * s0 + p[P_C_DISTAL] * yda) / (g * kc + kd + c)
-        return min(max(s_star, s_taut), xm)
+        return float(min(max(s_star, s_taut), xm))
     # Both segments slack between xm and s_taut: the node moves no further than it has to.
-    return min(max(s0, xm), s_taut)
+    return float(min(max(s0, xm), s_taut))
 
 
 @jit
-def sheath_step(x: NDArray[np.float64], p: NDArray[np.float64], dt: float, xm: float, ya: float, yda: float) -> None:
+def sheath_step(
+    x: NDArray[np.float64], p: NDArray[np.float64], dt: float, xm: float, ya: float, yda: float
+) -> None:
     """Advance the sheath node one step with stick–slip friction; updates tensions and energies."""
     s0 = x[X_NODE_S]
     kc = p[P_K_CABLE]
@@ -236,7 +238,9 @@ def sheath_step(x: NDArray[np.float64], p: NDArray[np.float64], dt: float, xm: f
 
 
 @jit
-def motor_step(x: NDArray[np.float64], p: NDArray[np.float64], dt: float, torque_cmd: float, lag: float) -> None:
+def motor_step(
+    x: NDArray[np.float64], p: NDArray[np.float64], dt: float, torque_cmd: float, lag: float
+) -> None:
     """Current loop, then spool dynamics against the cable with Coulomb friction by time stepping."""
     limit = p[P_TORQUE_LIMIT]
     target = min(max(torque_cmd * p[P_KT_RATIO], -limit), limit)
@@ -305,7 +309,7 @@ def plant_step(
 @jit
 def impedance_torque(x: NDArray[np.float64], cmd: NDArray[np.float64]) -> float:
     """AK60-6 MIT-mode law ``τ = kp·(p_des − p) + kd·(v_des − v) + τ_ff`` (positions absolute here)."""
-    return cmd[2] * (cmd[0] - x[X_SPOOL_Q]) + cmd[3] * (cmd[1] - x[X_SPOOL_W]) + cmd[4]
+    return float(cmd[2] * (cmd[0] - x[X_SPOOL_Q]) + cmd[3] * (cmd[1] - x[X_SPOOL_W]) + cmd[4])
 
 
 @jit
@@ -416,7 +420,7 @@ def expected_assist_torque(p: NDArray[np.float64], h: NDArray[np.float64], th: f
     r = moment_arm_m(p, th)
     nominal = max(h[H_EXP_FLOOR_N] * r, h[H_EXP_SUPPORT] * h[H_EXP_GRAVITY] * math.sin(th))
     learned = 1.0 - math.exp(-max(time_s, 0.0) / h[H_EXP_ADAPT_S])
-    return nominal * learned
+    return float(nominal * learned)
 
 
 @jit
@@ -450,4 +454,4 @@ def human_torque(
     decay = math.exp(-dt / h[H_NOISE_TAU])
     x[X_NOISE] = decay * x[X_NOISE] + math.sqrt(1.0 - decay * decay) * normal_draw
     noise = (h[H_NOISE_CONST] + h[H_NOISE_SIGNAL] * abs(feedforward)) * x[X_NOISE]
-    return feedforward + feedback + noise
+    return float(feedforward + feedback + noise)

@@ -22,8 +22,8 @@ from bowden.model import CompensationModel
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim import _batch_kernel as bk
 from bowden.sim import _kernels as k
-from bowden.sim.participants import ExpectedAssistance, VirtualParticipant, human_vector
 from bowden.sim.parameters import SuitParameters
+from bowden.sim.participants import ExpectedAssistance, VirtualParticipant, human_vector
 from bowden.sim.plant import equilibrium_state, pack_parameters
 from bowden.sim.questionnaires import questionnaire_answers
 from bowden.sim.results import (
@@ -176,7 +176,7 @@ def simulate_trial(
     # The cable starts taut at what the controller holds at rest; the arm is balanced by the muscles.
     x = equilibrium_state(p, start_elevation, settings.pretension_n if wears_suit else 0.0)
     duration = settings.lead_in_s + settings.repetitions * cycle.period_s + settings.tail_s
-    n_control = int(math.ceil(duration / settings.control_period_s))
+    n_control = math.ceil(duration / settings.control_period_s)
     trial_seed = seed
     rng = np.random.default_rng(trial_seed)
     draws_control = rng.standard_normal((n_control, 3))
@@ -189,6 +189,7 @@ def simulate_trial(
     sensors[bk.S_IMU_VEL_BIAS] = imu.velocity_bias_rad_s
     sensors[bk.S_LOAD_NOISE] = cell.noise_n
     sensors[bk.S_LOAD_OFFSET] = cell.offset_n
+    sensors[bk.S_IMU_DELAY_CYCLES] = round(imu.latency_s / settings.control_period_s) * 1.0
     # The participant holds the start posture against gravity (and the cable) from the first step.
     x[k.X_ARM_THD] = 0.0
     out = np.empty((n_control, bk.N_OUT))
@@ -203,7 +204,7 @@ def simulate_trial(
         participant=participant,
         condition=condition,
         speed=speed,
-        time_s=np.arange(n_control) * settings.control_period_s,
+        time_s=np.asarray(np.arange(n_control) * settings.control_period_s, dtype=np.float64),
         signals=ordered,
         movement_start_s=settings.lead_in_s,
         movement_duration_s=cycle.movement_duration_s,

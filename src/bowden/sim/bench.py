@@ -75,15 +75,19 @@ class BenchProtocol:
         if not 1 <= self.repetitions <= 50:
             raise ParameterError(f"BenchProtocol.repetitions must be in [1, 50], got {self.repetitions}")
         if not (0.0 < self.low_rad < self.high_rad < self.mannequin.max_elevation_rad):
-            raise ParameterError("BenchProtocol needs 0 < low_rad < high_rad < the mannequin's max elevation")
+            raise ParameterError(
+                "BenchProtocol needs 0 < low_rad < high_rad < the mannequin's max elevation"
+            )
         if not 0.0 <= self.hold_s <= 5.0:
             raise ParameterError(f"BenchProtocol.hold_s must be in [0, 5] s, got {self.hold_s}")
         if not 20.0 <= self.sample_rate_hz <= 2000.0:
-            raise ParameterError(f"BenchProtocol.sample_rate_hz must be in [20, 2000], got {self.sample_rate_hz}")
+            raise ParameterError(
+                f"BenchProtocol.sample_rate_hz must be in [20, 2000], got {self.sample_rate_hz}"
+            )
         if not 1.0 <= self.spool_acceleration_rad_s2 <= 1000.0:
             raise ParameterError("BenchProtocol.spool_acceleration_rad_s2 must be in [1, 1000] rad/s²")
         if not (0.0 <= self.position_gain_nm_rad <= 500.0 and 0.0 <= self.velocity_gain_nms_rad <= 5.0):
-            raise ParameterError("BenchProtocol gains must be within the AK60-6 MIT ranges (kp 0–500, kd 0–5)")
+            raise ParameterError("BenchProtocol gains must be within the AK60-6 MIT ranges: kp 0–500, kd 0–5")
 
     @property
     def n_strokes(self) -> int:
@@ -127,13 +131,15 @@ class _Bench:
         out[:, 1] = rows[:, k.R_MOTOR_TAU] / ratio  # the driver's estimate from current
         out[:, 2] = rows[:, k.R_SPOOL_W]
         out[:, 3] = rows[:, k.R_T_OUT] + cell.offset_n + cell.noise_n * self.rng.standard_normal(n)
-        out[:, 4] = rows[:, k.R_TH] + imu.elevation_bias_rad + imu.elevation_noise_rad * self.rng.standard_normal(n)
+        noise = imu.elevation_noise_rad * self.rng.standard_normal(n)
+        out[:, 4] = rows[:, k.R_TH] + imu.elevation_bias_rad + noise
         out[:, 5] = self.trial
         return out
 
     def hold(self, load_nm: float) -> None:
         q = float(self.plant.state_vector[k.X_SPOOL_Q])
-        command = np.array([q, 0.0, self.protocol.position_gain_nm_rad, self.protocol.velocity_gain_nms_rad, 0.0])
+        p = self.protocol
+        command = np.array([q, 0.0, p.position_gain_nm_rad, p.velocity_gain_nms_rad, 0.0])
         self.run(max(1, round(self.protocol.hold_s / self.suit.substep_s)), command, load_nm)
 
     def stroke(self, velocity: float, load_nm: float, stop_rad: float) -> None:
@@ -151,7 +157,8 @@ class _Bench:
             self.run(chunk_steps, command, load_nm)
         # Brake where the spool's stopping distance, seen at the arm, ends the stroke at stop_rad.
         vec = self.plant.vector
-        braking_cable_m = self.suit.motor.spool_radius_m * velocity * velocity / (2.0 * p.spool_acceleration_rad_s2)
+        radius = self.suit.motor.spool_radius_m
+        braking_cable_m = radius * velocity * velocity / (2.0 * p.spool_acceleration_rad_s2)
         brake_rad = stop_rad - direction * braking_cable_m / float(k.moment_arm_m(vec, stop_rad))
         travel = abs(float(k.path_length_m(vec, p.low_rad) - k.path_length_m(vec, p.high_rad)))
         limit_s = 3.0 * travel / (self.suit.motor.spool_radius_m * abs(velocity)) + 2.0

@@ -90,7 +90,7 @@ class SimulatedSuit:
         n = target - self.plant.steps_done
         if n > 0:
             first = self.plant.steps_done + 1
-            times = (first + np.arange(n)) * dt
+            times = np.asarray((first + np.arange(n)) * dt, dtype=np.float64)
             arm_a, arm_b = self.arm.inputs(times, self._rng)
             mode, command = self.motor.plant_command()
             record = self.plant.integrate(
