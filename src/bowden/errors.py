@@ -59,3 +59,11 @@ class OutcomeTableError(BowdenError, ValueError):
 
 class OutputFileError(BowdenError, OSError):
     """An output file (model.json, figure, report) cannot be written: names the file and the reason."""
+
+
+class RequestError(BowdenError, ValueError):
+    """A request to the web server (operator console, questionnaire) is invalid: names the field."""
+
+
+class AccessDeniedError(BowdenError, PermissionError):
+    """A request lacks the session token (or carries a wrong one): nothing was changed."""
