@@ -106,7 +106,8 @@ def test_non_finite_input(rig: Rig, controller: Controller, caplog: pytest.LogCa
 
 
 @pytest.mark.parametrize("code", [MotorErrorCode.OVER_CURRENT, MotorErrorCode.ENCODER])
-def test_motor_error_code(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture, code: MotorErrorCode) -> None:
+def test_motor_error_code(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture,
+                          code: MotorErrorCode) -> None:
     caplog.set_level(logging.INFO)
     report, tap = run(rig, controller, lambda: rig.motor_peer.inject_error(int(code)))
     check_safe_stop(rig, report, tap, Fault.MOTOR_ERROR, MotorErrorCode.describe(code), caplog)
@@ -127,7 +128,8 @@ def test_tension_limit(rig: Rig, controller: Controller, caplog: pytest.LogCaptu
     assert not rig.motor_peer.in_motor_mode
 
 
-def test_sigterm_stops_within_one_cycle(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
+def test_sigterm_stops_within_one_cycle(rig: Rig, controller: Controller,
+                                        caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
     tap = Tap(lambda: os.kill(os.getpid(), signal.SIGTERM))
     loop = ControlLoop(

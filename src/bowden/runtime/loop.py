@@ -210,6 +210,7 @@ class ControlLoop:
         t0 = clock.now()
         last_reply_s = t0
         deadline = t0
+        k = 0
         state = LoopState.RUNNING
         fault = Fault.NONE
         reason = ""
@@ -277,7 +278,7 @@ class ControlLoop:
                     reason = f"load cell: {tension:.1f} N above the {max_tension:.0f} N limit"
                 elif self._stop_reason is not None:
                     new_fault, reason = Fault.STOP_REQUESTED, self._stop_reason
-                elif t >= duration:
+                elif t >= duration - 1e-9:  # 1 ns: a cycle landing on the end, up to rounding
                     reason = f"duration {duration:g} s reached"
                     new_fault = Fault.NONE
                     state = LoopState.RAMPING_DOWN
@@ -347,11 +348,14 @@ class ControlLoop:
                 _log.info("safe state reached at t = %.3f s (motor mode exited)", safe_time)
                 break
 
-            deadline += period
+            # Deadlines are t0 + k·period, computed afresh so that rounding never accumulates.
+            k += 1
+            deadline = t0 + k * period
             behind = clock.now() - deadline
             if behind > period:
                 skipped = int(behind / period)
-                deadline += skipped * period
+                k += skipped
+                deadline = t0 + k * period
                 timing.skip(skipped)
 
         self.state = state

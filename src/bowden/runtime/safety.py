@@ -68,8 +68,11 @@ class SafetyConfig:
 
 
 def ramp_torque_nm(start_torque_nm: float, elapsed_s: float, ramp_down_s: float) -> float:
-    """Torque of the safe-state ramp ``elapsed_s`` after it began (linear, exactly 0 at the end)."""
-    if elapsed_s >= ramp_down_s:
+    """Torque of the safe-state ramp ``elapsed_s`` after it began (linear, exactly 0 at the end).
+
+    The end is taken 1 ns early so that a cycle landing on it, up to rounding, already commands zero.
+    """
+    if elapsed_s >= ramp_down_s - 1e-9:
         return 0.0
     if elapsed_s <= 0.0:
         return start_torque_nm

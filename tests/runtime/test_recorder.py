@@ -1,0 +1,149 @@
+"""The recorder: schema, round trip, crash safety under SIGKILL, bad input."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from bowden.contracts import TRIAL_COLUMNS
+from bowden.errors import ParameterError, StoreError
+from bowden.runtime.recorder import Recorder, TrialInfo
+from bowden.runtime.store_schema import SCHEMA_VERSION
+
+CHILD = Path(__file__).with_name("record_child.py")
+_spec = importlib.util.spec_from_file_location("record_child", CHILD)
+assert _spec is not None and _spec.loader is not None
+record_child = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(record_child)
+
+TRIAL = TrialInfo(participant="P07", condition="support_25", speed="V1", support=0.25,
+                  metadata={"rate_hz": 500})
+
+
+def read_samples(path: Path) -> list[tuple[object, ...]]:
+    with sqlite3.connect(path) as connection:
+        return connection.execute(
+            f"SELECT trial_id, {', '.join(TRIAL_COLUMNS)} FROM samples ORDER BY rowid"
+        ).fetchall()
+
+
+def test_round_trip_with_schema_and_trial(tmp_path: Path) -> None:
+    path = tmp_path / "study.db"
+    with Recorder(path, TRIAL) as recorder:
+        for i in range(1000):
+            recorder.record(record_child.row(i))
+        recorder.event(0.5, "note", "half way")
+    assert recorder.stats.committed_rows == 1000
+    rows = read_samples(path)
+    assert len(rows) == 1000
+    for i, stored in enumerate(rows):
+        expected = record_child.row(i)
+        assert stored[0] == recorder.trial_id
+        assert stored[1:10] == pytest.approx(expected[:9])
+        assert stored[10] is None  # NaN tension (no load cell) is NULL
+        assert stored[11:] == expected[10:]
+    with sqlite3.connect(path) as connection:
+        assert connection.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+        assert connection.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
+        trial = connection.execute(
+            "SELECT participant, condition, speed, support, ended_utc, stop_reason, metadata FROM trials"
+        ).fetchone()
+        assert trial[:4] == ("P07", "support_25", "V1", 0.25)
+        assert trial[4] is not None and trial[5] is None
+        assert json.loads(trial[6]) == {"rate_hz": 500}
+        assert connection.execute("SELECT time_s, kind, message FROM events").fetchall() == [
+            (0.5, "note", "half way")
+        ]
+
+
+def test_second_trial_appends(tmp_path: Path) -> None:
+    path = tmp_path / "study.db"
+    for _ in range(2):
+        with Recorder(path, TRIAL) as recorder:
+            recorder.record(record_child.row(0))
+    with sqlite3.connect(path) as connection:
+        assert connection.execute("SELECT count(*) FROM trials").fetchone()[0] == 2
+        assert connection.execute("SELECT count(DISTINCT trial_id) FROM samples").fetchone()[0] == 2
+
+
+def test_stop_reason_is_stored(tmp_path: Path) -> None:
+    path = tmp_path / "study.db"
+    recorder = Recorder(path, TRIAL).start()
+    recorder.close(stop_reason="IMU: newest sample 51 ms old")
+    with sqlite3.connect(path) as connection:
+        stored = connection.execute("SELECT stop_reason FROM trials").fetchone()[0]
+    assert stored == "IMU: newest sample 51 ms old"
+
+
+def test_sigkill_keeps_every_committed_sample(tmp_path: Path) -> None:
+    path = tmp_path / "study.db"
+    child = subprocess.Popen([sys.executable, str(CHILD), str(path)], stdout=subprocess.PIPE, text=True)
+    reported = 0
+    try:
+        assert child.stdout is not None
+        for line in child.stdout:
+            reported = int(line.split()[1])
+            if reported >= 300:
+                break
+        os.kill(child.pid, signal.SIGKILL)
+    finally:
+        child.kill()
+        child.wait(timeout=10)
+        if child.stdout is not None:
+            child.stdout.close()
+    assert child.returncode == -signal.SIGKILL
+    with sqlite3.connect(path) as connection:
+        assert connection.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+        ended = connection.execute("SELECT ended_utc FROM trials").fetchone()[0]
+    assert ended is None  # the trial never closed: the crash is visible
+    rows = read_samples(path)
+    # Every sample reported committed is there, in order, exactly as recorded.
+    assert len(rows) >= reported >= 300
+    for i, stored in enumerate(rows):
+        expected = record_child.row(i)
+        assert stored[1:10] == pytest.approx(expected[:9], abs=0.0)
+        assert stored[11:] == expected[10:]
+
+
+def test_bad_row_fails_loudly(tmp_path: Path) -> None:
+    recorder = Recorder(tmp_path / "study.db", TRIAL).start()
+    recorder.record((1.0, 2.0))
+    with pytest.raises(StoreError, match="expected 12"):
+        recorder.close()
+
+
+def test_unwritable_store(tmp_path: Path) -> None:
+    with pytest.raises(StoreError, match="cannot record"):
+        Recorder(tmp_path / "missing" / "study.db", TRIAL).start()
+
+
+def test_newer_schema_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "study.db"
+    with sqlite3.connect(path) as connection:
+        connection.execute(f"PRAGMA user_version={SCHEMA_VERSION + 1}")
+    with pytest.raises(StoreError, match="upgrade bowden"):
+        Recorder(path, TRIAL).start()
+
+
+def test_trial_info_validation() -> None:
+    with pytest.raises(ParameterError, match="condition"):
+        TrialInfo(participant="P1", condition="fifty")
+    with pytest.raises(ParameterError, match="speed"):
+        TrialInfo(participant="P1", condition="support_50", speed="fast")
+    with pytest.raises(ParameterError, match="support"):
+        TrialInfo(participant="P1", condition="support_50", support=1.5)
+    with pytest.raises(ParameterError, match="participant"):
+        TrialInfo(participant=" ", condition="support_50")
+    with pytest.raises(ParameterError, match="metadata"):
+        TrialInfo(participant="P1", condition="support_50", metadata={"x": math.nan})
+    with pytest.raises(ParameterError, match="commit_interval_s"):
+        Recorder("x.db", TrialInfo(participant="P1", condition="no_suit"), commit_interval_s=0.5)
