@@ -89,7 +89,8 @@ X_W_ARM = 14  # work done by the cable on the arm, J
 X_E_MOTOR = 15  # energy dissipated by motor friction, J
 X_TIME = 16  # simulated time, s
 X_NOISE = 17  # virtual participant's motor-noise state (unit-variance Ornstein–Uhlenbeck)
-N_STATE = 18
+X_DISTAL_STRETCH = 18  # stretch of the distal segment, m (slack when ≤ 0)
+N_STATE = 19
 
 # --- arm drive modes ----------------------------------------------------------------------------
 ARM_PRESCRIBED = 0  # arm_a = elevation, arm_b = elevation velocity
@@ -229,7 +230,9 @@ def sheath_step(
         x[X_SLIP_V] = (s1 - s0) / dt
     x[X_E_SHEATH] += (t_in - t_out) * (s1 - s0)
     stretch = s1 - ya
-    if t_out > 0.0 and stretch > 0.0:
+    x[X_DISTAL_STRETCH] = stretch
+    if stretch > 0.0:
+        # The damper's share of the tension (it cancels the spring when the segment cannot push).
         damper = t_out - p[P_K_DISTAL] * stretch
         x[X_E_DISTAL] += damper * ((s1 - s0) - yda * dt)
     x[X_NODE_S] = s1
@@ -247,13 +250,19 @@ def motor_step(
     x[X_MOTOR_TAU] += (target - x[X_MOTOR_TAU]) * lag
     j = p[P_MOTOR_J]
     radius = p[P_SPOOL_R]
-    t_in = p[P_K_CABLE] * max(0.0, radius * x[X_SPOOL_Q] - x[X_NODE_S])
-    w_free = x[X_SPOOL_W] + dt / j * (x[X_MOTOR_TAU] - radius * t_in)
+    stretch = radius * x[X_SPOOL_Q] - x[X_NODE_S]
+    t_in = p[P_K_CABLE] * max(0.0, stretch)
+    # Implicit in the cable spring (while taut) and the viscous friction, so a stiff cable on a light
+    # rotor cannot make the step unstable: w_new·a = w + dt/J·(τ − R·T_in − f), f the Coulomb force.
+    a = 1.0 + dt * p[P_MOTOR_VISCOUS] / j
+    if stretch > 0.0:
+        a += dt * dt * radius * radius * p[P_K_CABLE] / j
+    v = x[X_SPOOL_W] + dt / j * (x[X_MOTOR_TAU] - radius * t_in)
     impulse = dt * p[P_MOTOR_COULOMB] / j
-    if abs(w_free) <= impulse:
+    if abs(v) <= impulse:
         w_new = 0.0
     else:
-        w_new = (w_free - math.copysign(impulse, w_free)) / (1.0 + dt * p[P_MOTOR_VISCOUS] / j)
+        w_new = (v - math.copysign(impulse, v)) / a
     x[X_E_MOTOR] += (p[P_MOTOR_COULOMB] * abs(w_new) + p[P_MOTOR_VISCOUS] * w_new * w_new) * dt
     x[X_SPOOL_W] = w_new
     x[X_SPOOL_Q] += dt * w_new

@@ -104,8 +104,8 @@ class ProtocolSettings:
             raise ParameterError(f"control_period_s must be in [1e-4, 0.02] s, got {self.control_period_s}")
         if not 1 <= self.substeps <= 100:
             raise ParameterError(f"substeps must be in [1, 100], got {self.substeps}")
-        if self.control_period_s / self.substeps > 2e-3:
-            raise ParameterError("control_period_s / substeps must be at most 2 ms (plant step)")
+        if self.control_period_s / self.substeps > 5e-4:
+            raise ParameterError("control_period_s / substeps must be at most 0.5 ms (the plant's step)")
         if not (0.0 <= self.lead_in_s <= 10.0 and 0.0 <= self.tail_s <= 10.0):
             raise ParameterError("lead_in_s and tail_s must be in [0, 10] s")
 

@@ -76,6 +76,7 @@ def equilibrium_state(
     x[k.X_ARM_TH] = elevation_rad
     x[k.X_T_IN] = tension_n
     x[k.X_T_OUT] = tension_n
+    x[k.X_DISTAL_STRETCH] = tension_n / p[k.P_K_DISTAL]
     return x
 
 
@@ -103,6 +104,7 @@ class PlantState:
     motor_friction_dissipated_j: float
     spool_work_j: float
     arm_work_j: float
+    distal_stretch_m: float
 
     @classmethod
     def from_vector(cls, x: NDArray[np.float64]) -> PlantState:
@@ -122,13 +124,16 @@ class PlantState:
             motor_friction_dissipated_j=float(x[k.X_E_MOTOR]),
             spool_work_j=float(x[k.X_W_SPOOL]),
             arm_work_j=float(x[k.X_W_ARM]),
+            distal_stretch_m=float(x[k.X_DISTAL_STRETCH]),
         )
 
     def elastic_energy_j(self, parameters: SuitParameters) -> float:
-        """Energy stored in the two cable segments, ½T²/k each (only a taut segment stores any)."""
+        """Energy stored in the two cable segments (only a taut segment stores any): ½T_in²/k_c on the
+        motor side, ½k_d·e² distal (its tension also carries the damper's force)."""
         t = parameters.transmission
         stored_in = 0.5 * self.sheath_entry_tension_n**2 / t.cable_stiffness_n_m
-        return stored_in + 0.5 * self.anchor_tension_n**2 / t.distal_stiffness_n_m
+        stretch = max(0.0, self.distal_stretch_m)
+        return stored_in + 0.5 * t.distal_stiffness_n_m * stretch**2
 
 
 class Plant:
