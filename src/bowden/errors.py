@@ -67,3 +67,7 @@ class RequestError(BowdenError, ValueError):
 
 class AccessDeniedError(BowdenError, PermissionError):
     """A request lacks the session token (or carries a wrong one): nothing was changed."""
+
+
+class ConflictError(BowdenError, RuntimeError):
+    """A request conflicts with the current state (a trial already running, answers already stored)."""
