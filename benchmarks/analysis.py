@@ -104,13 +104,15 @@ def main(argv: list[str] | None = None) -> None:
             run()
             timings[name] += time.perf_counter() - start
     print(
-        f"study: {args.participants} participants, {n_trials} trials, 8 muscles, {samples / 1e6:.0f} M samples"
+        f"study: {args.participants} participants, {n_trials} trials, 8 muscles, "
+        f"{samples / 1e6:.0f} M samples"
     )
     for name, seconds in timings.items():
         print(f"  {name:28s} {seconds:7.2f} s")
     ours = timings["bowden paper pipeline"]
     print(
-        f"target {TARGET_S:.0f} s: {'met' if ours <= TARGET_S else 'NOT met'} ({ours / TARGET_S:.2f} of the budget)"
+        f"target {TARGET_S:.0f} s: {'met' if ours <= TARGET_S else 'NOT met'} "
+        f"({ours / TARGET_S:.2f} of the budget)"
     )
     print(f"ratio bowden paper pipeline / pyemgpipeline: {ours / timings['pyemgpipeline']:.2f}")
     print(

@@ -110,3 +110,72 @@ def test_refuses_bad_peaks_and_parameters():
     with pytest.raises(ParameterError, match="method"):
         EcgRemovalParameters(method="ica")  # type: ignore[arg-type]
     assert np.array_equal(emg_remove_ecg(signal, []).values, signal.values)
+
+
+def _brute_force_adaptive(y, peaks, rate_hz, params):
+    """Straightforward per-beat, per-variant least squares (np.linalg.lstsq), written independently."""
+    from scipy.interpolate import PchipInterpolator
+
+    n = y.size
+    qrs = round(params.qrs_half_width_s * rate_hz)
+    s, m = params.stretch_samples, params.max_shift_samples
+    peaks = peaks[(peaks - qrs - s - m >= 0) & (peaks + qrs + s + m < n)]
+    rr_half = int(np.median(np.diff(peaks))) // 2
+    bounds = [
+        (
+            max(0, (peaks[k - 1] + peaks[k]) // 2 if k else peaks[0] - rr_half),
+            min(n, (peaks[k] + peaks[k + 1]) // 2 if k + 1 < peaks.size else peaks[-1] + rr_half + 1),
+        )
+        for k in range(peaks.size)
+    ]
+    out = y.copy()
+    for k, r in enumerate(peaks):
+        neighbours = [
+            j
+            for j in range(k - params.template_beats // 2, k + params.template_beats // 2 + 1)
+            if 0 <= j < peaks.size and j != k
+        ]
+
+        def template_at(offset, neighbours=neighbours):
+            vals = [
+                y[peaks[j] + offset] for j in neighbours if bounds[j][0] <= peaks[j] + offset < bounds[j][1]
+            ]
+            return np.mean(vals) if vals else 0.0
+
+        qrs_part = np.array([template_at(o) for o in range(-qrs, qrs + 1)])
+        qrs_t = qrs_part - qrs_part.mean()
+        scores = [
+            np.dot(qrs_t, y[r + lag - qrs : r + lag + qrs + 1] - y[r + lag - qrs : r + lag + qrs + 1].mean())
+            for lag in range(-m, m + 1)
+        ]
+        ra = r + int(np.argmax(scores)) - m
+        offsets = np.arange(bounds[k][0] - ra, bounds[k][1] - ra)
+        base = np.array([template_at(o) for o in offsets])
+        pchip = PchipInterpolator(np.arange(-qrs, qrs + 1), qrs_part)
+        best = None
+        for d in range(-s, s + 1):
+            w = qrs + d
+            t = base.copy()
+            in_qrs = np.abs(offsets) <= w
+            t[in_qrs] = pchip(offsets[in_qrs] * qrs / w)
+            fit = np.empty_like(t)
+            sse = 0.0
+            for mask in (offsets < -w, in_qrs, offsets > w):
+                design = np.column_stack([t[mask], np.ones(mask.sum())])
+                coef = np.linalg.lstsq(design, y[ra + offsets[mask]], rcond=None)[0]
+                fit[mask] = design @ coef
+                sse += float(np.sum((y[ra + offsets[mask]] - fit[mask]) ** 2))
+            if best is None or sse < best[0]:
+                best = (sse, fit)
+        out[ra + offsets] -= best[1]
+    return out
+
+
+def test_adaptive_subtraction_equals_a_brute_force_reference(contaminated_emg):
+    case = contaminated_emg(duration_s=12.0, seed=9, emg_rms_v=60e-6)
+    band = emg_filter(EmgSignal(values=case.raw_v, rate_hz=RATE_HZ))
+    params = EcgRemovalParameters(template_beats=6, stretch_samples=4, max_shift_samples=3)
+    ours = emg_remove_ecg(band, case.r_peaks, parameters=params).values[:, 0]
+    reference = _brute_force_adaptive(band.values[:, 0], case.r_peaks, RATE_HZ, params)
+    scale = np.max(np.abs(band.values))
+    assert np.max(np.abs(ours - reference)) < 1e-9 * scale

@@ -107,11 +107,11 @@ def emg_remove_ecg(
     if peaks.size and (peaks[0] < 0 or peaks[-1] >= emg.n_samples or np.any(np.diff(peaks) <= 0)):
         raise RecordingError(f"r_peaks must be increasing sample indices within 0..{emg.n_samples - 1}")
     names = emg.channels if channels is None else channels
-    out = np.array(emg.values)
-    for name in names:
-        emg.channel(name)  # raises a RecordingError naming a missing channel
-        column = emg.channels.index(name)
-        out[:, column] = remove_ecg_from_channel(out[:, column], peaks, emg.rate_hz, params)
+    cleaned = {
+        name: remove_ecg_from_channel(np.asarray(emg.channel(name)), peaks, emg.rate_hz, params)
+        for name in names
+    }
+    out = np.column_stack([cleaned.get(name, emg.values[:, i]) for i, name in enumerate(emg.channels)])
     return emg.with_values(out, adopt=True)
 
 

@@ -103,8 +103,11 @@ def emg_check(emg: EmgSignal, parameters: EmgCheckParameters | None = None) -> N
         if std < params.flat_std_v:
             problems.append(f"channel {name!r} is flat (standard deviation {std:.3g} V)")
             continue
-        at_rail = (x >= x.max() - 1e-9 * (x.max() - x.min())) | (x <= x.min() + 1e-9 * (x.max() - x.min()))
         runs = _runs_of_equal(x)
+        if not runs:
+            continue  # no two equal neighbours: neither clipped nor stuck
+        tolerance = 1e-9 * (x.max() - x.min())
+        at_rail = (x >= x.max() - tolerance) | (x <= x.min() + tolerance)
         clipped = int(sum(length for first, length in runs if length >= 3 and at_rail[first]))
         if clipped > params.max_clipped_fraction * x.size:
             problems.append(

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from bowden.analysis.emg_ecg import EcgRemovalParameters, emg_remove_ecg
+from bowden.analysis.emg_ecg import EcgRemovalParameters, remove_ecg_from_channel
 from bowden.analysis.emg_filter import emg_envelope, emg_filter, emg_rectify
 from bowden.analysis.emg_io import EmgCheckParameters, emg_check
 from bowden.analysis.emg_rpeaks import emg_detect_r_peaks
@@ -138,11 +138,15 @@ def emg_pipeline(emg: EmgSignal, parameters: EmgProcessParameters | None = None)
     filtered = emg_filter(emg, low_hz=params.low_hz, high_hz=params.high_hz, order=params.filter_order)
     if params.ecg_removal != "none" and targets:
         ecg_params = replace(params.ecg, method=params.ecg_removal)
-        if len({id(p) for p in peaks.values()}) == 1:  # one shared reference: one call cleans all
-            filtered = emg_remove_ecg(filtered, peaks[targets[0]], channels=targets, parameters=ecg_params)
-        else:
-            for name in targets:
-                filtered = emg_remove_ecg(filtered, peaks[name], channels=(name,), parameters=ecg_params)
+        # Channel by channel (each may have its own R-peaks), then one copy of the whole signal.
+        cleaned = {
+            name: remove_ecg_from_channel(
+                np.asarray(filtered.channel(name)), peaks[name], emg.rate_hz, ecg_params
+            )
+            for name in targets
+        }
+        columns = [cleaned.get(name, filtered.values[:, i]) for i, name in enumerate(filtered.channels)]
+        filtered = filtered.with_values(np.column_stack(columns), adopt=True)
     envelope = emg_envelope(emg_rectify(filtered), window_s=params.envelope_window_s)
     info = EmgProcessInfo(
         rate_hz=emg.rate_hz,
