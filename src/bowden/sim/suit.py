@@ -123,26 +123,42 @@ def _latest_sample_index(times: np.ndarray, rate_hz: float, last: int) -> tuple[
 
 
 class SimulatedImu:
-    """Upper-arm IMU: elevation and elevation speed at its sample rate, with noise and bias."""
+    """Upper-arm IMU: elevation and elevation speed at its sample rate, with noise, bias and latency
+    (a sample stamped ``t`` becomes readable at ``t`` and shows the arm as it was at ``t − latency``)."""
 
     def __init__(self, suit: SimulatedSuit) -> None:
         self._suit = suit
         self._latest: ElevationSample | None = None
         self._last_index = -1
+        x = suit.plant.state_vector
+        self._history_t = np.array([0.0])
+        self._history_th = np.array([float(x[k.X_ARM_TH])])
+        self._history_thd = np.array([float(x[k.X_ARM_THD])])
+
+    def _remember(self, times: np.ndarray, record: np.ndarray) -> None:
+        keep_s = self._suit.parameters.imu.latency_s + 0.05
+        t = np.concatenate([self._history_t, times])
+        first = int(np.searchsorted(t, t[-1] - keep_s))
+        self._history_t = t[first:]
+        self._history_th = np.concatenate([self._history_th, record[:, k.R_TH]])[first:]
+        self._history_thd = np.concatenate([self._history_thd, record[:, k.R_THD]])[first:]
 
     def sample(self, times: np.ndarray, record: np.ndarray) -> None:
         imu = self._suit.parameters.imu
+        self._remember(times, record)
         index, row = _latest_sample_index(times, imu.sample_rate_hz, self._last_index)
         if row < 0:
             return
         self._last_index = index
+        sample_time = index / imu.sample_rate_hz
+        seen = sample_time - imu.latency_s
+        th = float(np.interp(seen, self._history_t, self._history_th))
+        thd = float(np.interp(seen, self._history_t, self._history_thd))
         rng = self._suit._rng
         self._latest = ElevationSample(
-            time_s=index / imu.sample_rate_hz,
-            elevation_rad=float(record[row, k.R_TH])
-            + imu.elevation_bias_rad
-            + imu.elevation_noise_rad * float(rng.standard_normal()),
-            elevation_velocity_rad_s=float(record[row, k.R_THD])
+            time_s=sample_time,
+            elevation_rad=th + imu.elevation_bias_rad + imu.elevation_noise_rad * float(rng.standard_normal()),
+            elevation_velocity_rad_s=thd
             + imu.velocity_bias_rad_s
             + imu.velocity_noise_rad_s * float(rng.standard_normal()),
         )
