@@ -64,12 +64,9 @@ class HtmlDocument:
         self.parts.append(table_html)
 
     def figure(self, fig: Any, caption: str, dpi: int = 110) -> None:
-        """Embed a matplotlib figure as a PNG data URI and close it."""
+        """Embed a matplotlib figure (with a canvas attached) as a PNG data URI."""
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
         data = base64.b64encode(buffer.getvalue()).decode("ascii")
         self.parts.append(
             f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'

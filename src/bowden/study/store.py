@@ -262,6 +262,14 @@ class StudyStore:
             for r in rows
         ]
 
+    def trial_metadata(self, trial_id: int) -> dict[str, Any]:
+        """The JSON metadata recorded with a trial (backend, seed, versions...)."""
+        row = self._db.execute("SELECT metadata FROM trials WHERE id = ?", (trial_id,)).fetchone()
+        if row is None:
+            raise StoreError(f"no trial {trial_id} in {self.path}")
+        metadata: dict[str, Any] = json.loads(row[0])
+        return metadata
+
     def discard_unfinished_trials(self) -> int:
         """Delete trials a crash left open (with their samples and EMG); return how many."""
         with self._db:

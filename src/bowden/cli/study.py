@@ -1,0 +1,49 @@
+"""``bowden study``: the whole paper end to end on the simulated suit (the main job)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from bowden.study.pipeline import StudySettings, run_study
+from bowden.study.progress import StageProgress
+
+
+def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = subparsers.add_parser(
+        "study",
+        help="run the paper end to end on a simulated suit and a virtual cohort, and write the report",
+        description=(
+            "Simulate the mannequin bench, identify the transmission, run the study protocol on a virtual "
+            "cohort (no suit, pretension, 25 %% and 50 %% support at three speeds), analyse it, fit the "
+            "statistics and write an HTML report. Resumes an interrupted run in the same --out directory."
+        ),
+    )
+    parser.add_argument("--participants", type=int, default=17, help="cohort size (paper: 17)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of everything random (default 0)")
+    parser.add_argument("--repetitions", type=int, default=10, help="cycles per trial (paper: 10)")
+    parser.add_argument("--out", type=Path, default=Path("bowden-study"), help="study directory")
+    parser.add_argument("--quick-bench", action="store_true", help="a reduced identification protocol")
+    parser.add_argument("--no-emg", action="store_true", help="do not keep raw sEMG in the store")
+    parser.add_argument("--force", action="store_true", help="redo every stage from scratch")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    settings = StudySettings(
+        participants=args.participants,
+        seed=args.seed,
+        repetitions=args.repetitions,
+        quick_bench=args.quick_bench,
+        store_emg=not args.no_emg,
+    )
+    result = run_study(settings, args.out, force=args.force, progress=StageProgress(enabled=not args.quiet))
+    print(f"study directory  {result.directory}")
+    print(f"trials           {result.trials_simulated} simulated, {result.trials_skipped} already done")
+    for stage, seconds in result.stage_seconds.items():
+        print(f"  {stage:<32} {seconds:6.1f} s")
+    if result.analysis is not None and result.analysis.statistics.failures:
+        print(f"models not fitted: {len(result.analysis.statistics.failures)} (see the report's notes)")
+    print(f"report           {result.report.resolve()}")
+    return 0

@@ -1,0 +1,110 @@
+"""The report's figures, drawn like the paper's, on matplotlib's Agg canvas (no pyplot state)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from bowden.contracts import CONDITION_LABELS, CONDITIONS, SPEED_PEAK_DEG_S, SPEEDS
+
+# The paper's colours: no suit purple, pretension blue, 25 % red, 50 % yellow.
+CONDITION_COLOURS = {
+    "no_suit": "#7b3294",
+    "pretension": "#2b83ba",
+    "support_25": "#d7191c",
+    "support_50": "#e6b800",
+}
+
+
+def _figure(width: float, height: float) -> Figure:
+    figure = Figure(figsize=(width, height), dpi=100, layout="constrained")
+    FigureCanvasAgg(figure)
+    return figure
+
+
+def participant_curves(curves: pd.DataFrame, participant: str) -> Figure:
+    """One participant's mean ± SD over the kept repetitions (paper's single-participant figure).
+
+    Rows: elevation, shoulder torque and cable tension (reference in black), EMG of the anterior and
+    posterior deltoid; columns: speeds.
+    """
+    rows = (
+        ("elevation_rad", None, "elevation (deg)", np.degrees),
+        ("torque_nm", "desired_torque_nm", "torque (Nm)", None),
+        ("tension_n", "desired_tension_n", "tension (N)", None),
+        ("emg_anterior_deltoid", None, "ant. deltoid (norm.)", None),
+        ("emg_posterior_deltoid", None, "post. deltoid (norm.)", None),
+    )
+    data = curves[curves["participant"] == participant]
+    figure = _figure(11.0, 12.0)
+    axes = figure.subplots(len(rows), len(SPEEDS), sharex=True, squeeze=False)
+    for col, speed in enumerate(SPEEDS):
+        axes[0, col].set_title(f"{speed} ({SPEED_PEAK_DEG_S[speed]:.0f} °/s)")
+        for row, (signal, reference, label, scale) in enumerate(rows):
+            ax = axes[row, col]
+            for condition in CONDITIONS:
+                _band(ax, data, condition, speed, signal, scale, CONDITION_COLOURS[condition])
+                if reference is not None and condition == "support_50":
+                    _band(ax, data, condition, speed, reference, scale, "black", dashed=True)
+            if col == 0:
+                ax.set_ylabel(label)
+            if row == len(rows) - 1:
+                ax.set_xlabel("normalised time (%)")
+    handles = [
+        axes[0, 0].plot([], [], color=CONDITION_COLOURS[c], label=CONDITION_LABELS[c])[0] for c in CONDITIONS
+    ]
+    handles.append(axes[0, 0].plot([], [], color="black", linestyle="--", label="reference (50 %)")[0])
+    figure.legend(handles=handles, loc="outside upper center", ncols=len(handles))
+    return figure
+
+
+def _band(
+    ax: Axes,
+    data: pd.DataFrame,
+    condition: str,
+    speed: str,
+    signal: str,
+    scale: object,
+    colour: str,
+    dashed: bool = False,
+) -> None:
+    part = data[(data["condition"] == condition) & (data["speed"] == speed) & (data["signal"] == signal)]
+    if part.empty or part["mean"].isna().all():
+        return
+    x = 100.0 * part["normalised_time"].to_numpy()
+    mean, sd = part["mean"].to_numpy(), part["sd"].fillna(0.0).to_numpy()
+    if callable(scale):
+        mean, sd = scale(mean), scale(sd)
+    ax.plot(x, mean, color=colour, linestyle="--" if dashed else "-", linewidth=1.2)
+    if not dashed:
+        ax.fill_between(x, mean - sd, mean + sd, color=colour, alpha=0.2, linewidth=0)
+
+
+def condition_boxplots(data: pd.DataFrame, ylabel: str, title: str) -> Figure:
+    """Boxplots per speed and condition of participants' means, one dot per participant (paper style).
+
+    ``data``: columns participant, condition, speed, value (repetition level; averaged here).
+    """
+    means = data.groupby(["participant", "condition", "speed"], as_index=False)["value"].mean()
+    figure = _figure(10.0, 3.4)
+    axes = figure.subplots(1, len(SPEEDS), sharey=True, squeeze=False)[0]
+    rng = np.random.default_rng(0)  # jitter only; fixed so the report is reproducible
+    present = [c for c in CONDITIONS if c in set(means["condition"])]
+    for ax, speed in zip(axes, SPEEDS, strict=True):
+        groups = [
+            means[(means["speed"] == speed) & (means["condition"] == c)]["value"].to_numpy() for c in present
+        ]
+        box = ax.boxplot(groups, patch_artist=True, widths=0.6, showfliers=False)
+        for patch, condition in zip(box["boxes"], present, strict=True):
+            patch.set_facecolor(CONDITION_COLOURS[condition])
+            patch.set_alpha(0.35)
+        for i, values in enumerate(groups, start=1):
+            ax.scatter(i + rng.uniform(-0.12, 0.12, values.size), values, s=9, color="black", zorder=3)
+        ax.set_xticks(range(1, len(present) + 1), [CONDITION_LABELS[c] for c in present])
+        ax.set_title(f"{speed} ({SPEED_PEAK_DEG_S[speed]:.0f} °/s)")
+    axes[0].set_ylabel(ylabel)
+    figure.suptitle(title)
+    return figure

@@ -1,0 +1,265 @@
+"""The study report: one self-contained HTML file with the paper's tables and figures.
+
+Every table the simulation reproduces stands beside the paper's published numbers; simulated results
+are labelled as simulated in the title, a banner and every table caption.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+import pandas as pd
+
+from bowden import __version__
+from bowden.analysis import MethodsText
+from bowden.analysis.outcomes import (
+    IEMG_PREFIX,
+    PEAK_PERCENT_ERROR,
+    PEAK_PERCENT_ERROR_TIME,
+    PERCENT_ERROR_RMSE,
+    TENSION_RMSE,
+    TORQUE_RMSE,
+    StudyOutcomes,
+)
+from bowden.contracts import CONDITION_LABELS, CONDITIONS, SPEEDS
+from bowden.model import CompensationModel
+from bowden.model.transmission import friction_from_slopes
+from bowden.stats import effects_table, pairwise_table, significance_html, significance_table
+from bowden.study import figures, paper_values
+from bowden.study.html import HtmlDocument
+from bowden.study.statistics import StudyStatistics, outcome_data
+
+
+@dataclass
+class ReportInputs:
+    """What the report is made of."""
+
+    outcomes: StudyOutcomes
+    statistics: StudyStatistics
+    methods: MethodsText
+    model: CompensationModel | None
+    simulated: bool
+    n_participants: int
+    n_trials: int
+    identification_figure: object | None = None
+    identification_text: str = ""
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def _tracking_table(outcomes: StudyOutcomes, measure: str) -> pd.DataFrame | None:
+    data = outcomes.outcomes
+    if data[data["measure"] == measure].empty:
+        return None
+    table = outcomes.rmse_table(measure)
+    return table.drop(index=[c for c in table.index if c == "no_suit"], errors="ignore")
+
+
+def _side_by_side(ours: pd.DataFrame, paper: pd.DataFrame, label: str) -> pd.DataFrame:
+    combined = pd.concat({label: ours, "paper": paper.reindex(columns=ours.columns)}, names=["source"])
+    return combined.rename(index=CONDITION_LABELS, level="condition")
+
+
+def _peak_table(outcomes: pd.DataFrame, phase: str) -> pd.DataFrame | None:
+    """Mean (SD) over participants and repetitions of the peak percent error and its time, per speed."""
+    rows = {}
+    for condition in CONDITIONS[1:]:
+        cells = {}
+        for speed in SPEEDS:
+            for measure, name in (
+                (PEAK_PERCENT_ERROR, "peak error (%)"),
+                (PEAK_PERCENT_ERROR_TIME, "time (%)"),
+            ):
+                values = outcomes[
+                    (outcomes["measure"] == measure)
+                    & (outcomes["phase"] == phase)
+                    & (outcomes["condition"] == condition)
+                    & (outcomes["speed"] == speed)
+                ]["value"].dropna()
+                cells[(speed, name)] = (
+                    f"{values.mean():.1f} ({values.std(ddof=1):.1f})" if len(values) > 1 else "–"
+                )
+        rows[CONDITION_LABELS[condition]] = cells
+    table = pd.DataFrame.from_dict(rows, orient="index")
+    if (table == "–").all().all():
+        return None
+    table.columns = pd.MultiIndex.from_tuples(
+        [tuple(col) for col in table.columns], names=["speed", "quantity"]
+    )
+    return table
+
+
+def _paper_peak_table(phase: str) -> pd.DataFrame:
+    paper = paper_values.peak_percent_error(phase)
+    rows = {}
+    for condition in paper.index:
+        cells = {}
+        for speed in SPEEDS:
+            p = paper.loc[condition, speed]
+            cells[(speed, "peak error (%)")] = f"{p['peak_error_pct']:.1f} ({p['peak_error_sd']:.1f})"
+            cells[(speed, "time (%)")] = f"{p['normalised_time_pct']:.1f} ({p['normalised_time_sd']:.1f})"
+        rows[CONDITION_LABELS[condition]] = cells
+    table = pd.DataFrame.from_dict(rows, orient="index")
+    table.columns = pd.MultiIndex.from_tuples(
+        [tuple(col) for col in table.columns], names=["speed", "quantity"]
+    )
+    return table
+
+
+def _model_table(model: CompensationModel) -> pd.DataFrame:
+    rows = []
+    for name, line, fit in (
+        ("raising", model.raising, model.raising_fit),
+        ("lowering", model.lowering, model.lowering_fit),
+    ):
+        rows.append(
+            {
+                "line": name,
+                "intercept (Nm)": line.intercept_nm,
+                "slope (mm)": 1000.0 * line.slope_m,
+                "R² (fitlm robust)": fit.r_squared_robust if fit else math.nan,
+                "R² (OLS, corr²)": fit.r_squared_ols if fit else math.nan,
+                "n": fit.n if fit else math.nan,
+            }
+        )
+    return pd.DataFrame(rows).set_index("line")
+
+
+def build_report(inputs: ReportInputs) -> HtmlDocument:
+    """Assemble the report document."""
+    kind = "simulated" if inputs.simulated else "measured"
+    title = "bowden study report" + (" — SIMULATED cohort" if inputs.simulated else "")
+    doc = HtmlDocument(title)
+    if inputs.simulated:
+        doc.banner(
+            "Simulated data: virtual participants on a simulated suit (bowden.sim). These results "
+            "demonstrate the pipeline and the controller's behaviour; they are not human data and must "
+            "not be reported as such. The paper's published values are shown beside them for comparison."
+        )
+    doc.paragraph(
+        f"{inputs.n_participants} participants, {inputs.n_trials} trials. Generated "
+        f"{datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')} by bowden {__version__}.",
+        "note",
+    )
+    outcomes = inputs.outcomes.outcomes
+
+    doc.heading("Transmission identification")
+    if inputs.model is not None:
+        doc.table(_model_table(inputs.model), f"Identified compensation lines ({kind} bench)", "{:.4g}")
+        try:
+            k = friction_from_slopes(inputs.model.raising.slope_m, inputs.model.lowering.slope_m)
+            doc.paragraph(f"Implied friction factor k = μ·sin(φ/2) = {k:.3f}.")
+        except ValueError:
+            doc.paragraph("The slopes do not fit one friction factor (raising slope below lowering).")
+    if inputs.identification_text:
+        doc.raw_table(f"<pre>{html.escape(inputs.identification_text)}</pre>")
+    if inputs.identification_figure is not None:
+        doc.figure(
+            inputs.identification_figure, "Motor torque against load-cell tension, raising and lowering"
+        )
+
+    doc.heading("Tension and torque tracking")
+    for measure, paper, caption, fmt in (
+        (TENSION_RMSE, paper_values.tension_rmse_n(), "Tension tracking RMSE (N)", "{:.2f}"),
+        (TORQUE_RMSE, paper_values.torque_rmse_nm(), "Shoulder torque tracking RMSE (Nm)", "{:.2f}"),
+        (PERCENT_ERROR_RMSE, paper_values.percent_error_rmse(), "RMSE of the percent error (%)", "{:.1f}"),
+    ):
+        ours = _tracking_table(inputs.outcomes, measure)
+        if ours is None:
+            doc.paragraph(f"{caption}: no load-cell data in this study.")
+            continue
+        doc.table(_side_by_side(ours, paper, kind), f"{caption}, {kind} vs the paper", fmt)
+    for phase in ("raising", "lowering"):
+        ours_peak = _peak_table(outcomes, phase)
+        if ours_peak is not None:
+            both = pd.concat({kind: ours_peak, "paper": _paper_peak_table(phase)}, names=["source"])
+            doc.table(
+                both, f"Peak percent error while {phase}, mean (SD), and its normalised time, {kind} vs paper"
+            )
+
+    participants = sorted(set(inputs.outcomes.curves["participant"]))
+    if participants:
+        doc.figure(
+            figures.participant_curves(inputs.outcomes.curves, participants[0]),
+            f"Participant {participants[0]} ({kind}): mean ± SD over the kept repetitions",
+            dpi=80,
+        )
+
+    doc.heading("Trajectory tracking and smoothness")
+    for measure, label in (("elevation_rmse_rad", "Elevation RMSE (deg)"), ("sparc", "SPARC (sign flipped)")):
+        data = outcome_data(outcomes, measure, "entire")
+        if not data.empty:
+            doc.figure(
+                figures.condition_boxplots(data, label, f"{label}, {kind}"), f"{label} per participant"
+            )
+    if inputs.statistics.kinematics:
+        doc.table(
+            effects_table(inputs.statistics.kinematics),
+            f"Elevation RMSE and SPARC, mean (SD) and GLMM p-values, {kind}",
+        )
+        paper_kin = paper_values.kinematics()
+        paper_kin["cell"] = [
+            f"{m:.3f} ({s:.3f})" for m, s in zip(paper_kin["mean"], paper_kin["spread"], strict=True)
+        ]
+        wide = paper_kin.pivot(index=["outcome", "speed"], columns="condition", values="cell")
+        doc.table(
+            wide.reindex(columns=list(CONDITIONS)).rename(columns=CONDITION_LABELS), "The paper's values"
+        )
+        doc.table(
+            pairwise_table(inputs.statistics.kinematics, factor="condition"), f"Conditions compared, {kind}"
+        )
+        doc.table(pairwise_table(inputs.statistics.kinematics, factor="speed"), f"Speeds compared, {kind}")
+
+    doc.heading("Muscle activity (iEMG)")
+    for muscle in ("anterior_deltoid", "posterior_deltoid"):
+        data = outcome_data(outcomes, IEMG_PREFIX + muscle, "entire")
+        if not data.empty:
+            label = muscle.replace("_", " ")
+            doc.figure(
+                figures.condition_boxplots(data, "normalised iEMG", f"{label}, {kind}"),
+                f"Mean normalised iEMG of the {label}",
+            )
+    for phase in ("raising", "lowering"):
+        fits = inputs.statistics.iemg.get(phase, [])
+        if not fits:
+            continue
+        doc.table(effects_table(fits), f"iEMG while {phase}: mean (SD) and GLMM p-values, {kind}")
+        doc.raw_table(
+            significance_html(
+                significance_table(fits, factor="condition"),
+                caption=f"iEMG change between conditions while {phase} ({kind}): green decrease, red "
+                "increase; ** p < 0.001, * p < 0.05 (Holm)",
+            )
+        )
+
+    doc.heading("Questionnaires")
+    if inputs.statistics.questionnaires.empty:
+        doc.paragraph("No questionnaire answers in this study.")
+    else:
+        doc.table(
+            inputs.statistics.questionnaires.set_index(["questionnaire", "item"]),
+            f"Friedman tests across conditions ({kind}); medians per condition",
+            "{:.3g}",
+        )
+        for name, table in inputs.statistics.questionnaire_posthoc.items():
+            doc.table(table, f"{name}: Bonferroni post-hoc (MATLAB multcompare)", "{:.3g}")
+
+    doc.heading("Methods")
+    doc.paragraph(inputs.methods.paragraph)
+    doc.raw_table(
+        "<ol>" + "".join(f"<li>{html.escape(ref)}</li>" for ref in inputs.methods.references) + "</ol>"
+    )
+    if inputs.statistics.failures or inputs.outcomes.info.notes:
+        doc.heading("Notes")
+        for note in (*inputs.outcomes.info.notes, *inputs.statistics.failures):
+            doc.paragraph(note, "note")
+    if inputs.timings:
+        doc.table(pd.DataFrame({"seconds": inputs.timings}).rename_axis("stage"), "Time per stage", "{:.1f}")
+    return doc
+
+
+def write_report(inputs: ReportInputs, path: str | Path) -> Path:
+    return build_report(inputs).write(path)

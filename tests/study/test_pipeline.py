@@ -1,0 +1,84 @@
+"""A reduced study end to end: bench → identification → cohort → trials → analysis → stats → report."""
+
+import re
+
+import numpy as np
+import pytest
+
+from bowden.cli import main
+from bowden.errors import ParameterError
+from bowden.study.pipeline import StudySettings, run_study
+from bowden.study.store import StudyStore
+
+SETTINGS = StudySettings(participants=3, repetitions=2, quick_bench=True, seed=4)
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    out = tmp_path_factory.mktemp("study")
+    return run_study(SETTINGS, out)
+
+
+def test_every_stage_ran_and_the_report_is_labelled_simulated(study):
+    assert study.trials_simulated == 3 * 4 * 3 and study.trials_skipped == 0
+    text = study.report.read_text(encoding="utf-8")
+    assert "SIMULATED" in text and "not human data" in text
+    for caption in (
+        "Tension tracking RMSE (N), simulated vs the paper",
+        "Shoulder torque tracking RMSE (Nm), simulated vs the paper",
+        "RMSE of the percent error (%), simulated vs the paper",
+        "Elevation RMSE and SPARC, mean (SD) and GLMM p-values, simulated",
+        "iEMG while raising: mean (SD) and GLMM p-values, simulated",
+        "Friedman tests across conditions (simulated)",
+    ):
+        assert caption in text
+    assert text.count("data:image/png;base64,") >= 5
+    assert "nan" not in re.sub(r"<[^>]+>", " ", text).lower().split()
+    assert "<script" not in text and "http://" not in text and "https://" not in text
+
+
+def test_outcomes_are_finite_and_stored(study):
+    with StudyStore(study.store) as store:
+        outcomes = store.outcomes()
+        assert len(store.completed_trials()) == 36
+        assert set(store.questionnaires()["participant"]) == {"P01", "P02", "P03"}
+    values = outcomes[outcomes["measure"].isin(["tension_rmse_n", "elevation_rmse_rad", "sparc"])]["value"]
+    assert len(values) > 0 and np.isfinite(values).all()
+    # Tension errors exist only where a suit was worn.
+    tension = outcomes[outcomes["measure"] == "tension_rmse_n"]
+    assert set(tension["condition"]) == {"pretension", "support_25", "support_50"}
+
+
+def test_a_second_run_resumes_without_simulating_again(study):
+    again = run_study(SETTINGS, study.directory)
+    assert again.trials_simulated == 0 and again.trials_skipped == 36
+
+
+def test_other_settings_in_the_same_directory_are_refused(study):
+    with pytest.raises(ParameterError, match="--force"):
+        run_study(StudySettings(participants=4, repetitions=2, quick_bench=True), study.directory)
+
+
+def test_analyze_command_on_the_store(study, tmp_path, capsys):
+    report = tmp_path / "again.html"
+    code = main(
+        [
+            "analyze",
+            str(study.directory),
+            "--report",
+            str(report),
+            "--quiet",
+            "--export",
+            str(tmp_path / "export"),
+            "--format",
+            "csv",
+        ]
+    )
+    assert code == 0
+    assert report.exists() and (tmp_path / "export" / "outcomes.csv").exists()
+    assert "analysed 36 trials" in capsys.readouterr().out
+
+
+def test_analyze_command_on_a_missing_store(tmp_path, capsys):
+    assert main(["analyze", str(tmp_path / "nothing")]) == 1
+    assert "no study store" in capsys.readouterr().err
