@@ -82,7 +82,8 @@ def test_tension_error_grows_with_support_and_lowering_exceeds_raising() -> None
         trial = simulate_trial(participant, condition, "V2", model=MODEL, settings=SHORT, seed=1)
         masks = phase_masks(trial)
         errors[condition] = {
-            phase: rmse(trial[TRUE_TENSION][m], trial[c.TRIAL_DESIRED_TENSION][m]) for phase, m in masks.items()
+            phase: rmse(trial[TRUE_TENSION][m], trial[c.TRIAL_DESIRED_TENSION][m])
+            for phase, m in masks.items()
         }
     assert errors[c.CONDITION_SUPPORT_50]["entire"] > errors[c.CONDITION_PRETENSION]["entire"]
     assert errors[c.CONDITION_SUPPORT_50]["lowering"] > errors[c.CONDITION_SUPPORT_50]["raising"]

@@ -73,6 +73,8 @@ def test_agonists_work_while_holding_the_arm_up_and_antagonists_when_pulled_down
     assert lifting[-1, ad] > 0.15 > lifting[-1, pd]
     assert pulling[-1, pd] > 0.15 > pulling[-1, ad]
     # Eccentric lowering needs less activation for the same torque.
-    lowering = muscle_activations(np.full(n, 10.0), th, np.full(n, -1.0), sample_rate_hz=500.0, max_torque_nm=44.0)
+    lowering = muscle_activations(
+        np.full(n, 10.0), th, np.full(n, -1.0), sample_rate_hz=500.0, max_torque_nm=44.0
+    )
     assert lowering[-1, ad] < lifting[-1, ad]
     assert lifting[-1, ad] == pytest.approx(0.01 + 1.0 * 10 / 44 + 0.6 * 0.01, rel=1e-3)

@@ -100,7 +100,9 @@ def test_imu_latency_delays_the_elevation() -> None:
     imu = ImuParameters(elevation_noise_rad=0.0, elevation_bias_rad=0.0, velocity_noise_rad_s=0.0,
                         velocity_bias_rad_s=0.0, latency_s=0.05, sample_rate_hz=400.0)
     speed = 0.5
-    arm = PrescribedArm(elevation_rad=lambda t: 0.5 + speed * t, elevation_velocity_rad_s=lambda t: speed + 0 * t)
+    arm = PrescribedArm(
+        elevation_rad=lambda t: 0.5 + speed * t, elevation_velocity_rad_s=lambda t: speed + 0 * t
+    )
     suit = SimulatedSuit(SuitParameters(imu=imu), arm)
     suit.clock.sleep_until(1.0)
     sample = suit.elevation_sensor.read()

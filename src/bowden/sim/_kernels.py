@@ -259,10 +259,7 @@ def motor_step(
         a += dt * dt * radius * radius * p[P_K_CABLE] / j
     v = x[X_SPOOL_W] + dt / j * (x[X_MOTOR_TAU] - radius * t_in)
     impulse = dt * p[P_MOTOR_COULOMB] / j
-    if abs(v) <= impulse:
-        w_new = 0.0
-    else:
-        w_new = (v - math.copysign(impulse, v)) / a
+    w_new = 0.0 if abs(v) <= impulse else (v - math.copysign(impulse, v)) / a
     x[X_E_MOTOR] += (p[P_MOTOR_COULOMB] * abs(w_new) + p[P_MOTOR_VISCOUS] * w_new * w_new) * dt
     x[X_SPOOL_W] = w_new
     x[X_SPOOL_Q] += dt * w_new

@@ -157,7 +157,9 @@ class SimulatedImu:
         rng = self._suit._rng
         self._latest = ElevationSample(
             time_s=sample_time,
-            elevation_rad=th + imu.elevation_bias_rad + imu.elevation_noise_rad * float(rng.standard_normal()),
+            elevation_rad=th
+            + imu.elevation_bias_rad
+            + imu.elevation_noise_rad * float(rng.standard_normal()),
             elevation_velocity_rad_s=thd
             + imu.velocity_bias_rad_s
             + imu.velocity_noise_rad_s * float(rng.standard_normal()),
