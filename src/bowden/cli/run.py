@@ -232,18 +232,19 @@ def run(args: argparse.Namespace) -> int:
     support = _support(args.support)
     if args.backend == "can" and args.model is None:
         raise ParameterError("--backend can needs --model model.json (run `bowden identify` first)")
-    LoopConfig(rate_hz=args.rate, duration_s=args.duration)  # validate before touching hardware
+    # Everything that can be wrong with the arguments is found before any device is touched.
+    LoopConfig(rate_hz=args.rate, duration_s=args.duration)
+    trial = None
+    if args.record is not None:
+        metadata: dict[str, Any] = {"backend": args.backend, "rate_hz": args.rate, "bowden": __version__,
+                                    "model": str(args.model) if args.model else "ideal (simulation)"}
+        trial = TrialInfo(participant=args.participant, condition=_condition(support, args.condition),
+                          speed=args.speed, support=support if isinstance(support, float) else None,
+                          metadata=metadata)
     opener = open_sim_backend(speed=args.speed) if args.backend == "sim" else open_can_backend(args)
     with opener as backend:
         print(f"bowden run: {backend.describe}", file=sys.stderr)
-        recorder = None
-        if args.record is not None:
-            metadata: dict[str, Any] = {"backend": args.backend, "rate_hz": args.rate, "bowden": __version__,
-                                        "model": str(args.model) if args.model else "ideal (simulation)"}
-            trial = TrialInfo(participant=args.participant, condition=_condition(support, args.condition),
-                              speed=args.speed, support=support if isinstance(support, float) else None,
-                              metadata=metadata)
-            recorder = Recorder(args.record, trial).start()
+        recorder = Recorder(args.record, trial).start() if trial is not None else None
         stop_reason = "error: the run did not finish"
         try:
             report = run_trial(args, backend, recorder)
