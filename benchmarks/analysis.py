@@ -90,6 +90,9 @@ def main(argv: list[str] | None = None) -> None:
     rng = np.random.default_rng(args.seed)
     params = EmgProcessParameters()
     timings = {"bowden paper pipeline": 0.0, "bowden same steps (no ECG)": 0.0, "pyemgpipeline": 0.0}
+    # CPU time of this process as well as wall time: on a shared machine the wall clock also counts
+    # the time other processes hold the cores, the CPU time does not.
+    cpu = dict.fromkeys(timings, 0.0)
     samples = 0
     n_trials = args.participants * len(CONDITIONS) * len(SPEEDS)
     for _ in range(n_trials):
@@ -100,19 +103,25 @@ def main(argv: list[str] | None = None) -> None:
             ("bowden same steps (no ECG)", lambda e=emg: bowden_same_steps(e)),
             ("pyemgpipeline", lambda e=emg: pyemgpipeline_steps(e)),
         ):
-            start = time.perf_counter()
+            start, start_cpu = time.perf_counter(), time.process_time()
             run()
             timings[name] += time.perf_counter() - start
+            cpu[name] += time.process_time() - start_cpu
     print(
         f"study: {args.participants} participants, {n_trials} trials, 8 muscles, "
         f"{samples / 1e6:.0f} M samples"
     )
+    print(f"  {'':28s} {'wall':>9s} {'CPU':>9s}")
     for name, seconds in timings.items():
-        print(f"  {name:28s} {seconds:7.2f} s")
+        print(f"  {name:28s} {seconds:7.2f} s {cpu[name]:7.2f} s")
     ours = timings["bowden paper pipeline"]
     print(
         f"target {TARGET_S:.0f} s: {'met' if ours <= TARGET_S else 'NOT met'} "
         f"({ours / TARGET_S:.2f} of the budget)"
+    )
+    print(
+        f"CPU time of the paper pipeline: {cpu['bowden paper pipeline']:.2f} s "
+        f"({'within' if cpu['bowden paper pipeline'] <= TARGET_S else 'over'} the budget)"
     )
     print(f"ratio bowden paper pipeline / pyemgpipeline: {ours / timings['pyemgpipeline']:.2f}")
     print(
