@@ -1,0 +1,142 @@
+"""Simulation speed and the simulated study's tension tracking, measured in one run.
+
+    .venv/bin/python benchmarks/simulation.py [--participants 17] [--table]
+
+Prints simulated seconds per wall second for the plant alone, for the SimulatedSuit driven by a
+Python control loop (as the runtime does) and for the batch study, and the wall time of the whole
+cohort protocol (17 participants x 4 conditions x 3 speeds x 10 repetitions; target <= 60 s, goal
+<= 20 s). With ``--table`` it also prints the tension RMSE table of docs/simulation.md, with the
+controller identified on the simulated bench.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from collections import defaultdict
+
+import numpy as np
+
+from bowden import contracts as c
+from bowden.control import build_controller
+from bowden.identify import TransmissionIdentifier
+from bowden.sim import PrescribedArm, SimulatedSuit, generate_cohort, run_bench, simulate_cohort
+from bowden.sim import _kernels as k
+from bowden.sim.parameters import ArmParameters, SuitParameters
+from bowden.sim.plant import Plant
+from bowden.sim.results import TRUE_TENSION, phase_masks, rmse
+
+
+def plant_rate() -> float:
+    plant = Plant(SuitParameters(), ArmParameters(), elevation_rad=1.0, tension_n=10.0)
+    n = 400_000  # 100 s
+    t = np.arange(n) * plant.substep_s
+    args = dict(motor_mode=k.MOTOR_TORQUE, command=np.array([0.4, 0, 0, 0, 0.0]), arm_mode=k.ARM_PRESCRIBED,
+                arm_a=1.0 + 0.5 * np.sin(t), arm_b=0.5 * np.cos(t))
+    plant.integrate(100, **{**args, "arm_a": args["arm_a"][:100], "arm_b": args["arm_b"][:100]})  # compile
+    start = time.perf_counter()
+    plant.integrate(n, **args)
+    return n * plant.substep_s / (time.perf_counter() - start)
+
+
+def loop_rate(model: object) -> float:
+    subject = generate_cohort(0)[0].subject
+    controller = build_controller(model=model, support=0.5, subject=subject)  # type: ignore[arg-type]
+    suit = SimulatedSuit(arm=PrescribedArm.hold(1.0), initial_tension_n=10.0)
+    suit.motor.enable()
+    t, duration = 0.0, 10.0
+    start = time.perf_counter()
+    while t < duration:
+        sample = suit.elevation_sensor.read()
+        torque = 0.0
+        if sample is not None:
+            torque = controller.step(t, sample.elevation_rad, sample.elevation_velocity_rad_s).torque_nm
+        suit.motor.command_torque(torque)
+        t += 0.002
+        suit.clock.sleep_until(t)
+    return duration / (time.perf_counter() - start)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--participants", type=int, default=17)
+    parser.add_argument("--table", action="store_true", help="print the tension RMSE table")
+    args = parser.parse_args()
+
+    start = time.perf_counter()
+    bench = run_bench(seed=0)
+    bench_wall = time.perf_counter() - start
+    model = TransmissionIdentifier().fit(bench).model_
+    print(f"bench: {bench['time_s'].iloc[-1]:.0f} s simulated in {bench_wall:.1f} s wall "
+          f"({bench['time_s'].iloc[-1] / bench_wall:.0f} simulated s per wall s)")
+    print(f"identified: raising {model.raising.slope_m:.5f} m, {model.raising.intercept_nm:+.4f} Nm; "
+          f"lowering {model.lowering.slope_m:.5f} m, {model.lowering.intercept_nm:+.4f} Nm")
+    print(f"plant alone: {plant_rate():.0f} simulated s per wall s")
+    print(f"SimulatedSuit + Controller.step in a Python loop at 500 Hz: {loop_rate(model):.1f} "
+          "simulated s per wall s")
+
+    cohort = generate_cohort(0, n_participants=args.participants, n_female=round(args.participants * 12 / 17))
+    start = time.perf_counter()
+    result = simulate_cohort(cohort, model=model, seed=0)
+    wall = time.perf_counter() - start
+    simulated = sum(t.duration_s for t in result.trials)
+    print(f"whole cohort ({len(cohort)} participants, {len(result.trials)} trials, "
+          f"{simulated:.0f} s simulated, questionnaires included): {wall:.1f} s wall, {simulated / wall:.0f} simulated s per wall s "
+          f"(target <= 60 s, goal <= 20 s)")
+    if args.table:
+        print_table(result)
+
+
+def print_table(result: object) -> None:
+    cells: dict[tuple[str, str, str], list[float]] = defaultdict(list)
+    peaks: dict[tuple[str, str], list[tuple[float, float]]] = defaultdict(list)
+    for trial in result.trials:  # type: ignore[attr-defined]
+        if not trial.wears_suit:
+            continue
+        desired, true = trial[c.TRIAL_DESIRED_TENSION], trial[TRUE_TENSION]
+        for phase, mask in phase_masks(trial).items():
+            cells[(trial.condition, trial.speed, phase)].append(rmse(true[mask], desired[mask]))
+        frac, rep = trial.cycle_fraction(), trial.repetition_index()
+        err = 100.0 * (true - desired) / desired
+        for r in range(1, trial.repetitions):
+            m = (rep == r) & (frac >= 0.5)
+            i = int(np.argmax(err[m]))
+            peaks[(trial.condition, trial.speed)].append((float(err[m][i]), 100.0 * float(frac[m][i])))
+    print("\n| Tension RMSE (N) | V1 entire | raise | lower | V2 entire | raise | lower "
+          "| V3 entire | raise | lower |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for condition in (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50):
+        row = [
+            f"{np.mean(cells[(condition, s, p)]):.2f}"
+            for s in c.SPEEDS
+            for p in ("entire", "raising", "lowering")
+        ]
+        print(f"| {c.CONDITION_LABELS[condition]} | " + " | ".join(row) + " |")
+    print("\n| Peak lowering error | V1 | V2 | V3 |")
+    print("|---|---|---|---|")
+    for condition in (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50):
+        row = []
+        for s in c.SPEEDS:
+            values = np.array(peaks[(condition, s)])
+            row.append(f"{values[:, 0].mean():.0f} % at {values[:, 1].mean():.0f} %")
+        print(f"| {c.CONDITION_LABELS[condition]} | " + " | ".join(row) + " |")
+    print("\n| Elevation RMSE (deg) | V1 | V2 | V3 |")
+    print("|---|---|---|---|")
+    for condition in c.CONDITIONS:
+        row = []
+        for s in c.SPEEDS:
+            values = []
+            for trial in result.trials:  # type: ignore[attr-defined]
+                if trial.condition == condition and trial.speed == s:
+                    m = phase_masks(trial)["entire"]
+                    error = rmse(trial[c.TRIAL_ELEVATION][m], trial[c.TRIAL_REFERENCE_ELEVATION][m])
+                    values.append(math.degrees(error))
+            row.append(f"{np.mean(values):.1f}")
+        print(f"| {c.CONDITION_LABELS[condition]} | " + " | ".join(row) + " |")
+
+
+if __name__ == "__main__":
+    main()
