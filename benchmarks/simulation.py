@@ -84,8 +84,8 @@ def main() -> None:
     wall = time.perf_counter() - start
     simulated = sum(t.duration_s for t in result.trials)
     print(f"whole cohort ({len(cohort)} participants, {len(result.trials)} trials, "
-          f"{simulated:.0f} s simulated, questionnaires included): {wall:.1f} s wall, {simulated / wall:.0f} simulated s per wall s "
-          f"(target <= 60 s, goal <= 20 s)")
+          f"{simulated:.0f} s simulated, questionnaires included): {wall:.1f} s wall, "
+          f"{simulated / wall:.0f} simulated s per wall s (target <= 60 s, goal <= 20 s)")
     if args.table:
         print_table(result)
 
