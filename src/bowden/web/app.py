@@ -1,0 +1,314 @@
+"""The web application: pages, the JSON API, and the two WebSockets.
+
+Pages (static files of this package, nothing fetched from elsewhere):
+
+* ``/display`` — the participant display; read-only, needs no token, never shows ids.
+* ``/console`` — the operator console; its actions and its live socket need the session token.
+* ``/questionnaire`` — the questionnaires between conditions; storing answers needs the token.
+
+API: ``GET /api/options``, ``/api/status``, ``/api/questionnaires/schema`` are public and change
+nothing; ``POST /api/trial/start``, ``/api/trial/stop``, ``/api/questionnaires`` and
+``GET /api/questionnaires``, ``/api/console/status`` need the token. A request is read (at most
+32 KiB), its token checked, and then validated in full before anything changes, so a refused
+request (403 token, 400 invalid, 409 conflict, 413 too large, 415 wrong type) changes nothing.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import logging
+from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
+from pathlib import Path
+from typing import Final
+from urllib.parse import parse_qsl
+
+from starlette.applications import Starlette
+from starlette.middleware import Middleware
+from starlette.middleware.trustedhost import TrustedHostMiddleware
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, Response
+from starlette.routing import Mount, Route, WebSocketRoute
+from starlette.staticfiles import StaticFiles
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from bowden.contracts import (
+    CONDITION_LABELS,
+    CONDITION_SUPPORT,
+    CONDITIONS,
+    REPETITIONS_PER_TRIAL,
+    SPEED_PEAK_DEG_S,
+    SPEEDS,
+)
+from bowden.errors import AccessDeniedError, ConflictError, ParameterError, RequestError, StoreError
+from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, _Client, encode, send
+from bowden.web.questionnaire_store import COLUMNS, QuestionnaireStore
+from bowden.web.questionnaires import parse_response, questionnaire_schema
+from bowden.web.security import TOKEN_FIELD, TOKEN_HEADER, SecurityHeaders, SessionToken, same_origin
+from bowden.web.trial_setup import parse_setup
+from bowden.web.trials import TrialManager
+from bowden.web.validation import choice, participant_id
+
+_log = logging.getLogger(__name__)
+
+STATIC_DIR: Final = Path(__file__).parent / "static"
+MAX_BODY_BYTES: Final = 32 * 1024
+AUTH_TIMEOUT_S: Final = 5.0
+WS_POLICY_VIOLATION: Final = 1008
+
+
+class _PayloadError(Exception):
+    def __init__(self, status: int, message: str) -> None:
+        super().__init__(message)
+        self.status = status
+
+
+async def _payload(request: Request) -> dict[str, object]:
+    """The request's JSON object or form fields, size-limited."""
+    kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if kind not in ("application/json", "application/x-www-form-urlencoded"):
+        raise _PayloadError(415, "send application/json or application/x-www-form-urlencoded")
+    body = bytearray()
+    async for chunk in request.stream():
+        body += chunk
+        if len(body) > MAX_BODY_BYTES:
+            raise _PayloadError(413, f"request body above {MAX_BODY_BYTES} bytes")
+    try:
+        text = body.decode("utf-8")
+    except UnicodeDecodeError:
+        raise RequestError("the request body is not UTF-8") from None
+    if kind == "application/json":
+        try:
+            data = json.loads(text) if text.strip() else {}
+        except json.JSONDecodeError as error:
+            raise RequestError(f"the request body is not valid JSON: {error.msg} at {error.pos}") from None
+        if not isinstance(data, dict):
+            raise RequestError("the request body must be a JSON object")
+        return data
+    fields: dict[str, object] = {}
+    for key, value in parse_qsl(text, keep_blank_values=True, max_num_fields=200):
+        if key in fields:
+            raise RequestError(f"{key[:30]}: given more than once")
+        fields[key] = value
+    return fields
+
+
+def _error(status: int, message: str) -> JSONResponse:
+    return JSONResponse({"error": message}, status_code=status)
+
+
+_STATUS: Final[tuple[tuple[type[Exception], int], ...]] = (
+    (AccessDeniedError, 403),
+    (ConflictError, 409),
+    (RequestError, 400),
+    (ParameterError, 400),
+    (StoreError, 503),
+)
+
+Handler = Callable[[Request], Awaitable[Response]]
+
+
+def _refusals(handler: Handler) -> Handler:
+    """Turn bowden's refusals into JSON errors with the right status (the message names the field)."""
+
+    async def wrapped(request: Request) -> Response:
+        try:
+            return await handler(request)
+        except _PayloadError as error:
+            return _error(error.status, str(error))
+        except (AccessDeniedError, ConflictError, RequestError, ParameterError, StoreError) as error:
+            status = next(code for kind, code in _STATUS if isinstance(error, kind))
+            if status == 403:
+                _log.warning("refused %s %s: %s", request.method, request.url.path, error)
+            return _error(status, str(error))
+
+    return wrapped
+
+
+def create_app(
+    *,
+    manager: TrialManager,
+    questionnaires: QuestionnaireStore,
+    token: SessionToken,
+    allowed_hosts: Sequence[str] = ("127.0.0.1", "localhost", "::1", "[::1]"),
+) -> Starlette:
+    """The bowden web application.
+
+    Parameters
+    ----------
+    manager
+        Runs the trials (its hub carries the live data).
+    questionnaires
+        The study store's questionnaire table.
+    token
+        The session token operator actions and questionnaire writes need.
+    allowed_hosts
+        Host names the server answers to (``Host`` header); others get 400, which stops DNS
+        rebinding from reaching the API through a browser.
+    """
+    hub: LiveHub = manager.hub
+
+    def authorise(request: Request, payload: dict[str, object] | None = None) -> None:
+        candidates: list[object] = [request.headers.get(TOKEN_HEADER)]
+        if payload is not None:
+            candidates.append(payload.pop(TOKEN_FIELD, None))
+        token.require(candidates)
+
+    def page(name: str) -> Handler:
+        async def serve(request: Request) -> Response:
+            return FileResponse(STATIC_DIR / name, media_type="text/html")
+
+        return serve
+
+    async def options(request: Request) -> Response:
+        return JSONResponse({
+            "conditions": [
+                {"id": c, "label": CONDITION_LABELS[c], "support": CONDITION_SUPPORT[c]} for c in CONDITIONS
+            ],
+            "speeds": [{"id": s, "peak_deg_s": SPEED_PEAK_DEG_S[s]} for s in SPEEDS],
+            "repetitions": REPETITIONS_PER_TRIAL,
+            "backend": manager.backend.name,
+        })
+
+    async def public_status(request: Request) -> Response:
+        return JSONResponse(manager.status(console=False))
+
+    async def schema(request: Request) -> Response:
+        return JSONResponse(questionnaire_schema())
+
+    @_refusals
+    async def console_status(request: Request) -> Response:
+        authorise(request)
+        status = manager.status(console=True)
+        status["health"] = manager.health()
+        return JSONResponse(json.loads(encode(status)))
+
+    @_refusals
+    async def start_trial(request: Request) -> Response:
+        payload = await _payload(request)
+        authorise(request, payload)
+        setup = parse_setup(payload)
+        status = await manager.start(setup)
+        return JSONResponse(json.loads(encode(status)), status_code=201)
+
+    @_refusals
+    async def stop_trial(request: Request) -> Response:
+        payload = await _payload(request)
+        authorise(request, payload)
+        if payload:
+            raise RequestError(f"stop takes no fields, got {', '.join(sorted(payload))[:60]}")
+        return JSONResponse(json.loads(encode(manager.stop("operator stop (console)"))))
+
+    @_refusals
+    async def save_questionnaire(request: Request) -> Response:
+        payload = await _payload(request)
+        authorise(request, payload)
+        response, replace = parse_response(payload)
+        rows = await asyncio.to_thread(questionnaires.save, response, replace=replace)
+        return JSONResponse(
+            {"stored": rows, "participant": response.participant, "condition": response.condition},
+            status_code=201,
+        )
+
+    @_refusals
+    async def list_questionnaires(request: Request) -> Response:
+        authorise(request)
+        participant = request.query_params.get("participant")
+        condition = request.query_params.get("condition")
+        if participant is not None:
+            participant = participant_id(participant)
+        if condition is not None:
+            condition = choice(condition, CONDITIONS, "condition")
+        rows = await asyncio.to_thread(questionnaires.rows, participant, condition)
+        return JSONResponse({"columns": list(COLUMNS), "rows": [list(r) for r in rows]})
+
+    async def display_socket(websocket: WebSocket) -> None:
+        if not same_origin(dict(websocket.headers)):
+            await websocket.close(code=WS_POLICY_VIOLATION)
+            return
+        await websocket.accept()
+        client = hub.connect(ROLE_DISPLAY)
+        send(client, encode(manager.status(console=False)))
+        await _serve(websocket, client, hub)
+
+    async def console_socket(websocket: WebSocket) -> None:
+        if not same_origin(dict(websocket.headers)):
+            await websocket.close(code=WS_POLICY_VIOLATION)
+            return
+        await websocket.accept()
+        try:
+            first = await asyncio.wait_for(websocket.receive_text(), AUTH_TIMEOUT_S)
+            offered = json.loads(first).get(TOKEN_FIELD) if first.startswith("{") else None
+        except (TimeoutError, WebSocketDisconnect, json.JSONDecodeError, AttributeError):
+            offered = None
+        if not token.matches(offered):
+            with contextlib.suppress(Exception):
+                refusal = {"type": "error", "error": "wrong or missing session token"}
+                await websocket.send_text(encode(refusal))
+                await websocket.close(code=WS_POLICY_VIOLATION)
+            return
+        client = hub.connect(ROLE_CONSOLE)
+        status = manager.status(console=True)
+        send(client, encode(status))
+        await _serve(websocket, client, hub)
+
+    @contextlib.asynccontextmanager
+    async def lifespan(app: Starlette) -> AsyncIterator[None]:
+        pump = asyncio.create_task(manager.pump(), name="bowden-live-pump")
+        try:
+            yield
+        finally:
+            await manager.shutdown()
+            pump.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await pump
+
+    routes = [
+        Route("/", page("index.html")),
+        Route("/display", page("display.html")),
+        Route("/console", page("console.html")),
+        Route("/questionnaire", page("questionnaire.html")),
+        Route("/api/options", options),
+        Route("/api/status", public_status),
+        Route("/api/questionnaires/schema", schema),
+        Route("/api/console/status", console_status),
+        Route("/api/trial/start", start_trial, methods=["POST"]),
+        Route("/api/trial/stop", stop_trial, methods=["POST"]),
+        Route("/api/questionnaires", save_questionnaire, methods=["POST"]),
+        Route("/api/questionnaires", list_questionnaires, methods=["GET"]),
+        WebSocketRoute("/ws/display", display_socket),
+        WebSocketRoute("/ws/console", console_socket),
+        Mount("/static", StaticFiles(directory=STATIC_DIR), name="static"),
+    ]
+    middleware = [
+        Middleware(TrustedHostMiddleware, allowed_hosts=list(allowed_hosts)),
+        Middleware(SecurityHeaders),
+    ]
+    return Starlette(routes=routes, middleware=middleware, lifespan=lifespan)
+
+
+async def _serve(websocket: WebSocket, client: _Client, hub: LiveHub) -> None:
+    """Send the client's queued messages until it leaves; what it sends is ignored (read-only)."""
+
+    async def forward() -> None:
+        while True:
+            text = await client.queue.get()
+            await websocket.send_text(text)
+
+    sender = asyncio.create_task(forward())
+    try:
+        while True:
+            message = await websocket.receive()
+            if message["type"] == "websocket.disconnect":
+                break
+    except (WebSocketDisconnect, RuntimeError):
+        pass
+    finally:
+        hub.disconnect(client)
+        sender.cancel()
+        with contextlib.suppress(asyncio.CancelledError, Exception):
+            await sender
+
+
+__all__ = ["ROLE_CONSOLE", "create_app"]

@@ -1,0 +1,161 @@
+"""Where a trial's devices come from: the interface, and the simulated suit paced to wall time.
+
+The trial manager asks a :class:`SuitBackend` for the devices of one trial and gets an
+:class:`OpenSuit` (motor, IMU, optional load cell, clock, and how to close them). The real suit
+(AK60-6 over CAN, NGIMU over OSC) is one such backend, wired by ``bowden run``; the simulated suit
+is the other. A simulated trial runs the same :class:`bowden.runtime.ControlLoop` on
+:class:`bowden.sim.SimulatedSuit`, with a virtual participant following the reference shown, but
+paced to the wall clock so that a person can watch it: :class:`WallPacedClock` integrates the
+physics to each deadline at once, then waits until that much wall time has passed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Protocol
+
+from bowden.errors import ParameterError
+from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
+from bowden.sim.arm import ParticipantArm
+from bowden.sim.participants import ExpectedAssistance, VirtualParticipant
+from bowden.sim.suit import SimulatedSuit
+from bowden.web.trial_setup import TrialSetup
+
+
+def _nothing() -> None:
+    return None
+
+
+@dataclass
+class OpenSuit:
+    """The devices of one trial.
+
+    Attributes
+    ----------
+    motor, elevation_sensor, clock, tension_sensor
+        What the control loop drives and reads.
+    description
+        One line for the console and the trial's metadata ("simulated suit", "AK60-6 on can0"...).
+    health
+        Backend-specific health figures for the console (e.g. wall-clock lag of a simulation).
+    close
+        Releases the devices after the loop has left motor mode.
+    """
+
+    motor: Motor
+    elevation_sensor: ElevationSensor
+    clock: Clock
+    tension_sensor: TensionSensor | None = None
+    description: str = ""
+    health: Callable[[], dict[str, float]] = field(default=dict)
+    close: Callable[[], None] = field(default=_nothing)
+
+
+class SuitBackend(Protocol):
+    """Opens the suit for one trial."""
+
+    @property
+    def name(self) -> str:
+        """Short name for the console and the trial metadata ("sim", "can")."""
+        ...
+
+    def open(self, setup: TrialSetup) -> OpenSuit: ...
+
+
+class WallPacedClock:
+    """A simulated clock slowed to wall time.
+
+    ``now`` is the inner (simulated) time, so the loop and the sensors' time stamps agree;
+    ``sleep_until`` advances the simulation to the deadline, then sleeps until the same amount of
+    wall time (divided by ``time_scale``) has passed since the first call.
+
+    Parameters
+    ----------
+    inner
+        The simulated clock (``SimulatedSuit.clock``).
+    time_scale
+        Simulated seconds per wall second (1 = real time).
+    wall, sleep
+        The wall clock and its sleep (injected for tests).
+    """
+
+    def __init__(
+        self,
+        inner: Clock,
+        *,
+        time_scale: float = 1.0,
+        wall: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], None] = time.sleep,
+    ) -> None:
+        if not (math.isfinite(time_scale) and 0.05 <= time_scale <= 100.0):
+            raise ParameterError(f"time_scale must be in [0.05, 100], got {time_scale!r}")
+        self.inner = inner
+        self.time_scale = time_scale
+        self._wall = wall
+        self._sleep = sleep
+        self._origin: tuple[float, float] | None = None
+        self.worst_lag_s = 0.0  # how far the simulation fell behind the wall clock at a deadline
+
+    def now(self) -> float:
+        return self.inner.now()
+
+    def sleep_until(self, deadline_s: float) -> None:
+        if self._origin is None:
+            self._origin = (self._wall(), self.inner.now())
+        self.inner.sleep_until(deadline_s)
+        wall0, sim0 = self._origin
+        target = wall0 + (deadline_s - sim0) / self.time_scale
+        remaining = target - self._wall()
+        if remaining > 0.0:
+            self._sleep(remaining)
+        elif -remaining > self.worst_lag_s:
+            self.worst_lag_s = -remaining
+
+
+@dataclass(frozen=True, kw_only=True)
+class SimulatedBackend:
+    """Each trial on a fresh simulated suit worn by a virtual participant following the reference.
+
+    Parameters
+    ----------
+    time_scale
+        Simulated seconds per wall second (1 = real time, what a watching person needs).
+    seed
+        Seed of sensor and motor noise (each trial adds its number so trials differ).
+    """
+
+    time_scale: float = 1.0
+    seed: int = 0
+    name: str = "sim"
+
+    def open(self, setup: TrialSetup) -> OpenSuit:
+        reference = setup.reference
+        participant = VirtualParticipant(
+            participant_id=setup.participant, subject=setup.subject, hand_load_kg=setup.hand_load_kg
+        )
+        expected = None
+        if setup.support is not None:
+            expected = ExpectedAssistance.for_condition(
+                setup.support, setup.subject, hand_load_kg=setup.hand_load_kg
+            )
+        arm = ParticipantArm(
+            participant,
+            reference.cycle,
+            cycles=reference.repetitions,
+            start_s=reference.start_s,
+            expected=expected,
+        )
+        suit = SimulatedSuit(arm=arm, seed=self.seed)
+        clock = WallPacedClock(suit.clock, time_scale=self.time_scale)
+        return OpenSuit(
+            motor=suit.motor,
+            elevation_sensor=suit.elevation_sensor,
+            clock=clock,
+            tension_sensor=suit.tension_sensor,
+            description=f"simulated suit, virtual participant, {self.time_scale:g}× real time",
+            health=lambda: {"simulation_lag_ms": 1e3 * clock.worst_lag_s},
+            close=suit.motor.disable,
+        )

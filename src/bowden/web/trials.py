@@ -1,0 +1,377 @@
+"""Starting, watching and stopping trials from the browser.
+
+One trial at a time: :meth:`TrialManager.start` opens the suit, starts the recorder (study store)
+and runs :class:`bowden.runtime.ControlLoop` in its own thread; the loop's rows go to the recorder
+and, through a :class:`~bowden.web.live.SampleTap`, to the browsers. :meth:`TrialManager.stop`
+asks the loop for a safe stop (torque ramps to zero, motor mode exited — the runtime's safe state)
+and returns at once; the end of the trial is announced to the browsers when the loop is safe.
+
+Everything that changes the manager's state runs in the server's event loop; the loop thread only
+hands over rows and, at its end, its report.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Final
+
+from bowden import __version__
+from bowden.contracts import TRIAL_COLUMNS
+from bowden.control import Fault
+from bowden.errors import BowdenError, ConflictError
+from bowden.model import CompensationModel
+from bowden.runtime import ControlLoop, LoopConfig, LoopReport, LoopState, Recorder, TrialInfo
+from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, SampleTap, Stamped, Thinning
+from bowden.web.suits import OpenSuit, SuitBackend
+from bowden.web.trial_setup import TrialSetup, controller_for, tension_estimate_n
+
+_log = logging.getLogger(__name__)
+
+_COLUMN: Final = {name: index for index, name in enumerate(TRIAL_COLUMNS)}
+_T, _REF, _EL, _VEL = (_COLUMN[n] for n in ("time_s", "reference_elevation_rad", "elevation_rad",
+                                             "elevation_velocity_rad_s"))
+_DES, _CMD, _TAU, _LOAD = (_COLUMN[n] for n in ("desired_tension_n", "commanded_torque_nm",
+                                                 "motor_torque_nm", "tension_n"))
+_STATE, _FLAGS = _COLUMN["controller_state"], _COLUMN["fault_flags"]
+_DEG: Final = 57.29577951308232
+
+
+def fault_names(flags: int) -> list[str]:
+    """Names of the :class:`bowden.control.Fault` bits set in ``flags``."""
+    return [f.name for f in Fault if f.value and flags & f.value and f.name is not None]
+
+
+@dataclass
+class _Trial:
+    setup: TrialSetup
+    suit: OpenSuit
+    loop: ControlLoop
+    recorder: Recorder
+    tap: SampleTap
+    started_wall_s: float
+    thread: threading.Thread | None = None
+    flags_seen: int = 0
+    fault_cycles: int = 0
+    last_row: tuple[float | int, ...] | None = None
+    stop_requested_by: str | None = None
+    done: asyncio.Event = field(default_factory=asyncio.Event)
+
+
+class TrialManager:
+    """Runs trials for the web server.
+
+    Parameters
+    ----------
+    backend
+        Where the devices come from (simulated or real suit).
+    model
+        The compensation model of the suit (controller and tension estimate).
+    store_path
+        The study store (SQLite) the recorder writes into.
+    hub
+        The browsers to inform.
+    rate_hz
+        Control rate.
+    display_rate_hz
+        Rate of the samples sent to browsers (≥ the display's frame rate is enough).
+    health_period_s
+        How often the console gets loop health.
+    """
+
+    def __init__(
+        self,
+        *,
+        backend: SuitBackend,
+        model: CompensationModel,
+        store_path: str | Path,
+        hub: LiveHub,
+        rate_hz: float = 500.0,
+        display_rate_hz: float = 100.0,
+        health_period_s: float = 0.25,
+    ) -> None:
+        self.backend = backend
+        self.model = model
+        self.store_path = Path(store_path)
+        self.hub = hub
+        self.rate_hz = rate_hz
+        self.health_period_s = health_period_s
+        self._thinning = Thinning(display_rate_hz)
+        self._trial: _Trial | None = None
+        self._starting = False
+        self._wake = asyncio.Event()
+        self.last_result: dict[str, object] | None = None
+        self.trials_run = 0
+
+    # --- operator actions (event loop) -----------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self._trial is not None or self._starting
+
+    async def start(self, setup: TrialSetup) -> dict[str, object]:
+        """Start ``setup``'s trial; return its status once the loop runs.
+
+        Raises
+        ------
+        ConflictError
+            If a trial is running or starting (nothing else is changed).
+        BowdenError
+            If the suit or the store cannot be opened (nothing is left running).
+        """
+        if self.running:
+            raise ConflictError("a trial is running: stop it before starting another")
+        self._starting = True
+        try:
+            trial = await asyncio.to_thread(self._open, setup, asyncio.get_running_loop())
+        finally:
+            self._starting = False
+        self._trial = trial
+        self._thinning.reset()
+        self.trials_run += 1
+        thread = threading.Thread(target=self._run, args=(trial,), name="bowden-control-loop", daemon=True)
+        trial.thread = thread
+        thread.start()
+        _log.info("trial %s started: %s %s %s", trial.recorder.trial_id, setup.participant,
+                  setup.condition, setup.speed)
+        self.hub.publish(self._trial_message(trial, ROLE_DISPLAY), (ROLE_DISPLAY,))
+        self.hub.publish(self._trial_message(trial, ROLE_CONSOLE), (ROLE_CONSOLE,))
+        return self.status(console=True)
+
+    def stop(self, reason: str = "operator stop") -> dict[str, object]:
+        """Ask the running loop for a safe stop (returns at once).
+
+        Raises
+        ------
+        ConflictError
+            If no trial is running.
+        """
+        trial = self._trial
+        if trial is None:
+            raise ConflictError("no trial is running")
+        trial.stop_requested_by = reason
+        trial.loop.request_stop(reason)
+        return self.status(console=True)
+
+    async def wait(self, timeout_s: float | None = None) -> None:
+        """Wait until the current trial (if any) has ended and been announced."""
+        trial = self._trial
+        if trial is not None:
+            await asyncio.wait_for(trial.done.wait(), timeout_s)
+
+    async def shutdown(self) -> None:
+        """Stop a running trial safely and wait for it (server shutdown)."""
+        if self._trial is not None:
+            self.stop("server shutting down")
+            await self.wait(10.0)
+
+    # --- the trial thread ------------------------------------------------------------------------
+    def _open(self, setup: TrialSetup, loop: asyncio.AbstractEventLoop) -> _Trial:
+        controller = controller_for(setup, self.model)
+        suit = self.backend.open(setup)
+        try:
+            info = TrialInfo(
+                participant=setup.participant,
+                condition=setup.condition,
+                speed=setup.speed,
+                support=setup.recorded_support,
+                metadata={
+                    "source": "bowden serve",
+                    "backend": self.backend.name,
+                    "suit": suit.description,
+                    "rate_hz": self.rate_hz,
+                    "bowden_version": __version__,
+                    **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},
+                },
+            )
+            recorder = Recorder(self.store_path, info).start()
+        except BaseException:
+            suit.close()
+            raise
+        tap = SampleTap(loop, self._wake.set)
+        record_row, tap_row = recorder.record, tap.record
+
+        def record(row: tuple[float | int, ...]) -> None:
+            record_row(row)
+            tap_row(row)
+
+        control_loop = ControlLoop(
+            controller=controller,
+            motor=suit.motor,
+            elevation_sensor=suit.elevation_sensor,
+            clock=suit.clock,
+            config=LoopConfig(rate_hz=self.rate_hz, duration_s=setup.duration_s),
+            tension_sensor=suit.tension_sensor,
+            record=record,
+            reference_elevation=setup.reference.elevation_rad,
+        )
+        return _Trial(setup, suit, control_loop, recorder, tap, time.time())
+
+    def _run(self, trial: _Trial) -> None:
+        report: LoopReport | None = None
+        error: str | None = None
+        try:
+            report = trial.loop.run()
+        except BowdenError as exc:
+            error = str(exc)
+        except Exception as exc:  # a bug must still end in a closed recording and a message
+            _log.exception("the control loop failed")
+            error = f"{type(exc).__name__}: {exc}"
+        try:
+            trial.suit.close()
+        except Exception:
+            _log.exception("closing the suit failed")
+        if report is not None:
+            kind = "safe_stop" if report.clean else "fault"
+            trial.recorder.event(report.stop_time_s, kind, report.reason)
+        reason = report.reason if report is not None else f"error: {error}"
+        try:
+            trial.recorder.close(stop_reason=reason)
+        except BowdenError as exc:
+            error = f"{error}; {exc}" if error else str(exc)
+        loop = trial.tap.loop
+        # RuntimeError: the server is gone; the recording is closed, nothing is left to tell.
+        with contextlib.suppress(RuntimeError):
+            loop.call_soon_threadsafe(self._finished, trial, report, error)
+
+    def _finished(self, trial: _Trial, report: LoopReport | None, error: str | None) -> None:
+        self._flush()
+        result: dict[str, object] = {
+            "type": "stopped",
+            "trial_id": trial.recorder.trial_id,
+            "reason": report.reason if report is not None else f"error: {error}",
+            "clean": bool(report is not None and report.clean and error is None),
+            "faults": fault_names(int(report.fault)) if report is not None else [],
+            "error": error,
+            "committed_rows": trial.recorder.stats.committed_rows,
+        }
+        if report is not None:
+            result.update(
+                cycles=report.cycles,
+                timing=report.timing.describe(),
+                deadline_misses=report.timing.deadline_misses,
+                motor_disabled=report.motor_disabled,
+                safe_time_s=report.safe_time_s,
+            )
+        self.last_result = result
+        self._trial = None
+        self.hub.publish(result, (ROLE_CONSOLE,))
+        self.hub.publish({"type": "stopped"}, (ROLE_DISPLAY,))
+        trial.done.set()
+
+    # --- live data (event loop) ------------------------------------------------------------------
+    async def pump(self) -> None:
+        """Forward rows to the browsers as they come, and loop health periodically (runs forever)."""
+        next_health = time.monotonic()
+        while True:
+            timeout = max(0.0, next_health - time.monotonic())
+            with contextlib.suppress(TimeoutError):
+                await asyncio.wait_for(self._wake.wait(), timeout)
+            self._wake.clear()
+            self._flush()
+            if time.monotonic() >= next_health:
+                next_health = time.monotonic() + self.health_period_s
+                if self._trial is not None:
+                    self.hub.publish(self.health(), (ROLE_CONSOLE,))
+
+    def _flush(self) -> None:
+        trial = self._trial
+        if trial is None:
+            return
+        rows = trial.tap.drain()
+        if not rows:
+            return
+        for _, _, row in rows:
+            flags = int(row[_FLAGS])
+            if flags:
+                trial.flags_seen |= flags
+                trial.fault_cycles += 1
+        trial.last_row = rows[-1][2]
+        kept = self._thinning.keep(rows, _T)
+        if kept:
+            self._publish_samples(kept)
+
+    def _publish_samples(self, kept: list[Stamped]) -> None:
+        stamps = [round(1e3 * s[0], 3) for s in kept]
+        sequence = [s[1] for s in kept]
+        rows = [s[2] for s in kept]
+        times = [round(float(r[_T]), 4) for r in rows]
+        reference = [round(float(r[_REF]) * _DEG, 3) for r in rows]
+        elevation = [round(float(r[_EL]) * _DEG, 3) for r in rows]
+        display: dict[str, object] = {
+            "type": "samples", "seq": sequence, "stamp_ms": stamps, "t": times,
+            "reference_deg": reference, "elevation_deg": elevation,
+        }
+        self.hub.publish(display, (ROLE_DISPLAY,))
+        if self.hub.count(ROLE_CONSOLE) == 0:
+            return
+        model = self.model
+        console = dict(display)
+        console.update(
+            desired_tension_n=[round(float(r[_DES]), 3) for r in rows],
+            estimated_tension_n=[
+                round(tension_estimate_n(model, float(r[_TAU]), float(r[_VEL])), 3) for r in rows
+            ],
+            load_cell_tension_n=[round(float(r[_LOAD]), 3) for r in rows],
+            commanded_torque_nm=[round(float(r[_CMD]), 4) for r in rows],
+            motor_torque_nm=[round(float(r[_TAU]), 4) for r in rows],
+            fault_flags=[int(r[_FLAGS]) for r in rows],
+        )
+        self.hub.publish(console, (ROLE_CONSOLE,))
+
+    # --- status ----------------------------------------------------------------------------------
+    def health(self) -> dict[str, object]:
+        """Loop health of the running trial (console)."""
+        trial = self._trial
+        if trial is None:
+            return {"type": "health", "state": "idle"}
+        timing = trial.loop.timing
+        row = trial.last_row
+        state = LoopState(int(row[_STATE])).name.lower() if row is not None else "starting"
+        latest_flags = int(row[_FLAGS]) if row is not None else 0
+        return {
+            "type": "health",
+            "state": state,
+            "trial_time_s": float(row[_T]) if row is not None else 0.0,
+            "cycles": timing.cycles,
+            "deadline_misses": timing.deadline_misses,
+            "skipped_cycles": timing.skipped_cycles,
+            "worst_lateness_ms": 1e3 * timing.worst_lateness_s,
+            "fault_flags": latest_flags,
+            "faults": fault_names(latest_flags),
+            "faults_seen": fault_names(trial.flags_seen),
+            "fault_cycles": trial.fault_cycles,
+            "committed_rows": trial.recorder.stats.committed_rows,
+            "stop_requested": trial.stop_requested_by,
+            **trial.suit.health(),
+        }
+
+    def _trial_message(self, trial: _Trial, role: str) -> dict[str, object]:
+        message: dict[str, object] = {
+            "type": "trial",
+            "state": "running",
+            "reference": trial.setup.reference.to_json(),
+        }
+        if role == ROLE_CONSOLE:  # the display never gets the participant's id
+            message.update(
+                setup=trial.setup.to_json(),
+                trial_id=trial.recorder.trial_id,
+                suit=trial.suit.description,
+            )
+        return message
+
+    def status(self, *, console: bool) -> dict[str, object]:
+        """What a newly connected browser needs to know (``console``: with ids and last result)."""
+        trial = self._trial
+        role = ROLE_CONSOLE if console else ROLE_DISPLAY
+        status: dict[str, object] = {"type": "trial", "state": "idle"}
+        if trial is not None:
+            status = self._trial_message(trial, role)
+        if console:
+            status["last_result"] = self.last_result
+            status["backend"] = self.backend.name
+        return status
