@@ -118,7 +118,8 @@ def participant_suit(suit: SuitParameters, participant: VirtualParticipant) -> S
     return replace(suit, sheath=replace(sheath, kinetic_coefficient=kinetic))
 
 
-def _trial_seed(seed: int, participant_index: int, condition: str, speed: str) -> int:
+def trial_seed(seed: int, participant_index: int, condition: str, speed: str) -> int:
+    """Seed of one trial, derived from the study seed so a trial can be re-run alone (resuming)."""
     ci, si = c.CONDITIONS.index(condition), c.SPEEDS.index(speed)
     return int(np.random.SeedSequence([seed, participant_index, ci, si]).generate_state(1)[0])
 
@@ -252,7 +253,7 @@ def simulate_cohort(
                 trials.append(
                     simulate_trial(
                         participant, condition, speed, model=model, suit=suit, settings=settings,
-                        seed=_trial_seed(seed, index, condition, speed),
+                        seed=trial_seed(seed, index, condition, speed),
                     )
                 )
                 if progress:

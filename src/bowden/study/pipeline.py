@@ -28,8 +28,7 @@ from bowden.errors import ParameterError
 from bowden.identify import TransmissionIdentifier
 from bowden.model import CompensationModel
 from bowden.runtime.recorder import TrialInfo
-from bowden.sim.batch import ProtocolSettings, condition_order, simulate_trial
-from bowden.sim.batch import _trial_seed as trial_seed
+from bowden.sim.batch import ProtocolSettings, condition_order, simulate_trial, trial_seed
 from bowden.sim.bench import BenchProtocol, run_bench
 from bowden.sim.participants import VirtualParticipant, generate_cohort
 from bowden.sim.questionnaires import questionnaire_answers
