@@ -23,11 +23,11 @@ from pathlib import Path
 from bowden.cli.run import open_sim_backend
 from bowden.control import build_controller
 from bowden.model import CompensationModel, Subject
-from bowden.runtime import ControlLoop, LoopConfig, Recorder, TrialInfo
+from bowden.runtime import ControlLoop, LoopConfig, Recorder, SafetyConfig, TrialInfo
 from bowden.sim.parameters import SuitParameters
 
 
-def run_once(rate_hz: float, duration_s: float, store: Path) -> None:
+def run_once(rate_hz: float, duration_s: float, store: Path, safety: SafetyConfig) -> None:
     controller = build_controller(
         model=CompensationModel.from_friction(k=SuitParameters().sheath.kinetic_coefficient),
         support=0.5, subject=Subject(height_m=1.70, mass_kg=63.0, sex="female"),
@@ -37,7 +37,8 @@ def run_once(rate_hz: float, duration_s: float, store: Path) -> None:
     with open_sim_backend(speed="V1") as backend, Recorder(store, trial) as recorder:
         loop = ControlLoop(
             controller=controller, motor=backend.motor, elevation_sensor=backend.imu, clock=backend.clock,
-            config=LoopConfig(rate_hz=rate_hz, duration_s=duration_s), tension_sensor=backend.load_cell,
+            config=LoopConfig(rate_hz=rate_hz, duration_s=duration_s, safety=safety),
+            tension_sensor=backend.load_cell,
             record=recorder.record, reference_elevation=backend.reference_elevation,
         )
         report = loop.run()
@@ -59,14 +60,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rates", type=float, nargs="+", default=[500.0, 1000.0])
     parser.add_argument("--switch-interval-ms", type=float,
                         help="interpreter thread switch interval (default Python's 5 ms; shorter was worse)")
+    parser.add_argument("--motor-silence-ms", type=float, default=100.0,
+                        help="no-reply watchdog for the benchmark (bowden run: 20 ms; a loaded shared "
+                             "machine can starve the simulated motor's thread longer than that)")
     args = parser.parse_args(argv)
+    safety = SafetyConfig(motor_max_silence_s=args.motor_silence_ms / 1e3)
     if args.switch_interval_ms is not None:
         sys.setswitchinterval(args.switch_interval_ms / 1e3)
     interval_ms = sys.getswitchinterval() * 1e3
-    print(f"loop benchmark: {args.duration:g} s per rate, switch interval {interval_ms:g} ms")
+    print(f"loop benchmark: {args.duration:g} s per rate, switch interval {interval_ms:g} ms, "
+          f"motor no-reply watchdog {args.motor_silence_ms:g} ms")
     with tempfile.TemporaryDirectory() as directory:
         for rate in args.rates:
-            run_once(rate, args.duration, Path(directory) / f"bench-{rate:g}.db")
+            run_once(rate, args.duration, Path(directory) / f"bench-{rate:g}.db", safety)
     return 0
 
 

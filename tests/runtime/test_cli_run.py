@@ -54,3 +54,10 @@ def test_bad_arguments_fail_before_touching_devices(argument: list[str], message
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", "--backend", "sim", *argument]) == 1
     assert message in capsys.readouterr().err
+
+
+def test_cli_imu_port_default_is_the_ngimu_default() -> None:
+    from bowden.cli.run import DEFAULT_IMU_PORT
+    from bowden.hardware.ngimu import DEFAULT_HOST_PORT
+
+    assert DEFAULT_IMU_PORT == DEFAULT_HOST_PORT == 8000

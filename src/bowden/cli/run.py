@@ -20,9 +20,7 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
-
-import can
+from typing import TYPE_CHECKING, Any
 
 from bowden import __version__
 from bowden.contracts import (
@@ -35,15 +33,19 @@ from bowden.contracts import (
 )
 from bowden.control import build_controller
 from bowden.errors import ParameterError
-from bowden.hardware.ads1115 import ADS1115LoadCell, LoadCellCalibration
-from bowden.hardware.ak60 import AK60Config, AK60Motor
 from bowden.hardware.ak60_codec import DEFAULT_FIRMWARE, FIRMWARE_LIMITS, limits_for_firmware
-from bowden.hardware.ngimu import DEFAULT_HOST_PORT, NgimuClient, NgimuConfig
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
 from bowden.model import CompensationModel, Subject
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, MonotonicClock, Recorder, Row, TrialInfo
 from bowden.runtime.signals import stop_on_signals
+
+if TYPE_CHECKING:
+    from bowden.hardware.ads1115 import ADS1115LoadCell
+
+# The drivers need the "hardware" extra (python-can, python-osc, smbus2); they are imported when a
+# backend opens, so that `bowden` and its other subcommands work without it.
+DEFAULT_IMU_PORT = 8000
 
 _sim_channels = itertools.count()
 
@@ -88,7 +90,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                           help="AK60-6 field ranges (the sources disagree; default: the manual's)")
     hardware.add_argument("--direction", type=int, choices=(1, -1), default=1,
                           help="+1 if positive motor torque pulls the cable")
-    hardware.add_argument("--imu-port", type=int, default=DEFAULT_HOST_PORT, help="NGIMU send port (8000)")
+    hardware.add_argument("--imu-port", type=int, default=DEFAULT_IMU_PORT, help="NGIMU send port (8000)")
     hardware.add_argument("--calibration-s", type=float, default=1.0, help="arm-down calibration time in s")
     hardware.add_argument("--i2c-bus", type=int, help="I²C bus number of the ADS1115 load cell (optional)")
     hardware.add_argument("--load-cell-gain", type=float, default=100.0, help="load cell N per V")
@@ -120,6 +122,11 @@ def _condition(support: float | str, given: str | None) -> str:
 def open_sim_backend(*, speed: str = "V1", calibration_s: float = 0.3) -> Iterator[Backend]:
     """The simulated suit behind its wire peers, driven by the real drivers (all closed on exit)."""
     # Imported here: the real-suit path must not need the simulator's compiled kernels.
+    import can
+
+    from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
+    from bowden.hardware.ak60 import AK60Config, AK60Motor
+    from bowden.hardware.ngimu import NgimuClient, NgimuConfig
     from bowden.sim.arm import PrescribedArm
     from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
     from bowden.sim.suit import SimulatedSuit
@@ -132,10 +139,13 @@ def open_sim_backend(*, speed: str = "V1", calibration_s: float = 0.3) -> Iterat
         peer_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
         stack.enter_context(AK60Peer(peer_bus, plant))
         imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
-        imu_peer = stack.enter_context(NgimuPeer(plant, imu.address, rate_hz=400.0))
+        # 200 Hz IMU and 475 SPS ADC: realistic rates that leave the loop more of the shared CPU.
+        imu_peer = stack.enter_context(NgimuPeer(plant, imu.address, rate_hz=200.0))
         smbus = stack.enter_context(FakeSMBus(ADS1115Peer(plant, offset_v=0.05, volts_per_newton=0.01)))
         calibration = LoadCellCalibration(offset_v=0.05, gain_n_per_v=100.0)
-        load_cell = stack.enter_context(ADS1115LoadCell(smbus, calibration=calibration))
+        load_cell = stack.enter_context(
+            ADS1115LoadCell(smbus, ADS1115Config(data_rate=6), calibration=calibration)
+        )
         imu_peer.hold_arm_down()  # the participant stands with the arm hanging for the calibration
         imu.calibrate_arm_down(calibration_s)
         imu_peer.hold_arm_down(False)
@@ -152,6 +162,12 @@ def open_sim_backend(*, speed: str = "V1", calibration_s: float = 0.3) -> Iterat
 @contextmanager
 def open_can_backend(args: argparse.Namespace) -> Iterator[Backend]:
     """The real suit: AK60-6 on ``args.channel``, NGIMU on ``args.imu_port``, optional ADS1115."""
+    import can
+
+    from bowden.hardware.ads1115 import ADS1115LoadCell, LoadCellCalibration
+    from bowden.hardware.ak60 import AK60Config, AK60Motor
+    from bowden.hardware.ngimu import NgimuClient, NgimuConfig
+
     config = AK60Config(motor_id=args.motor_id, limits=limits_for_firmware(args.firmware),
                         direction=args.direction)
     with ExitStack() as stack:
@@ -160,7 +176,7 @@ def open_can_backend(args: argparse.Namespace) -> Iterator[Backend]:
         print(f"calibrating the IMU: keep the arm hanging still for {args.calibration_s:g} s",
               file=sys.stderr)
         imu.calibrate_arm_down(args.calibration_s)
-        load_cell = None
+        load_cell: ADS1115LoadCell | None = None
         if args.i2c_bus is not None:
             import smbus2
 
