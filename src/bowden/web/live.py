@@ -139,7 +139,10 @@ def _finite(value: object) -> object:
 
 
 class Thinning:
-    """Keeps rows at most every ``1/rate_hz`` seconds of loop time (the display needs ≤ 100 Hz).
+    """Keeps the first row of each ``1/rate_hz`` slot of loop time (the display needs ≤ 100 Hz).
+
+    Slots rather than "at least a period since the last kept row": at a loop rate that is not a
+    multiple of the display rate (250 Hz for 100 Hz) the latter would keep every third row (83 Hz).
 
     Parameters
     ----------
@@ -149,18 +152,18 @@ class Thinning:
 
     def __init__(self, rate_hz: float) -> None:
         self.period_s = 1.0 / rate_hz
-        self._next_s = -math.inf
+        self._last_slot = -math.inf
 
     def reset(self) -> None:
-        self._next_s = -math.inf
+        self._last_slot = -math.inf
 
     def keep(self, rows: list[Stamped], time_index: int = 0) -> list[Stamped]:
         out = []
-        # A 1 % tolerance keeps exactly every n-th row when the loop rate is n times the display rate.
-        tolerance = 0.01 * self.period_s
+        period = self.period_s
         for stamped in rows:
-            t = float(stamped[2][time_index])
-            if t >= self._next_s - tolerance:
+            # The 1e-6 slot tolerance keeps t = 0.01 (0.00999… in binary) in the slot it names.
+            slot = math.floor(float(stamped[2][time_index]) / period + 1e-6)
+            if slot > self._last_slot:
                 out.append(stamped)
-                self._next_s = t + self.period_s
+                self._last_slot = slot
         return out
