@@ -119,7 +119,9 @@ def remove_ecg_from_channel(
     samples: NDArray[np.float64], r_peaks: NDArray[np.int64], rate_hz: float, params: EcgRemovalParameters
 ) -> NDArray[np.float64]:
     """One channel of :func:`emg_remove_ecg` (1-D in, cleaned copy out)."""
-    y = np.asarray(samples, dtype=np.float64)
+    # A contiguous copy: a column of a (samples x channels) array is strided, and the gathers
+    # below would touch every channel's memory.
+    y = np.ascontiguousarray(samples, dtype=np.float64)
     n = y.size
     qrs = max(1, round(params.qrs_half_width_s * rate_hz))
     # A QRS section must keep at least one sample per side whatever the stretch.
@@ -256,11 +258,12 @@ def _fit_adaptive(
     best_sse = np.full(n_beats, np.inf)
     best_width = np.full(n_beats, qrs)
     best_fit = np.zeros((6, n_beats))  # scale and offset of the P, QRS and T sections
-    best_qrs = np.zeros((n_beats, offsets.size))  # the chosen QRS variant on the offset grid
+    variants: dict[int, NDArray[np.float64]] = {}
     for d in range(-stretch, stretch + 1):
         width = qrs + d
         qrs_offsets = np.arange(-width, width + 1)
         t_qrs = np.asarray(base_qrs(qrs_offsets * (qrs / width)), dtype=np.float64)
+        variants[width] = t_qrs
         y_qrs = y[aligned[:, np.newaxis] + qrs_offsets]
         qrs_sums = np.stack(
             [
@@ -286,14 +289,17 @@ def _fit_adaptive(
         for section, (scale, offset, _) in enumerate(fits):
             best_fit[2 * section, better] = scale[better]
             best_fit[2 * section + 1, better] = offset[better]
-        best_qrs[better] = 0.0
-        best_qrs[better, half - width : half + width + 1] = t_qrs[better]
+    # The chosen QRS variant of each beat, written into its template row (only the QRS columns).
+    values = ts.copy()
+    for width, t_qrs in variants.items():
+        chosen = np.flatnonzero(best_width == width)
+        if chosen.size:
+            values[chosen, half - width : half + width + 1] = t_qrs[chosen]
     w = best_width[:, np.newaxis]
     in_p = offsets < -w
     in_t = offsets > w
     scale = np.where(in_p, best_fit[0][:, None], np.where(in_t, best_fit[4][:, None], best_fit[2][:, None]))
     offset = np.where(in_p, best_fit[1][:, None], np.where(in_t, best_fit[5][:, None], best_fit[3][:, None]))
-    values = np.where(in_p | in_t, ts, best_qrs)
     artefact = scale * values + offset
     return np.asarray(index[inside], dtype=np.int64), np.asarray(artefact[inside], dtype=np.float64)
 

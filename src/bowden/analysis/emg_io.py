@@ -91,8 +91,9 @@ def emg_check(emg: EmgSignal, parameters: EmgCheckParameters | None = None) -> N
     stuck_limit = max(2, round(params.max_stuck_s * emg.rate_hz))
     # Only the channels the analysis uses are judged: a sync or trigger channel is meant to clip.
     judged = [name for name in emg.channels if name in params.expected_channels] or list(emg.channels)
+    by_channel = np.ascontiguousarray(emg.values.T)  # one row per channel: fast per-channel scans
     for name in judged:
-        x = np.asarray(emg.channel(name))
+        x = by_channel[emg.channels.index(name)]
         bad = np.flatnonzero(~np.isfinite(x))
         if bad.size:
             problems.append(

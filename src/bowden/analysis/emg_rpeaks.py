@@ -75,7 +75,7 @@ def emg_detect_r_peaks(
             raise ParameterError(f"channel is required for a signal with channels {list(emg.channels)}")
         channel = emg.channels[0]
     rate = emg.rate_hz
-    copy = ecg_detection_copy(np.asarray(emg.channel(channel)), rate, band_hz=band_hz)
+    copy = ecg_detection_copy(np.ascontiguousarray(emg.channel(channel)), rate, band_hz=band_hz)
     feature = _integrated_energy(copy, rate)
     refractory = max(1, round(min_rr_s * rate))
     candidates, _ = sps.find_peaks(feature, distance=refractory)
