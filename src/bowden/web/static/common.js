@@ -124,12 +124,13 @@ const Bowden = (() => {
       }
       let legendX = left;
       ctx.textBaseline = "top";
-      for (const s of this.series) {
+      this.series.forEach((s, index) => {
         ctx.fillStyle = s.color;
         ctx.fillText(`${s.label} (${this.unit})`, legendX, 4 * dpr);
         legendX += ctx.measureText(`${s.label} (${this.unit})`).width + 16 * dpr;
         ctx.strokeStyle = s.color;
-        ctx.lineWidth = 2 * dpr;
+        // The first series (the target) is drawn widest so that a close follower does not hide it.
+        ctx.lineWidth = (index === 0 ? 3.5 : 1.5) * dpr;
         ctx.beginPath();
         let started = false;
         const values = this.values[s.key];
@@ -139,7 +140,7 @@ const Bowden = (() => {
           else { ctx.lineTo(x(this.t[i]), y(values[i])); }
         }
         ctx.stroke();
-      }
+      });
     }
   }
 

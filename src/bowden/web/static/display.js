@@ -117,7 +117,10 @@
       ctx.moveTo(0, g.y(deg));
       ctx.lineTo(g.w, g.y(deg));
       ctx.stroke();
-      ctx.fillText(`${deg}°`, 0.01 * g.w, g.y(deg) - 2.2 * unit);
+      // Labels at the right edge, above their line: the measured trace lives at the left.
+      ctx.textAlign = "right";
+      ctx.fillText(`${deg}°`, 0.99 * g.w, g.y(deg) - 2.6 * unit);
+      ctx.textAlign = "left";
     }
   }
 
@@ -232,8 +235,8 @@
     drawGrid(g);
     if (state.reference !== null) {
       drawReference(g);
-      drawMeasured(g);
       drawNowLine(g);
+      drawMeasured(g);  // last, so the participant's own dot is never hidden
     }
     drawText(g);
 
