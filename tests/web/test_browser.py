@@ -150,8 +150,9 @@ def test_the_display_trace_follows_a_simulated_trial(server, browser):
     )
     expected = [math.degrees(reference.elevation_rad(t)) for t in times]
     assert drawn == pytest.approx(expected, abs=1e-9)
-    reps = display.evaluate("times => times.map(t => BowdenReference.repetition(bowdenDisplay.reference(), t))",
-                            times)
+    reps = display.evaluate(
+        "times => times.map(t => BowdenReference.repetition(bowdenDisplay.reference(), t))", times
+    )
     assert reps == [reference.repetition(t) for t in times]
     assert display.evaluate("bowdenDisplay.headline()") == "Done: 1 of 1 — rest"
 
@@ -177,7 +178,8 @@ def test_a_questionnaire_submitted_through_the_form_is_in_the_store(server, brow
     ARTIFACTS.mkdir(parents=True, exist_ok=True)
     page = browser.new_page()
     page.goto(f"{server.url}/questionnaire#token={TOKEN}")
-    page.wait_for_function("() => document.querySelectorAll('input[type=radio]').length === 16 * 7 + 15 + 6 * 7")
+    radios = 16 * 7 + 15 + 6 * 7  # Nordic, Borg 6-20, fatigue
+    page.wait_for_function(f"() => document.querySelectorAll('input[type=radio]').length === {radios}")
     page.fill("#participant", "P12")
     page.select_option("#condition", "support_25")
     nordic = {site: 1 + i % 7 for i, site in enumerate(NORDIC_SITES)}
