@@ -85,15 +85,16 @@ def main() -> None:
         )
         with ServerThread(config) as server, sync_playwright() as playwright:
             token = server.web.token.value
-            context = playwright.chromium.launch_persistent_context(
-                str(Path(folder) / "profile"), executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS,
-                viewport={"width": 1280, "height": 720},
-            )
-            display = context.new_page()
+            # Playwright gives the browser a fresh temporary profile; each page gets its own context
+            # (its own window), as the display and the console have their own screens in the lab.
+            # Two tabs of one window would not do: the hidden tab's animation frames are throttled.
+            browser = playwright.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_ARGS)
+            viewport = {"width": 1280, "height": 720}
+            display = browser.new_context(viewport=viewport).new_page()
             display.goto(f"{server.url}/display")
             display.wait_for_function("() => window.bowdenDisplay && bowdenDisplay.connected()")
             if args.console:
-                console = context.new_page()
+                console = browser.new_context(viewport=viewport).new_page()
                 console.goto(f"{server.url}/console#token={token}")
             offset_ms, offset_error_ms = clock_offset_ms(display)
             started = post(f"{server.url}/api/trial/start", token, {
@@ -107,7 +108,7 @@ def main() -> None:
             fps = float(display.evaluate("() => bowdenDisplay.framesPerSecond()"))
             records = display.evaluate("() => bowdenDisplay.latency()")
             trace_points = int(display.evaluate("() => bowdenDisplay.trace().length"))
-            context.close()
+            browser.close()
         result = server.web.manager.last_result or {}
 
     presented = [r["presented_ms"] - offset_ms - r["stamp_ms"] for r in records]

@@ -47,22 +47,29 @@ def server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ServerThread]:
         yield running
 
 
-@pytest.fixture(scope="module")
-def browser(tmp_path_factory: pytest.TempPathFactory) -> Iterator[object]:
-    profile = tmp_path_factory.mktemp("chromium-profile")
-    with sync_api.sync_playwright() as playwright:
-        context = playwright.chromium.launch_persistent_context(
-            str(profile),
-            executable_path=str(CHROMIUM),
-            headless=True,
-            args=CHROMIUM_ARGS,
-            viewport={"width": 1280, "height": 720},
-        )
+class Windows:
+    """Each page in its own browser context (its own window and session storage, like separate screens
+    in the lab); Playwright launches the browser with a fresh temporary profile."""
+
+    def __init__(self, browser: object) -> None:
+        self.browser = browser
+
+    def new_page(self) -> object:
+        context = self.browser.new_context(viewport={"width": 1280, "height": 720})
         context.set_default_timeout(TIMEOUT_MS)
+        return context.new_page()
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Windows]:
+    with sync_api.sync_playwright() as playwright:
+        chromium = playwright.chromium.launch(
+            executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_ARGS
+        )
         try:
-            yield context
+            yield Windows(chromium)
         finally:
-            context.close()
+            chromium.close()
 
 
 def stored_samples(path: Path, trial_id: int) -> dict[float, float]:
@@ -94,7 +101,7 @@ def test_an_operator_action_without_the_token_is_refused_and_changes_nothing(ser
     assert status == 403
     assert store_snapshot(path) == before
     assert not server.web.manager.running and server.web.manager.trials_run == 0
-    console.close()
+    console.context.close()
 
 
 def test_the_display_trace_follows_a_simulated_trial(server, browser):
@@ -170,8 +177,8 @@ def test_the_display_trace_follows_a_simulated_trial(server, browser):
     )
     assert colours[0][:3] == [0xFF, 0xB0, 0x20]  # measured
     assert colours[1][:3] == [0x4F, 0xA3, 0xFF]  # reference
-    display.close()
-    console.close()
+    display.context.close()
+    console.context.close()
 
 
 def test_a_questionnaire_submitted_through_the_form_is_in_the_store(server, browser):
@@ -210,4 +217,4 @@ def test_a_questionnaire_submitted_through_the_form_is_in_the_store(server, brow
     page.click("#submit")
     page.wait_for_function("() => document.getElementById('message').textContent.includes('already stored')")
     assert store_snapshot(server.web.config.store_path) == before
-    page.close()
+    page.context.close()
