@@ -72,3 +72,30 @@ def test_the_simulated_backend_gives_hardware_protocol_devices():
     sample = suit.elevation_sensor.read()
     assert sample is not None and math.degrees(sample.elevation_rad) == pytest.approx(20.0, abs=3.0)
     suit.close()
+
+
+def test_a_context_backend_opens_per_trial_and_closes_after(tmp_path):
+    from contextlib import contextmanager
+
+    from bowden.sim.suit import SimulatedSuit
+    from bowden.web.suits import ContextBackend, OpenSuit
+
+    events = []
+
+    @contextmanager
+    def open_suit(setup):
+        events.append(("open", setup.participant))
+        suit = SimulatedSuit()
+        try:
+            yield OpenSuit(motor=suit.motor, elevation_sensor=suit.elevation_sensor, clock=suit.clock,
+                           description="wrapped")
+        finally:
+            events.append(("closed", suit.motor.enabled))
+
+    backend = ContextBackend("wrapped", open_suit)
+    opened = backend.open(parse_setup(trial_request(participant="P31")))
+    opened.motor.enable()
+    assert backend.name == "wrapped" and events == [("open", "P31")]
+    opened.motor.disable()
+    opened.close()
+    assert events == [("open", "P31"), ("closed", False)]

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
+from contextlib import AbstractContextManager, ExitStack
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -63,6 +64,49 @@ class SuitBackend(Protocol):
         ...
 
     def open(self, setup: TrialSetup) -> OpenSuit: ...
+
+
+class ContextBackend:
+    """A backend from a context manager that yields one trial's devices and closes them on exit.
+
+    This is how ``bowden run`` can serve its suit to the browser: its device openers (real AK60-6 and
+    NGIMU, or the simulated suit behind its wire peers) are context managers; wrap one so that it
+    yields an :class:`OpenSuit`, and each trial opens the suit (IMU calibration included) and closes it
+    when the loop has left motor mode.
+
+    Parameters
+    ----------
+    name
+        Short name ("can", "sim-wire").
+    opener
+        Called with the trial's setup; returns the context manager.
+    """
+
+    def __init__(self, name: str, opener: Callable[[TrialSetup], AbstractContextManager[OpenSuit]]) -> None:
+        self._name = name
+        self._opener = opener
+
+    @property
+    def name(self) -> str:
+        return self._name
+
+    def open(self, setup: TrialSetup) -> OpenSuit:
+        stack = ExitStack()
+        try:
+            suit = stack.enter_context(self._opener(setup))
+        except BaseException:
+            stack.close()
+            raise
+        close_devices = suit.close
+
+        def close() -> None:
+            try:
+                close_devices()
+            finally:
+                stack.close()
+
+        suit.close = close
+        return suit
 
 
 class WallPacedClock:
