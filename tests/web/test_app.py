@@ -216,3 +216,60 @@ def test_shutting_the_server_down_stops_a_running_trial(web):
     assert not web.manager.running
     assert web.manager.last_result is not None
     assert web.manager.last_result["reason"] == "server shutting down"
+
+
+class FreezingImu:
+    """The simulated IMU until ``freeze_s``, then its last sample forever (a stalled OSC stream)."""
+
+    def __init__(self, imu, freeze_s):
+        self.imu, self.freeze_s, self.frozen = imu, freeze_s, None
+
+    def read(self):
+        if self.frozen is not None:
+            return self.frozen
+        sample = self.imu.read()
+        if sample is not None and sample.time_s >= self.freeze_s:
+            self.frozen = sample
+        return sample
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return None
+
+
+def test_a_watchdog_fault_reaches_the_console_and_the_store(tmp_path):
+    from contextlib import contextmanager
+
+    from bowden.model import CompensationModel
+    from bowden.web.server import ServeConfig, build_server
+    from bowden.web.suits import ContextBackend, OpenSuit, SimulatedBackend
+
+    @contextmanager
+    def stalling_suit(setup):
+        suit = SimulatedBackend(time_scale=20.0).open(setup)
+        suit.elevation_sensor = FreezingImu(suit.elevation_sensor, freeze_s=0.5)
+        try:
+            yield OpenSuit(motor=suit.motor, elevation_sensor=suit.elevation_sensor, clock=suit.clock,
+                           tension_sensor=suit.tension_sensor, description="stalling IMU")
+        finally:
+            suit.close()
+
+    config = ServeConfig(store_path=tmp_path / "study.sqlite", model=CompensationModel.from_friction(k=0.12),
+                         backend=ContextBackend("stall", stalling_suit), token=TOKEN, rate_hz=250.0)
+    web = build_server(config)
+    with TestClient(web.app, base_url=BASE) as client, \
+            client.websocket_connect(f"{WS}/ws/console") as console:
+        console.send_text(json.dumps({"token": TOKEN}))
+        console.receive_json()
+        trial_id = client.post("/api/trial/start", headers=AUTH, json=trial_request()).json()["trial_id"]
+        result = until(console, "stopped")[-1]
+    assert result["clean"] is False and result["faults"] == [Fault.IMU_STALE.name]
+    assert result["reason"].startswith("IMU: newest sample") and result["motor_disabled"] is True
+    with sqlite3.connect(config.store_path) as connection:
+        flags = connection.execute(
+            "SELECT max(fault_flags) FROM samples WHERE trial_id = ?", (trial_id,)
+        ).fetchone()[0]
+        events = connection.execute("SELECT kind FROM events WHERE trial_id = ?", (trial_id,)).fetchall()
+    assert flags & int(Fault.IMU_STALE) and ("fault",) in events
