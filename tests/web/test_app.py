@@ -273,3 +273,26 @@ def test_a_watchdog_fault_reaches_the_console_and_the_store(tmp_path):
         ).fetchone()[0]
         events = connection.execute("SELECT kind FROM events WHERE trial_id = ?", (trial_id,)).fetchall()
     assert flags & int(Fault.IMU_STALE) and ("fault",) in events
+
+
+def test_a_suit_that_cannot_be_opened_is_a_clear_refusal(tmp_path):
+    from bowden.errors import HardwareError
+    from bowden.model import CompensationModel
+    from bowden.web.server import ServeConfig, build_server
+
+    class Unplugged:
+        name = "can"
+
+        def open(self, setup):
+            raise HardwareError("no CAN interface can0: is the adapter plugged in?")
+
+    config = ServeConfig(store_path=tmp_path / "study.sqlite", model=CompensationModel.from_friction(k=0.12),
+                         backend=Unplugged(), token=TOKEN)
+    web = build_server(config)
+    with TestClient(web.app, base_url=BASE) as client:
+        before = store_snapshot(config.store_path)
+        response = client.post("/api/trial/start", headers=AUTH, json=trial_request())
+        assert response.status_code == 503 and "can0" in response.json()["error"]
+        assert not web.manager.running
+        assert store_snapshot(config.store_path) == before
+        assert client.post("/api/trial/stop", headers=AUTH, json={}).status_code == 409

@@ -41,7 +41,14 @@ from bowden.contracts import (
     SPEED_PEAK_DEG_S,
     SPEEDS,
 )
-from bowden.errors import AccessDeniedError, ConflictError, ParameterError, RequestError, StoreError
+from bowden.errors import (
+    AccessDeniedError,
+    BowdenError,
+    ConflictError,
+    ParameterError,
+    RequestError,
+    StoreError,
+)
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, _Client, encode, send
 from bowden.web.questionnaire_store import COLUMNS, QuestionnaireStore
 from bowden.web.questionnaires import parse_response, questionnaire_schema
@@ -104,6 +111,7 @@ _STATUS: Final[tuple[tuple[type[Exception], int], ...]] = (
     (RequestError, 400),
     (ParameterError, 400),
     (StoreError, 503),
+    (BowdenError, 503),  # a device that cannot be opened, an IMU that never streamed...
 )
 
 Handler = Callable[[Request], Awaitable[Response]]
@@ -117,7 +125,7 @@ def _refusals(handler: Handler) -> Handler:
             return await handler(request)
         except _PayloadError as error:
             return _error(error.status, str(error))
-        except (AccessDeniedError, ConflictError, RequestError, ParameterError, StoreError) as error:
+        except BowdenError as error:
             status = next(code for kind, code in _STATUS if isinstance(error, kind))
             if status == 403:
                 _log.warning("refused %s %s: %s", request.method, request.url.path, error)
