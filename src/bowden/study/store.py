@@ -9,7 +9,8 @@ It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``tria
     one row per trial and muscle: rate, start time on the controller time base, and the samples as a
     16-bit integer blob with its gain (the resolution of EDF/BDF-16 files, 2 bytes a sample);
 ``questionnaires``
-    one row per answered item: participant, condition, questionnaire, item, score;
+    one row per answered item: participant, condition, questionnaire, item, score (the table of
+    :mod:`bowden.web.questionnaire_store`, which the browser forms write);
 ``outcomes``
     the tidy outcome table of the analysis;
 ``artifacts``
@@ -42,6 +43,9 @@ from bowden.model import Subject
 from bowden.runtime.recorder import TrialInfo, utc_now_iso
 from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection, create_schema
 
+# One definition of the questionnaire table, shared with the browser forms that write it.
+from bowden.web.questionnaire_store import QUESTIONNAIRES_DDL
+
 PARTICIPANT_ID_PATTERN: Final = re.compile(r"^[A-Za-z]{0,4}[0-9]{1,4}$")
 
 _STUDY_DDL: Final = (
@@ -65,17 +69,7 @@ CREATE TABLE IF NOT EXISTS emg (
     PRIMARY KEY (trial_id, muscle)
 ) STRICT
 """,
-    """
-CREATE TABLE IF NOT EXISTS questionnaires (
-    participant TEXT NOT NULL,
-    condition TEXT NOT NULL,
-    questionnaire TEXT NOT NULL,
-    item TEXT NOT NULL,
-    score INTEGER NOT NULL,
-    answered_utc TEXT NOT NULL,
-    PRIMARY KEY (participant, condition, questionnaire, item)
-) STRICT
-""",
+    QUESTIONNAIRES_DDL,
     """
 CREATE TABLE IF NOT EXISTS outcomes (
     participant TEXT NOT NULL,
@@ -334,7 +328,12 @@ class StudyStore:
                 raise StoreError(f"unknown condition {condition!r} in questionnaire answers")
             rows.append((participant, condition, questionnaire, item, int(score), now))
         with self._db:
-            self._db.executemany("INSERT OR REPLACE INTO questionnaires VALUES (?, ?, ?, ?, ?, ?)", rows)
+            self._db.executemany(
+                "INSERT OR REPLACE INTO questionnaires "
+                "(participant, condition, questionnaire, item, score, submitted_utc) "
+                "VALUES (?, ?, ?, ?, ?, ?)",
+                rows,
+            )
 
     def questionnaires(self) -> pd.DataFrame:
         return pd.read_sql_query(
