@@ -53,7 +53,9 @@ def test_hand_computed_cycle():
     tension = 0.5 * tau_g / r
     w = 1.0 / (1.0 + math.exp(-math.log(99) * 5.0))
     expected = (-0.05 + 0.026 * tension) + ((0.06 + 0.045 * tension) - (-0.05 + 0.026 * tension)) * w
-    assert cmd == Command(pytest.approx(expected), pytest.approx(tension), pytest.approx(r), 0, 0)
+    assert cmd == Command((pytest.approx(expected), pytest.approx(tension), pytest.approx(r), 0, 0))
+    assert cmd == Command.of(torque_nm=cmd.torque_nm, tension_n=cmd.tension_n, moment_arm_m=cmd.moment_arm_m)
+    assert cmd._asdict()["tension_n"] == cmd.tension_n and repr(cmd).startswith("Command(torque_nm=")
 
 
 @given(elevations, velocities, st.floats(-1.0, 10.0))

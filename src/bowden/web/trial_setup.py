@@ -159,7 +159,7 @@ class NoAssistance:
     cable is not driven.
     """
 
-    _ZERO: Final = Command(torque_nm=0.0, tension_n=math.nan, moment_arm_m=math.nan, faults=0, limits=0)
+    _ZERO: Final = Command.of(torque_nm=0.0, tension_n=math.nan, moment_arm_m=math.nan, faults=0, limits=0)
 
     def step(
         self,
