@@ -1,17 +1,29 @@
 """``bowden serve``: the participant display, operator console and questionnaires in the browser.
 
 Prints the addresses and the session token, then serves until Ctrl-C (which stops a running trial
-safely first). Trials run on the simulated suit (a virtual participant follows the reference, paced
-to wall time); the real suit is driven by ``bowden run``. Needs the ``web`` extra.
+safely first). Trials started from the console run on the simulated suit (``--backend sim``: a
+virtual participant follows the reference, paced to wall time) or on the real suit (``--backend
+can``: the AK60-6 over CAN, the NGIMU over OSC/UDP and optionally the ADS1115 load cell, opened for
+each trial with the same options and code as ``bowden run --backend can``; the arm hangs still for
+the IMU calibration when a trial starts). Needs the ``web`` extra.
 """
 
 from __future__ import annotations
 
 import argparse
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from bowden.errors import BowdenError
+from bowden.cli._suit import CanSuitOptions, add_can_arguments, open_can_backend, require_hardware_extra
+from bowden.errors import BowdenError, ParameterError
+
+if TYPE_CHECKING:
+    from bowden.web.server import ServeConfig
+    from bowden.web.suits import OpenSuit, SuitBackend
+    from bowden.web.trial_setup import TrialSetup
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -21,22 +33,25 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description=(
             "Serve the study pages: /display (participant, read-only), /console (operator: start and "
             "stop trials, live plots, loop health) and /questionnaire. Operator actions need the "
-            "session token printed at start."
+            "session token printed at start. Trials run on the simulated suit (--backend sim) or on "
+            "the real one (--backend can)."
         ),
     )
     parser.add_argument(
         "--store", type=Path, default=Path("study.sqlite"), help="study store file (default study.sqlite)"
     )
-    parser.add_argument("--model", type=Path, help="compensation model (model.json) of the suit")
+    parser.add_argument("--model", type=Path,
+                        help="compensation model (model.json) of the suit (required for --backend can)")
     parser.add_argument(
         "--friction-k",
         type=float,
         default=0.12,
-        help="without --model: ideal single-bend model with this k = mu*sin(phi/2) (default 0.12)",
+        help="sim without --model: ideal single-bend model with this k = mu*sin(phi/2) (default 0.12)",
     )
-    parser.add_argument("--backend", choices=("sim",), default="sim", help="where trials run (sim)")
+    parser.add_argument("--backend", choices=("sim", "can"), default="sim",
+                        help="where trials run: the simulated suit (default) or the real one over CAN")
     parser.add_argument(
-        "--time-scale", type=float, default=1.0, help="simulated seconds per wall second (default 1)"
+        "--time-scale", type=float, default=1.0, help="sim: simulated seconds per wall second (default 1)"
     )
     parser.add_argument("--rate-hz", type=float, default=500.0, help="control rate (default 500 Hz)")
     parser.add_argument(
@@ -45,32 +60,64 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="address to listen on (default 127.0.0.1: this machine only)",
     )
     parser.add_argument("--port", type=int, default=8765, help="port (default 8765; 0 picks a free one)")
+    add_can_arguments(parser)
     parser.set_defaults(handler=run)
 
 
-def run(args: argparse.Namespace) -> int:
+def can_backend(options: CanSuitOptions) -> SuitBackend:
+    """The real suit for the console's trials: each trial opens it, calibrates, and closes it after."""
+    from bowden.web.suits import ContextBackend, OpenSuit
+
+    @contextmanager
+    def open_suit(setup: TrialSetup) -> Iterator[OpenSuit]:
+        with open_can_backend(options, announce=logging.getLogger(__name__).info) as backend:
+            yield OpenSuit(motor=backend.motor, elevation_sensor=backend.imu, clock=backend.clock,
+                           tension_sensor=backend.load_cell, description=backend.describe)
+
+    return ContextBackend("can", open_suit)
+
+
+def serve_config(args: argparse.Namespace) -> ServeConfig:
+    """What ``bowden serve`` runs, from its arguments; checked before anything is opened.
+
+    Raises
+    ------
+    BowdenError
+        If the web (or, for ``--backend can``, the hardware) extra is missing, or an option is wrong.
+    """
     try:
-        from bowden.web.server import ServeConfig, serve
+        from bowden.web.server import ServeConfig
         from bowden.web.suits import SimulatedBackend
     except ImportError as error:
         raise BowdenError(
             f"bowden serve needs the web extra ({error.name} is missing): pip install 'bowden[web]'"
         ) from None
     from bowden.model import CompensationModel
+    from bowden.runtime import LoopConfig
 
+    LoopConfig(rate_hz=args.rate_hz)  # a wrong rate is refused now, not at the first trial
+    backend: SuitBackend
+    if args.backend == "can":
+        if args.model is None:
+            raise ParameterError("--backend can needs --model model.json (run `bowden identify` first)")
+        options = CanSuitOptions.from_args(args)
+        require_hardware_extra("bowden serve", options)
+        backend = can_backend(options)
+    else:
+        backend = SimulatedBackend(time_scale=args.time_scale)
     model = (
         CompensationModel.load(args.model)
         if args.model is not None
         else CompensationModel.from_friction(k=args.friction_k)
     )
+    return ServeConfig(store_path=args.store, model=model, backend=backend, host=args.host, port=args.port,
+                       rate_hz=args.rate_hz)
+
+
+def run(args: argparse.Namespace) -> int:
+    config = serve_config(args)
+    from bowden.web.server import serve
+
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
-    config = ServeConfig(
-        store_path=args.store,
-        model=model,
-        backend=SimulatedBackend(time_scale=args.time_scale),
-        host=args.host,
-        port=args.port,
-        rate_hz=args.rate_hz,
-    )
     serve(config)
     return 0

@@ -263,6 +263,7 @@ def create_app(
 
     @contextlib.asynccontextmanager
     async def lifespan(app: Starlette) -> AsyncIterator[None]:
+        manager.event_loop = asyncio.get_running_loop()  # for loops run elsewhere (bowden run --serve)
         pump = asyncio.create_task(manager.pump(), name="bowden-live-pump")
         try:
             yield

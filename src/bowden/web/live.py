@@ -104,6 +104,10 @@ class LiveHub:
         """Connected browsers (of one role)."""
         return sum(1 for c in self._clients if role is None or c.role == role)
 
+    def pending(self) -> int:
+        """Messages queued and not yet taken by the browsers' senders (safe to poll from any thread)."""
+        return sum(client.queue.qsize() for client in list(self._clients))
+
     def publish(self, message: Mapping[str, object], roles: Sequence[str] = ROLES) -> None:
         """Queue ``message`` (JSON-encoded once) for every browser of ``roles``."""
         targets = [c for c in self._clients if c.role in roles]

@@ -144,6 +144,17 @@ def addresses(url: str, token: SessionToken) -> dict[str, str]:
     }
 
 
+def announcement(
+    config: ServeConfig, url: str, token: SessionToken, *, title: str = "bowden serve"
+) -> list[str]:
+    """The lines printed at start: where the server listens, the pages, and the session token."""
+    lines = [f"{title}: {url}  (store {config.store_path}, backend {config.backend.name})"]
+    if config.host not in LOOPBACK_HOSTS:
+        lines.append("warning: listening beyond this machine; anyone on the network can watch the display")
+    lines.extend(f"  {name + ':':22s}{address}" for name, address in addresses(url, token).items())
+    return lines
+
+
 def _uvicorn(app: Starlette) -> uvicorn.Server:
     config = uvicorn.Config(app, log_level="warning", lifespan="on", ws="websockets-sansio", access_log=False)
     return uvicorn.Server(config)
@@ -153,12 +164,8 @@ def serve(config: ServeConfig, *, announce: Callable[[str], None] = print) -> No
     """Listen until interrupted (Ctrl-C stops a running trial safely first)."""
     server = build_server(config)
     sock = bind(config.host, config.port)
-    url = base_url(sock)
-    announce(f"bowden serve: {url}  (store {config.store_path}, backend {config.backend.name})")
-    if config.host not in LOOPBACK_HOSTS:
-        announce("warning: listening beyond this machine; anyone on the network can watch the display")
-    for name, address in addresses(url, server.token).items():
-        announce(f"  {name + ':':22s}{address}")
+    for line in announcement(config, base_url(sock), server.token):
+        announce(line)
     _uvicorn(server.app).run(sockets=[sock])
 
 
@@ -176,6 +183,10 @@ class ServerThread:
         self._thread = threading.Thread(
             target=self._server.run, kwargs={"sockets": [self._sock]}, name="bowden-web", daemon=True
         )
+
+    def announcement(self, *, title: str = "bowden serve") -> list[str]:
+        """The addresses and the session token, as :func:`serve` prints them."""
+        return announcement(self.web.config, self.url, self.web.token, title=title)
 
     def __enter__(self) -> Self:
         self._thread.start()

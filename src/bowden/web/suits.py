@@ -2,11 +2,13 @@
 
 The trial manager asks a :class:`SuitBackend` for the devices of one trial and gets an
 :class:`OpenSuit` (motor, IMU, optional load cell, clock, and how to close them). The real suit
-(AK60-6 over CAN, NGIMU over OSC) is one such backend, wired by ``bowden run``; the simulated suit
-is the other. A simulated trial runs the same :class:`bowden.runtime.ControlLoop` on
-:class:`bowden.sim.SimulatedSuit`, with a virtual participant following the reference shown, but
-paced to the wall clock so that a person can watch it: :class:`WallPacedClock` integrates the
-physics to each deadline at once, then waits until that much wall time has passed.
+(AK60-6 over CAN, NGIMU over OSC) is a :class:`ContextBackend` around the device opener that
+``bowden run`` uses too (``bowden serve --backend can``); the simulated suit is the other, and
+:class:`CommandLineBackend` stands for the one trial of ``bowden run --serve``. A simulated trial
+runs the same :class:`bowden.runtime.ControlLoop` on :class:`bowden.sim.SimulatedSuit`, with a
+virtual participant following the reference shown, but paced to the wall clock so that a person can
+watch it: :class:`WallPacedClock` integrates the physics to each deadline at once, then waits until
+that much wall time has passed.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from contextlib import AbstractContextManager, ExitStack
 from dataclasses import dataclass, field
 from typing import Protocol
 
-from bowden.errors import ParameterError
+from bowden.errors import ConflictError, ParameterError
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
 from bowden.sim.arm import ParticipantArm
 from bowden.sim.participants import ExpectedAssistance, VirtualParticipant
@@ -69,9 +71,9 @@ class SuitBackend(Protocol):
 class ContextBackend:
     """A backend from a context manager that yields one trial's devices and closes them on exit.
 
-    This is how ``bowden run`` can serve its suit to the browser: its device openers (real AK60-6 and
-    NGIMU, or the simulated suit behind its wire peers) are context managers; wrap one so that it
-    yields an :class:`OpenSuit`, and each trial opens the suit (IMU calibration included) and closes it
+    This is how ``bowden serve --backend can`` serves the real suit: the device opener of
+    ``bowden run`` (AK60-6 and NGIMU, optional load cell) is a context manager; wrapped so that it
+    yields an :class:`OpenSuit`, each trial opens the suit (IMU calibration included) and closes it
     when the loop has left motor mode.
 
     Parameters
@@ -107,6 +109,28 @@ class ContextBackend:
 
         suit.close = close
         return suit
+
+
+@dataclass(frozen=True)
+class CommandLineBackend:
+    """The suit of ``bowden run --serve``: its one trial is started from the command line.
+
+    The browsers watch that trial (and the console can stop it), but the console cannot start
+    another: :meth:`open` refuses, and the refusal reaches the console as a 409 that says why.
+
+    Parameters
+    ----------
+    name
+        The backend of the run ("sim", "can").
+    """
+
+    name: str
+
+    def open(self, setup: TrialSetup) -> OpenSuit:
+        raise ConflictError(
+            f"this server shows the trial of 'bowden run --backend {self.name}', which the command line "
+            "starts; to start trials from the console, use 'bowden serve'"
+        )
 
 
 class WallPacedClock:

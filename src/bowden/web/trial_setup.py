@@ -73,12 +73,7 @@ class TrialSetup:
     @property
     def reference(self) -> TrialReference:
         """The minimum-jerk reference shown during this trial."""
-        cycle = MinimumJerkCycle(
-            low_rad=math.radians(ELEVATION_LOW_DEG),
-            high_rad=math.radians(ELEVATION_HIGH_DEG),
-            peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[self.speed]),
-        )
-        return TrialReference(cycle=cycle, start_s=self.lead_in_s, repetitions=self.repetitions)
+        return study_reference(self.speed, lead_in_s=self.lead_in_s, repetitions=self.repetitions)
 
     @property
     def duration_s(self) -> float:
@@ -103,6 +98,16 @@ class TrialSetup:
             "sex": self.subject.sex,
             "hand_load_kg": self.hand_load_kg,
         }
+
+
+def study_reference(speed: str, *, lead_in_s: float, repetitions: int) -> TrialReference:
+    """The paper's reference at ``speed``: rest, ``repetitions`` cycles between the study's elevations."""
+    cycle = MinimumJerkCycle(
+        low_rad=math.radians(ELEVATION_LOW_DEG),
+        high_rad=math.radians(ELEVATION_HIGH_DEG),
+        peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]),
+    )
+    return TrialReference(cycle=cycle, start_s=lead_in_s, repetitions=repetitions)
 
 
 def parse_setup(payload: Mapping[str, object]) -> TrialSetup:

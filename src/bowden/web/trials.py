@@ -8,6 +8,11 @@ and returns at once; the end of the trial is announced to the browsers when the 
 
 Everything that changes the manager's state runs in the server's event loop; the loop thread only
 hands over rows and, at its end, its report.
+
+A loop can also be run by someone else — ``bowden run --serve`` runs its trial in the main thread of
+the command — and shown here: :meth:`TrialManager.attach` (called from that thread) makes it the
+current trial and returns the non-blocking callback that feeds its rows to the browsers; the console's
+stop button then asks that loop for its safe stop, and :meth:`TrialManager.detach` announces the end.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ import contextlib
 import logging
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Final
@@ -26,7 +32,7 @@ from bowden.contracts import TRIAL_COLUMNS
 from bowden.control import Fault
 from bowden.errors import BowdenError, ConflictError
 from bowden.model import CompensationModel
-from bowden.runtime import ControlLoop, LoopConfig, LoopReport, LoopState, Recorder, TrialInfo
+from bowden.runtime import ControlLoop, LoopConfig, LoopReport, LoopState, Recorder, Row, TrialInfo
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, SampleTap, Stamped, Thinning
 from bowden.web.suits import OpenSuit, SuitBackend
 from bowden.web.trial_setup import TrialSetup, controller_for, tension_estimate_n
@@ -107,6 +113,7 @@ class TrialManager:
         self._wake = asyncio.Event()
         self.last_result: dict[str, object] | None = None
         self.trials_run = 0
+        self.event_loop: asyncio.AbstractEventLoop | None = None  # the server's, set when it starts
 
     # --- operator actions (event loop) -----------------------------------------------------------
     @property
@@ -136,11 +143,85 @@ class TrialManager:
         thread = threading.Thread(target=self._run, args=(trial,), name="bowden-control-loop", daemon=True)
         trial.thread = thread
         thread.start()
+        self._announce(trial)
+        return self.status(console=True)
+
+    def _announce(self, trial: _Trial) -> None:
+        setup = trial.setup
         _log.info("trial %s started: %s %s %s", trial.recorder.trial_id, setup.participant,
                   setup.condition, setup.speed)
         self.hub.publish(self._trial_message(trial, ROLE_DISPLAY), (ROLE_DISPLAY,))
         self.hub.publish(self._trial_message(trial, ROLE_CONSOLE), (ROLE_CONSOLE,))
-        return self.status(console=True)
+
+    # --- a loop run elsewhere (bowden run --serve; called from that loop's thread) ---------------
+    def attach(
+        self,
+        setup: TrialSetup,
+        suit: OpenSuit,
+        loop: ControlLoop,
+        recorder: Recorder,
+        *,
+        timeout_s: float = 5.0,
+    ) -> Callable[[Row], None]:
+        """Show a loop that another thread runs as the current trial; call before ``loop.run()``.
+
+        ``recorder`` is the run's own (started; the caller closes it before :meth:`detach`).
+        Returns the callback the loop must call with each row (in addition to the recorder's): it
+        only appends to a deque and at most wakes the server, so the loop never waits for the web.
+        The console's stop calls ``loop.request_stop``, which the loop's safety path handles.
+
+        Raises
+        ------
+        ConflictError
+            If a trial is running or starting.
+        BowdenError
+            If the server is not running (or did not answer within ``timeout_s``).
+        """
+        future = asyncio.run_coroutine_threadsafe(
+            self._adopt(setup, suit, loop, recorder), self._server_loop()
+        )
+        try:
+            return future.result(timeout_s)
+        except TimeoutError:
+            future.cancel()
+            raise BowdenError(f"the web server did not take the trial within {timeout_s:g} s") from None
+
+    def detach(self, report: LoopReport | None, error: str | None = None, *, timeout_s: float = 5.0) -> None:
+        """Announce the end of the attached trial (after its loop returned and its recorder closed).
+
+        Returns once the browsers' messages are queued. Does nothing if the server is gone.
+        """
+        try:
+            event_loop = self._server_loop()
+        except BowdenError:
+            return
+        future = asyncio.run_coroutine_threadsafe(self._release(report, error), event_loop)
+        with contextlib.suppress(TimeoutError):
+            future.result(timeout_s)
+
+    def _server_loop(self) -> asyncio.AbstractEventLoop:
+        event_loop = self.event_loop
+        if event_loop is None or event_loop.is_closed():
+            raise BowdenError("the web server is not running")
+        return event_loop
+
+    async def _adopt(
+        self, setup: TrialSetup, suit: OpenSuit, loop: ControlLoop, recorder: Recorder
+    ) -> Callable[[Row], None]:
+        if self.running:
+            raise ConflictError("a trial is running: stop it before starting another")
+        tap = SampleTap(asyncio.get_running_loop(), self._wake.set)
+        trial = _Trial(setup, suit, loop, recorder, tap, time.time())
+        self._trial = trial
+        self._thinning.reset()
+        self.trials_run += 1
+        self._announce(trial)
+        return tap.record
+
+    async def _release(self, report: LoopReport | None, error: str | None) -> None:
+        trial = self._trial
+        if trial is not None and trial.thread is None:  # only an attached trial, never the manager's own
+            self._finished(trial, report, error)
 
     def stop(self, reason: str = "operator stop") -> dict[str, object]:
         """Ask the running loop for a safe stop (returns at once).
@@ -225,12 +306,13 @@ class TrialManager:
             trial.suit.close()
         except Exception:
             _log.exception("closing the suit failed")
+        recorder = trial.recorder
         if report is not None:
             kind = "safe_stop" if report.clean else "fault"
-            trial.recorder.event(report.stop_time_s, kind, report.reason)
+            recorder.event(report.stop_time_s, kind, report.reason)
         reason = report.reason if report is not None else f"error: {error}"
         try:
-            trial.recorder.close(stop_reason=reason)
+            recorder.close(stop_reason=reason)
         except BowdenError as exc:
             error = f"{error}; {exc}" if error else str(exc)
         loop = trial.tap.loop
