@@ -43,6 +43,7 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy import fft as sp_fft
 from scipy.interpolate import PchipInterpolator
 
 from bowden.analysis.emg_signal import EmgSignal
@@ -163,11 +164,15 @@ def remove_ecg_from_channel(
     template = _moving_templates(y, peaks, start, end, offsets, params.template_beats)
     if params.method == "template":
         return _subtract_plain(y, peaks, start, end, template, half)
-    if params.denoise_template:
+    noise: _NoiseModel | None = None
+    if params.denoise_template or params.gate:
         plain = _subtract_plain(y, peaks, start, end, template, half)
-        template = _denoised_templates(template, plain, params.template_beats)
+        noise = _NoiseModel.of(plain, start, end, offsets.size)
+    if noise is not None and params.denoise_template:
+        template = _denoised_templates(template, noise, params.template_beats)
     aligned = peaks + _alignment_shifts(y, peaks, template, half, qrs, shift)
-    where, artefact = _fit_adaptive(y, aligned, start, end, template, half, qrs, stretch, params.gate)
+    gate = noise if params.gate else None
+    where, artefact = _fit_adaptive(y, aligned, start, end, template, half, qrs, stretch, gate)
     cleaned = y.copy()
     cleaned[where] -= artefact
     return cleaned
@@ -263,7 +268,7 @@ def _fit_adaptive(
     half: int,
     qrs: int,
     stretch: int,
-    gate: bool,
+    gate: _NoiseModel | None,
 ) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
     """Best stretched variant per beat with per-section LS scale and offset.
 
@@ -350,41 +355,75 @@ def _fit_adaptive(
     scale = np.where(in_p, best_fit[0][:, None], np.where(in_t, best_fit[4][:, None], best_fit[2][:, None]))
     offset = np.where(in_p, best_fit[1][:, None], np.where(in_t, best_fit[5][:, None], best_fit[3][:, None]))
     artefact = scale * values + offset
-    if gate:
+    if gate is not None:
         sections = (in_p & inside, ~in_p & ~in_t & inside, in_t & inside)
-        residual = y.copy()
-        residual[index[inside]] -= artefact[inside]
-        keep = _cp_gate(residual, values, sections, section_sse, section_energy)
+        keep = _cp_gate(gate, values, sections, section_sse, section_energy)
         artefact *= np.where(in_p, keep[0][:, None], np.where(in_t, keep[2][:, None], keep[1][:, None]))
     return np.asarray(index[inside], dtype=np.int64), np.asarray(artefact[inside], dtype=np.float64)
 
 
+@dataclass(frozen=True)
+class _NoiseModel:
+    """The EMG under the artefact, as the gate and the template denoising need it.
+
+    ``power`` holds rfft bins of length ``nfft`` such that ``qᵀ·C·q ≈ Σ_full |Q_k|²·P_k / nfft``
+    for any vector q of at most nfft/2 samples (C: covariance of the EMG), and ``beat_scale`` the
+    variance of each beat relative to the channel's (the EMG follows the activation).
+    """
+
+    nfft: int
+    power: NDArray[np.float64]
+    beat_scale: NDArray[np.float64]
+
+    @classmethod
+    def of(
+        cls, residual: NDArray[np.float64], start: NDArray[np.int64], end: NDArray[np.int64], width: int
+    ) -> _NoiseModel:
+        """Estimate from a residual (the channel after plain template subtraction).
+
+        Bartlett's method: the mean periodogram of non-overlapping segments of nfft/2 samples,
+        whose expectation is the spectrum of the autocovariance under a triangular lag window of
+        nfft/2 lags (never negative). The residual holds what the plain subtraction left of the
+        ECG too, which errs on the side of more noise, i.e. of subtracting less.
+        """
+        nfft = 1 << math.ceil(math.log2(2 * width))  # rows of ``width`` never wrap onto themselves
+        segment = nfft // 2
+        count = max(1, residual.size // segment)
+        segments = np.resize(residual, count * segment).reshape(count, segment)
+        if residual.size < segment:
+            segments[0, residual.size :] = 0.0
+        spectra = sp_fft.rfft(segments, nfft, axis=1)
+        power = np.mean(spectra.real**2 + spectra.imag**2, axis=0) / min(segment, residual.size)
+        channel_variance = float(np.mean(residual * residual))
+        squares = np.concatenate([[0.0], np.cumsum(residual * residual)])
+        beat_variance = (squares[end] - squares[start]) / np.maximum(end - start, 1)
+        scale = beat_variance / channel_variance if channel_variance > 0.0 else np.zeros(start.size)
+        return cls(nfft=nfft, power=np.asarray(power, dtype=np.float64), beat_scale=scale)
+
+
 def _denoised_templates(
-    template: NDArray[np.float64], residual: NDArray[np.float64], n_beats: int
+    template: NDArray[np.float64], noise: _NoiseModel, n_beats: int
 ) -> NDArray[np.float64]:
     """Templates through one Wiener filter: keep the frequencies where the heartbeat stands out.
 
     A template is the mean of ``n_beats`` beats, so it carries their EMG with 1/n_beats of its
     power spectrum ``P(f)``; a template row of ``width`` samples then holds ``width·P(f)/n_beats``
     of EMG per frequency bin. Against the mean power of the templates ``S(f)`` the Wiener gain is
-    ``max(0, 1 − width·P(f) / (n_beats·S(f)))`` (spectral subtraction; Wiener 1949). The ECG after
+    ``max(0, 1 − width·P(f) / (n_beats·S(f)))`` (Wiener 1949). The ECG after
     the EMG band-pass lies mostly below ~60 Hz and the EMG mostly above, so the gain removes
     most of the template's EMG and keeps the heartbeat, without a cut-off chosen by hand. ``P``
-    comes from ``residual``, the channel after plain template subtraction (the EMG and what is
-    left of the ECG). The filter is zero-phase (a real gain applied to the spectrum).
+    is the :class:`_NoiseModel`'s. The filter is zero-phase (a real gain applied to the spectrum).
     """
     width = template.shape[1]
-    nfft = 1 << math.ceil(math.log2(2 * width))  # no circular wrap of a row onto itself
-    power = _residual_power_spectrum(residual, nfft)
-    spectra = np.fft.rfft(template, nfft, axis=1)
-    template_power = np.mean(np.abs(spectra) ** 2, axis=0)
-    noise_power = width * power / n_beats
+    spectra = sp_fft.rfft(template, noise.nfft, axis=1)
+    template_power = np.mean(spectra.real**2 + spectra.imag**2, axis=0)
+    noise_power = width * noise.power / n_beats
     gain = np.maximum(0.0, 1.0 - noise_power / np.maximum(template_power, np.finfo(float).tiny))
-    return np.asarray(np.fft.irfft(spectra * gain, nfft, axis=1)[:, :width], dtype=np.float64)
+    return np.asarray(sp_fft.irfft(spectra * gain, noise.nfft, axis=1)[:, :width], dtype=np.float64)
 
 
 def _cp_gate(
-    residual: NDArray[np.float64],
+    noise: _NoiseModel,
     template: NDArray[np.float64],
     sections: tuple[NDArray[np.bool_], ...],
     sse: NDArray[np.float64],
@@ -402,51 +441,26 @@ def _cp_gate(
     high-pass has flattened, averaged with the neighbours' EMG) takes away several times more:
     this is what made the ungated subtraction lose to a plain high-pass at high EMG levels.
 
-    ``C`` is estimated from the residual of the whole channel (its autocovariance with a Bartlett
-    lag window, hence a non-negative spectrum), scaled per beat by the beat's residual variance.
-    The residual still holds any misfit of the ECG, which errs on the side of leaving a section alone.
+    ``C`` is the :class:`_NoiseModel`'s: the channel's spectrum after plain template subtraction,
+    scaled per beat by the beat's variance.
     """
-    n_beats, width = template.shape
-    nfft = 1 << math.ceil(math.log2(2 * width))
-    power = _residual_power_spectrum(residual, nfft)
-    weight = np.full(power.size, 2.0)  # rfft bins stand for two bins of the full spectrum ...
+    n_beats = template.shape[0]
+    weight = np.full(noise.power.size, 2.0)  # rfft bins stand for two bins of the full spectrum ...
     weight[0] = 1.0
     weight[-1] = 1.0  # ... except DC and Nyquist
-    weighted_power = weight * power / nfft
+    weighted_power = weight * noise.power / noise.nfft
     penalty = np.zeros((len(sections), n_beats))
-    sizes = np.zeros((len(sections), n_beats))
     for k, mask in enumerate(sections):
-        count = mask.sum(axis=1).astype(np.float64)
-        sizes[k] = count
-        ones = mask / np.sqrt(np.maximum(count, 1.0))[:, np.newaxis]
+        count = np.maximum(mask.sum(axis=1), 1).astype(np.float64)
+        ones = mask / np.sqrt(count)[:, np.newaxis]
         t = np.where(mask, template, 0.0)
-        centred = np.where(mask, t - (t.sum(axis=1) / np.maximum(count, 1.0))[:, np.newaxis], 0.0)
+        centred = np.where(mask, t - (t.sum(axis=1) / count)[:, np.newaxis], 0.0)
         norm = np.sqrt(np.sum(centred * centred, axis=1))
         unit = centred / np.where(norm > 0.0, norm, 1.0)[:, np.newaxis]
         for basis in (ones, unit):
-            penalty[k] += np.abs(np.fft.rfft(basis, nfft, axis=1)) ** 2 @ weighted_power
-    # The EMG's variance follows the activation: scale the channel's covariance to each beat's.
-    channel_variance = float(np.mean(residual * residual))
-    beat_variance = sse.sum(axis=0) / np.maximum(sizes.sum(axis=0), 1.0)
-    local = beat_variance / channel_variance if channel_variance > 0.0 else np.zeros(n_beats)
-    return np.asarray(sse + 2.0 * penalty * local < energy, dtype=np.bool_)
-
-
-def _residual_power_spectrum(residual: NDArray[np.float64], nfft: int) -> NDArray[np.float64]:
-    """Power spectrum (rfft bins, Σ over the full spectrum / nfft = variance) of a residual.
-
-    Blackman–Tukey: the biased autocovariance up to lag nfft/2, Bartlett lag window, Fourier
-    transform. With it, ``qᵀ·C·q ≈ Σ_k |Q_k|²·P_k / nfft`` for any vector q shorter than nfft/2.
-    """
-    n = residual.size
-    lags = nfft // 2
-    spectrum = np.fft.rfft(residual, 1 << math.ceil(math.log2(n + lags)))
-    autocovariance = np.fft.irfft(np.abs(spectrum) ** 2)[:lags] / n
-    autocovariance *= 1.0 - np.arange(lags) / lags
-    circular = np.zeros(nfft)
-    circular[:lags] = autocovariance
-    circular[nfft - lags + 1 :] = autocovariance[1:][::-1]
-    return np.maximum(np.fft.rfft(circular).real, 0.0)
+            spectra = sp_fft.rfft(basis, noise.nfft, axis=1)
+            penalty[k] += (spectra.real**2 + spectra.imag**2) @ weighted_power
+    return np.asarray(sse + 2.0 * penalty * noise.beat_scale < energy, dtype=np.bool_)
 
 
 def _section_fit(
