@@ -121,15 +121,20 @@ def emg_envelope(emg: EmgSignal, *, window_s: float = 0.1) -> EmgSignal:
     # Full windows (contiguous slices, no gathers): sample i uses cumulative[i - back + width] - [i - back].
     first, last = back, n - width + back  # first and last sample whose window fits
     if last >= first:
-        mean_square[first : last + 1] = (cumulative[width:] - cumulative[: n + 1 - width]) / width
+        full = mean_square[first : last + 1]
+        np.subtract(cumulative[width:], cumulative[: n + 1 - width], out=full)
+        full *= 1.0 / width
     edges = np.r_[0 : min(first, n), max(last + 1, first, 0) : n]
     lo = np.clip(edges - back, 0, n)
     hi = np.clip(edges - back + width, 0, n)
     mean_square[edges] = (cumulative[hi] - cumulative[lo]) / (hi - lo)[:, np.newaxis]
-    return emg.with_values(np.sqrt(np.maximum(mean_square, 0.0)), adopt=True)
+    np.maximum(mean_square, 0.0, out=mean_square)  # round-off of the running sums can dip below 0
+    return emg.with_values(np.sqrt(mean_square, out=mean_square), adopt=True)
 
 
 def _require_finite(emg: EmgSignal, step: str) -> None:
+    if np.isfinite(emg.values).all():  # the usual case: one pass, no index arrays
+        return
     bad_rows, bad_columns = np.nonzero(~np.isfinite(emg.values))
     if bad_rows.size:
         raise RecordingError(

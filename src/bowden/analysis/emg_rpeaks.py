@@ -15,6 +15,7 @@ polarity that the majority of beats shows.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -37,8 +38,16 @@ def ecg_detection_copy(
     low_hz, high_hz = band_hz
     if not (0.0 < low_hz < high_hz < rate_hz / 2.0):
         raise ParameterError(f"band_hz must satisfy 0 < low < high < Nyquist, got {band_hz} at {rate_hz} Hz")
-    sos = sps.butter(2, [low_hz, high_hz], btype="bandpass", fs=rate_hz, output="sos")
+    # A copy of the cached design: SciPy's filter needs a writable array, and the cache must not change.
+    sos = _detection_sos(rate_hz, low_hz, high_hz).copy()
     return np.asarray(sps.sosfiltfilt(sos, samples), dtype=np.float64)
+
+
+@functools.lru_cache(maxsize=16)
+def _detection_sos(rate_hz: float, low_hz: float, high_hz: float) -> NDArray[np.float64]:
+    # Designed once per (rate, band): a study runs the detector on hundreds of channels.
+    sos = sps.butter(2, [low_hz, high_hz], btype="bandpass", fs=rate_hz, output="sos")
+    return np.asarray(sos, dtype=np.float64)
 
 
 def emg_detect_r_peaks(
