@@ -71,3 +71,11 @@ class AccessDeniedError(BowdenError, PermissionError):
 
 class ConflictError(BowdenError, RuntimeError):
     """A request conflicts with the current state (a trial already running, answers already stored)."""
+
+
+class MissingExtraError(BowdenError, ImportError):
+    """An optional dependency is not installed: names the extra to install (``bowden[cluster]``)."""
+
+
+class ClusterError(BowdenError, RuntimeError):
+    """The Dask cluster cannot be reached, runs another bowden, or lost a task for good."""

@@ -1,0 +1,43 @@
+"""Sweeps of controller and suit parameters over virtual cohorts, scored by tracking error, on Dask.
+
+* :class:`SweepSpec` — axes (:mod:`bowden.sweep.axes`) × seeds, the cohort, protocol and
+  identification; from TOML (:meth:`SweepSpec.from_toml`) or a preset (:func:`preset`).
+* :func:`score_participant` / :func:`identify_suit` — the pure tasks a worker runs.
+* :func:`dask_client` and :func:`run_sweep` — a local cluster or an existing scheduler; results in
+  Parquet, resumable (:class:`SweepDirectory`).
+* :func:`summarize_points`, :func:`cell_optima`, :func:`paired_difference` — the answer.
+
+``docs/sweep.md`` explains the design and gives the shipped blend-velocity sweep's answer.
+"""
+
+from bowden.sweep.axes import AXES, Axis
+from bowden.sweep.cluster import dask_client
+from bowden.sweep.output import SweepDirectory, simulator_digest
+from bowden.sweep.presets import PRESETS, preset
+from bowden.sweep.runner import SweepRun, cohort, protocol_settings, run_sweep
+from bowden.sweep.spec import SweepPoint, SweepSpec
+from bowden.sweep.summary import PairedDifference, cell_optima, paired_difference, summarize_points
+from bowden.sweep.task import RESULT_COLUMNS, identify_suit, score_participant
+
+__all__ = [
+    "AXES",
+    "PRESETS",
+    "RESULT_COLUMNS",
+    "Axis",
+    "PairedDifference",
+    "SweepDirectory",
+    "SweepPoint",
+    "SweepRun",
+    "SweepSpec",
+    "cell_optima",
+    "cohort",
+    "dask_client",
+    "identify_suit",
+    "paired_difference",
+    "preset",
+    "protocol_settings",
+    "run_sweep",
+    "score_participant",
+    "simulator_digest",
+    "summarize_points",
+]
