@@ -38,6 +38,7 @@ from bowden.runtime import MonotonicClock
 if TYPE_CHECKING:
     from bowden.hardware.ads1115 import ADS1115LoadCell
     from bowden.sim.arm import PrescribedArm
+    from bowden.sim.peers import WallTimePlant
     from bowden.web.reference import TrialReference
 
 DEFAULT_IMU_PORT: Final = 8000
@@ -228,23 +229,46 @@ def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None]
                       describe=f"AK60-6 id {options.motor_id} on {where}")
 
 
-def _arm_following(reference: TrialReference) -> PrescribedArm:
-    """A simulated arm that rests, does the reference's repetitions exactly, and rests again."""
-    import numpy as np
+class _ArmFollowingTheLoop:
+    """A simulated participant who follows a trial's reference from the loop's first cycle on.
 
-    from bowden.sim.arm import PrescribedArm
+    The arm rests at the reference's low elevation until the loop runs, then moves as the reference
+    says at loop time (rest, the repetitions, rest), as a person starts following the display. The
+    instance is both the arm's motion (vectorised over plant time, for the simulator) and the
+    loop's ``reference_elevation`` (plain floats): the first loop call notes the plant time of loop
+    time 0, which ties the two clocks, so the recorded reference is the one the arm follows.
+    """
 
-    cycle, start, end = reference.cycle, reference.start_s, reference.end_s
+    def __init__(self, reference: TrialReference) -> None:
+        self.reference = reference
+        self.plant: WallTimePlant | None = None
+        self.plant_time_at_loop_start_s = math.inf  # until the loop's first cycle: rest
 
-    def elevation(t: np.ndarray) -> np.ndarray:
-        moving = (t > start) & (t < end)
-        return np.where(moving, cycle.elevation_rad(np.maximum(t - start, 0.0)), cycle.low_rad)
+    def arm(self) -> PrescribedArm:
+        import numpy as np
 
-    def velocity(t: np.ndarray) -> np.ndarray:
-        moving = (t > start) & (t < end)
-        return np.where(moving, cycle.elevation_velocity_rad_s(np.maximum(t - start, 0.0)), 0.0)
+        from bowden.sim.arm import PrescribedArm
 
-    return PrescribedArm(elevation_rad=elevation, elevation_velocity_rad_s=velocity)
+        cycle, start, end = self.reference.cycle, self.reference.start_s, self.reference.end_s
+
+        def loop_time(plant_time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            t = plant_time_s - self.plant_time_at_loop_start_s
+            return t, (t > start) & (t < end)
+
+        def elevation(plant_time_s: np.ndarray) -> np.ndarray:
+            t, moving = loop_time(plant_time_s)
+            return np.where(moving, cycle.elevation_rad(np.clip(t - start, 0.0, None)), cycle.low_rad)
+
+        def velocity(plant_time_s: np.ndarray) -> np.ndarray:
+            t, moving = loop_time(plant_time_s)
+            return np.where(moving, cycle.elevation_velocity_rad_s(np.clip(t - start, 0.0, None)), 0.0)
+
+        return PrescribedArm(elevation_rad=elevation, elevation_velocity_rad_s=velocity)
+
+    def __call__(self, time_s: float) -> float:
+        if self.plant_time_at_loop_start_s == math.inf and self.plant is not None:
+            self.plant_time_at_loop_start_s = self.plant.plant_time_s() - time_s
+        return self.reference.elevation_rad(time_s)
 
 
 @contextmanager
@@ -273,16 +297,9 @@ def open_sim_backend(
     from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
     from bowden.sim.suit import SimulatedSuit
 
-    if reference is not None:
-        arm = _arm_following(reference)
-        reference_rad: Callable[[float], float] = reference.elevation_rad
-    else:
-        cycle = MinimumJerkCycle(peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]))
-        arm = PrescribedArm.following(cycle)
-
-        def reference_rad(t: float) -> float:
-            return float(cycle.elevation_rad(t))
-
+    cycle = MinimumJerkCycle(peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]))
+    follower = _ArmFollowingTheLoop(reference) if reference is not None else None
+    arm = follower.arm() if follower is not None else PrescribedArm.following(cycle)
     plant = WallTimePlant(SimulatedSuit(arm=arm))
     channel = f"bowden-sim-{next(_sim_channels)}"
     with ExitStack() as stack:
@@ -301,11 +318,18 @@ def open_sim_backend(
         imu.calibrate_arm_down(calibration_s)
         imu_peer.hold_arm_down(False)
         plant.start()
-        # Plant time runs from the start above; loop time from the loop's first cycle, a moment later.
-        offset = plant.plant_time_s()
+        recorded: Callable[[float], float]
+        if follower is not None:
+            follower.plant = plant
+            recorded = follower
+        else:
+            offset = plant.plant_time_s()
+
+            def recorded(t: float) -> float:
+                return float(cycle.elevation_rad(t + offset))
+
         yield Backend(
             motor=stack.enter_context(AK60Motor(driver_bus, AK60Config())),
-            imu=imu, clock=MonotonicClock(), load_cell=load_cell,
-            reference_elevation=lambda t: reference_rad(t + offset),
+            imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
             describe=f"simulated suit over virtual CAN {channel}, OSC on {imu.address}, fake I²C",
         )
