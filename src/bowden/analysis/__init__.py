@@ -2,8 +2,9 @@
 
 Each EMG step is an ``emg_<verb>`` function on an :class:`EmgSignal` (the sampling rate travels
 with the samples); :func:`emg_process` composes them into the paper's pipeline. Trials are
-segmented into repetitions and phases on normalised time, and :func:`analyse_study` turns a study's
-DataFrames into the tidy outcome table and mean ± SD curves; :func:`methods_text` describes it all.
+segmented into repetitions and phases on normalised time; :func:`analyse_trial` computes one
+trial's measures and :func:`analyse_study` turns a study's DataFrames into the tidy outcome table
+and mean ± SD curves; :func:`methods_text` describes it all.
 """
 
 from bowden.analysis.emg_ecg import EcgRemovalParameters, emg_remove_ecg
@@ -35,6 +36,7 @@ from bowden.analysis.segmentation import (
     segment_repetitions,
 )
 from bowden.analysis.sparc import SparcParameters, sparc
+from bowden.analysis.trial_outcomes import TrialOutcomes, analyse_trial
 
 __all__ = [
     "AnalysisInfo",
@@ -52,7 +54,9 @@ __all__ = [
     "SparcParameters",
     "StudyOutcomes",
     "TrialMetadata",
+    "TrialOutcomes",
     "analyse_study",
+    "analyse_trial",
     "emg_align",
     "emg_check",
     "emg_detect_r_peaks",
