@@ -256,3 +256,36 @@ def test_methods_text_follows_the_parameters():
     assert "cardiac" not in plain.paragraph
     assert not any("Petersen" in ref for ref in plain.references)
     assert plain.to_markdown().count("\n1. ") == 1
+
+
+def test_results_do_not_depend_on_the_number_of_workers():
+    trials = [
+        (
+            TrialMetadata(participant=participant, condition=condition, speed="V3"),
+            make_trial("V3", tension_gain=0.05 * (i + 1), with_tension=condition != "no_suit"),
+            make_emg("V3", {"anterior_deltoid": 0.5 + 0.2 * i}, seed=10 + i),
+        )
+        for i, (participant, condition) in enumerate(
+            [("P05", "no_suit"), ("P05", "support_25"), ("P06", "no_suit"), ("P06", "support_50")]
+        )
+    ]
+    serial = analyse_study(iter(trials), workers=1)
+    for workers in (2, 3):
+        parallel = analyse_study(iter(trials), workers=workers)
+        pd.testing.assert_frame_equal(parallel.outcomes, serial.outcomes, check_exact=True)
+        pd.testing.assert_frame_equal(parallel.curves, serial.curves, check_exact=True)
+        assert parallel.info == serial.info
+    with pytest.raises(ParameterError, match="workers"):
+        analyse_study(trials, workers=0)
+
+
+def test_analyse_trial_names_the_trial_and_returns_its_measures():
+    from bowden.analysis import analyse_trial
+
+    meta = TrialMetadata(participant="P07", condition="support_25", speed="V2")
+    result = analyse_trial(meta, make_trial("V2"))
+    assert result.segmentation_source == "reference"
+    assert len(result.repetitions) == 9 and result.emg_curves is None
+    assert {row[5] for row in result.rows} >= {"tension_rmse_n", "sparc", "elevation_rmse_rad"}
+    with pytest.raises(RecordingError, match="participant P07, support_25, V2"):
+        analyse_trial(meta, make_trial("V2").drop(columns=[TRIAL_TENSION]))

@@ -6,6 +6,7 @@ The same code serves a real study's store and the simulated one of ``bowden stud
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,12 +50,14 @@ def analyze_store(
     progress: StageProgress | None = None,
     timings: dict[str, float] | None = None,
     repetitions: int | None = None,
+    workers: int | None = None,
 ) -> AnalysisReport:
     """Analyse every completed trial of a store, fit the statistics, write the report.
 
     ``simulated`` labels the report; None reads it from the trials' metadata (backend).
     ``bench_path`` (a bench recording) adds the identification figure. ``repetitions`` is the number
     of cycles a trial must hold; None takes it from the trials' metadata, else the paper's 10.
+    ``workers`` trials are analysed at a time (None: one per CPU core); results do not depend on it.
     """
     store_path = Path(store_path)
     if not store_path.exists():
@@ -82,7 +85,7 @@ def analyze_store(
                     yield meta, samples, emg
                     advance(done)
 
-        outcomes = analyse_study(items(), parameters)
+        outcomes = analyse_study(items(), parameters, workers=workers or os.cpu_count() or 1)
         store.replace_outcomes(outcomes.outcomes)
         with progress.spinner("fitting the statistics"):
             statistics = study_statistics(outcomes.outcomes, store.questionnaires())
