@@ -23,6 +23,9 @@ REFERENCES = {
     "a greedy optimization of error and effort. J Neurophysiol 97(6):3997–4006.",
     "sparc": "Balasubramanian S., Melendez-Calderon A., Roby-Brami A., Burdet E. (2015). On the analysis of "
     "movement smoothness. J NeuroEng Rehabil 12:112.",
+    "wiener": "Wiener N. (1949). Extrapolation, Interpolation, and Smoothing of Stationary Time Series. "
+    "MIT Press.",
+    "mallows": "Mallows C.L. (1973). Some comments on Cp. Technometrics 15(4):661–675.",
     "fritsch": "Fritsch F.N., Carlson R.E. (1980). Monotone piecewise cubic interpolation. SIAM J Numer Anal "
     "17(2):238–246. (PCHIP)",
 }
@@ -90,6 +93,17 @@ def methods_text(
                 f"interpolation {cite('fritsch')}, P, QRS and T sections were scaled and offset by least "
                 f"squares, and the best-fitting variant was subtracted."
             )
+            if e.denoise_template:
+                sentences.append(
+                    "Before fitting, the templates were passed through a Wiener filter whose noise "
+                    f"spectrum was that of the EMG left after plain template subtraction {cite('wiener')}."
+                )
+            if e.gate:
+                sentences.append(
+                    "A section's fit was subtracted only where it lowered Mallows' Cp computed with the "
+                    f"EMG's own covariance {cite('mallows')}, i.e. where it was expected to remove more "
+                    "artefact than EMG."
+                )
         else:
             sentences.append(
                 f"The cardiac artefact was removed from the {muscles} by template subtraction "
