@@ -34,7 +34,12 @@ def _distributed() -> Any:
 
 
 @contextmanager
-def dask_client(scheduler: str | None = None, workers: int | None = None) -> Iterator[Any]:
+def dask_client(
+    scheduler: str | None = None,
+    workers: int | None = None,
+    *,
+    connect_timeout_s: float = _CONNECT_TIMEOUT_S,
+) -> Iterator[Any]:
     """A ``distributed.Client``: on a new local cluster, or on the scheduler at ``scheduler``.
 
     Parameters
@@ -45,6 +50,8 @@ def dask_client(scheduler: str | None = None, workers: int | None = None) -> Ite
     workers
         Worker processes of the local cluster (default: the number of cores). Not allowed with
         ``scheduler`` (that cluster has its own workers).
+    connect_timeout_s
+        How long to keep trying to reach ``scheduler``.
     """
     distributed = _distributed()
     if scheduler is not None and workers is not None:
@@ -65,7 +72,7 @@ def dask_client(scheduler: str | None = None, workers: int | None = None) -> Ite
             yield client
         return
     try:
-        client = distributed.Client(scheduler, timeout=_CONNECT_TIMEOUT_S)
+        client = distributed.Client(scheduler, timeout=connect_timeout_s)
     except (OSError, TimeoutError, ValueError) as exc:
         raise ClusterError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") from None
     try:
