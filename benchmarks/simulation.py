@@ -1,12 +1,15 @@
 """Simulation speed and the simulated study's tension tracking, measured in one run.
 
     .venv/bin/python benchmarks/simulation.py [--participants 17] [--table]
+        [--sheath-viscous N·s/m] [--motor-viscous Nm·s/rad] [--rotor-inertia kg·m²]
 
 Prints simulated seconds per wall second for the plant alone, for the SimulatedSuit driven by a
 Python control loop (as the runtime does) and for the batch study, and the wall time of the whole
 cohort protocol (17 participants x 4 conditions x 3 speeds x 10 repetitions; target <= 60 s, goal
-<= 20 s). With ``--table`` it also prints the tension RMSE table of docs/simulation.md, with the
-controller identified on the simulated bench.
+<= 20 s). It also prints the lines identified on the simulated bench: slopes against the plant's
+quasi-static slopes R(1 ± k)/(1 ∓ k)/c and R² in both definitions. With ``--table`` it prints the
+tension RMSE table of docs/simulation.md, with the controller identified on the simulated bench.
+The suit options replace one default each, for the sensitivity runs of docs/simulation.md.
 """
 
 from __future__ import annotations
@@ -15,12 +18,14 @@ import argparse
 import math
 import time
 from collections import defaultdict
+from dataclasses import replace
 
 import numpy as np
 
 from bowden import contracts as c
 from bowden.control import build_controller
 from bowden.identify import TransmissionIdentifier
+from bowden.model.transmission import slopes_from_friction
 from bowden.sim import PrescribedArm, SimulatedSuit, generate_cohort, run_bench, simulate_cohort
 from bowden.sim import _kernels as k
 from bowden.sim.parameters import ArmParameters, SuitParameters
@@ -28,8 +33,8 @@ from bowden.sim.plant import Plant
 from bowden.sim.results import TRUE_TENSION, phase_masks, rmse
 
 
-def plant_rate() -> float:
-    plant = Plant(SuitParameters(), ArmParameters(), elevation_rad=1.0, tension_n=10.0)
+def plant_rate(parameters: SuitParameters) -> float:
+    plant = Plant(parameters, ArmParameters(), elevation_rad=1.0, tension_n=10.0)
     n = 400_000  # 100 s
     t = np.arange(n) * plant.substep_s
     args = dict(motor_mode=k.MOTOR_TORQUE, command=np.array([0.4, 0, 0, 0, 0.0]), arm_mode=k.ARM_PRESCRIBED,
@@ -40,10 +45,10 @@ def plant_rate() -> float:
     return n * plant.substep_s / (time.perf_counter() - start)
 
 
-def loop_rate(model: object) -> float:
+def loop_rate(model: object, parameters: SuitParameters) -> float:
     subject = generate_cohort(0)[0].subject
     controller = build_controller(model=model, support=0.5, subject=subject)  # type: ignore[arg-type]
-    suit = SimulatedSuit(arm=PrescribedArm.hold(1.0), initial_tension_n=10.0)
+    suit = SimulatedSuit(parameters, arm=PrescribedArm.hold(1.0), initial_tension_n=10.0)
     suit.motor.enable()
     t, duration = 0.0, 10.0
     start = time.perf_counter()
@@ -64,23 +69,42 @@ def main() -> None:
     )
     parser.add_argument("--participants", type=int, default=17)
     parser.add_argument("--table", action="store_true", help="print the tension RMSE table")
+    parser.add_argument("--sheath-viscous", type=float, help="SheathParameters.viscous_coefficient_ns_m")
+    parser.add_argument("--motor-viscous", type=float, help="MotorParameters.viscous_friction_nms_rad")
+    parser.add_argument("--rotor-inertia", type=float, help="MotorParameters.rotor_inertia_kgm2")
     args = parser.parse_args()
+    suit = SuitParameters()
+    if args.sheath_viscous is not None:
+        suit = replace(suit, sheath=replace(suit.sheath, viscous_coefficient_ns_m=args.sheath_viscous))
+    if args.motor_viscous is not None:
+        suit = replace(suit, motor=replace(suit.motor, viscous_friction_nms_rad=args.motor_viscous))
+    if args.rotor_inertia is not None:
+        suit = replace(suit, motor=replace(suit.motor, rotor_inertia_kgm2=args.rotor_inertia))
 
     start = time.perf_counter()
-    bench = run_bench(seed=0)
+    bench = run_bench(suit, seed=0)
     bench_wall = time.perf_counter() - start
-    model = TransmissionIdentifier().fit(bench).model_
+    model = TransmissionIdentifier(pulley_radius_m=suit.motor.spool_radius_m).fit(bench).model_
     print(f"bench: {bench['time_s'].iloc[-1]:.0f} s simulated in {bench_wall:.1f} s wall "
           f"({bench['time_s'].iloc[-1] / bench_wall:.0f} simulated s per wall s)")
-    print(f"identified: raising {model.raising.slope_m:.5f} m, {model.raising.intercept_nm:+.4f} Nm; "
-          f"lowering {model.lowering.slope_m:.5f} m, {model.lowering.intercept_nm:+.4f} Nm")
-    print(f"plant alone: {plant_rate():.0f} simulated s per wall s")
-    print(f"SimulatedSuit + Controller.step in a Python loop at 500 Hz: {loop_rate(model):.1f} "
+    raising, lowering = slopes_from_friction(suit.sheath.kinetic_coefficient, suit.motor.spool_radius_m)
+    ratio = suit.motor.torque_constant_ratio
+    for name, line, fit, quasi_static in (
+        ("raising", model.raising, model.raising_fit, raising / ratio),
+        ("lowering", model.lowering, model.lowering_fit, lowering / ratio),
+    ):
+        assert fit is not None
+        deviation = 100 * (line.slope_m / quasi_static - 1)
+        print(f"identified {name}: slope {line.slope_m:.5f} m ({deviation:+.2f} % "
+              f"vs quasi-static {quasi_static:.5f}), intercept {line.intercept_nm:+.4f} Nm, "
+              f"R² robust (fitlm) {fit.r_squared_robust:.4f}, OLS {fit.r_squared_ols:.4f}")
+    print(f"plant alone: {plant_rate(suit):.0f} simulated s per wall s")
+    print(f"SimulatedSuit + Controller.step in a Python loop at 500 Hz: {loop_rate(model, suit):.1f} "
           "simulated s per wall s")
 
     cohort = generate_cohort(0, n_participants=args.participants, n_female=round(args.participants * 12 / 17))
     start = time.perf_counter()
-    result = simulate_cohort(cohort, model=model, seed=0)
+    result = simulate_cohort(cohort, model=model, suit=suit, seed=0)
     wall = time.perf_counter() - start
     simulated = sum(t.duration_s for t in result.trials)
     print(f"whole cohort ({len(cohort)} participants, {len(result.trials)} trials, "

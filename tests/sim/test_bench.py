@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -37,16 +38,66 @@ def test_recording_follows_the_contract(recording: pd.DataFrame) -> None:
     assert velocity[velocity < -2.0].median() == pytest.approx(-3.0, abs=0.1)
 
 
+def steady_sliding_intercept_nm(suit: SuitParameters, spool_speed_rad_s: float, sigma: int) -> float:
+    """Quasi-static intercept of the motor-torque line at one constant spool speed (hand-derived).
+
+    Steady sliding (constant speed, no acceleration): the sheath node balances
+    (1 − σk)·T_in − (1 + σk)·T_out = c_v·σ·R·|ω| and the rotor R·T_in + σ·(τ_c + b·|ω|) = c·τ_reported,
+    so τ_reported = R(1 + σk)/(1 − σk)/c · T_out + σ·[τ_c + (b + R²·c_v/(1 − σk))·|ω|]/c. The slope does
+    not depend on the speed; the viscous terms move only the intercept.
+    """
+    m, k, r = suit.motor, suit.sheath.kinetic_coefficient, suit.motor.spool_radius_m
+    viscous = m.viscous_friction_nms_rad + r * r * suit.sheath.viscous_coefficient_ns_m / (1 - sigma * k)
+    return sigma * (m.coulomb_friction_nm + viscous * spool_speed_rad_s) / m.torque_constant_ratio
+
+
 def test_identification_recovers_the_plants_friction(recording: pd.DataFrame) -> None:
     suit = SuitParameters()
     model = TransmissionIdentifier().fit(recording).model_
     raising, lowering = slopes_from_friction(suit.sheath.kinetic_coefficient, suit.motor.spool_radius_m)
     assert model.raising.slope_m == pytest.approx(raising, rel=0.03)
     assert model.lowering.slope_m == pytest.approx(lowering, rel=0.03)
-    # The intercepts carry the motor's Coulomb friction, with the sign of the motion.
-    coulomb = suit.motor.coulomb_friction_nm
-    assert model.raising.intercept_nm == pytest.approx(coulomb, abs=0.03)
-    assert model.lowering.intercept_nm == pytest.approx(-coulomb, abs=0.03)
+    # The intercepts carry the motor's Coulomb friction and the speed-proportional drags, with the sign
+    # of the motion: a line pooled over the protocol's speeds lies between the slowest and the fastest.
+    for line, sigma in ((model.raising, 1), (model.lowering, -1)):
+        speeds = (min(SHORT.spool_speeds_rad_s), max(SHORT.spool_speeds_rad_s))
+        ends = [steady_sliding_intercept_nm(suit, w, sigma) for w in speeds]
+        assert min(ends) - 0.02 <= line.intercept_nm <= max(ends) + 0.02
+
+
+def per_speed_lines(
+    suit: SuitParameters, protocol: BenchProtocol, seed: int
+) -> dict[float, tuple[float, float, float, float]]:
+    """Identify one pair of lines per spool speed (trial numbers run load, speed, repetition, direction)."""
+    frame = run_bench(suit, protocol, seed=seed)
+    n_speeds, reps = len(protocol.spool_speeds_rad_s), protocol.repetitions
+    speed_index = (frame[c.BENCH_TRIAL] // (2 * reps)) % n_speeds
+    lines = {}
+    for i, speed in enumerate(protocol.spool_speeds_rad_s):
+        model = TransmissionIdentifier().fit(frame[speed_index == i]).model_
+        raising, lowering = model.raising, model.lowering
+        lines[speed] = (raising.slope_m, raising.intercept_nm, lowering.slope_m, lowering.intercept_nm)
+    return lines
+
+
+def test_sheath_drag_moves_only_the_intercepts_by_the_derived_amount() -> None:
+    # The same bench with and without the sheath's viscous drag, one line pair per speed: the drag
+    # leaves every slope alone and shifts each intercept by σ·R²·c_v·|ω|/(1 − σk) (see
+    # steady_sliding_intercept_nm). Differencing cancels everything else the bench adds to the
+    # intercepts (motor friction, the distal damper's share while the tension follows r(θ)).
+    with_drag = SuitParameters()
+    assert with_drag.sheath.viscous_coefficient_ns_m > 0.0
+    without = SuitParameters(sheath=replace(with_drag.sheath, viscous_coefficient_ns_m=0.0))
+    protocol = BenchProtocol(spool_speeds_rad_s=(1.0, 3.0), loads_nm=(1.0, 3.0), repetitions=1)
+    dragged, clean = per_speed_lines(with_drag, protocol, 2), per_speed_lines(without, protocol, 2)
+    for speed in protocol.spool_speeds_rad_s:
+        r_slope, r_icpt, l_slope, l_icpt = dragged[speed]
+        r_slope0, r_icpt0, l_slope0, l_icpt0 = clean[speed]
+        assert r_slope == pytest.approx(r_slope0, rel=0.005) and l_slope == pytest.approx(l_slope0, rel=0.005)
+        for sigma, shift in ((1, r_icpt - r_icpt0), (-1, l_icpt - l_icpt0)):
+            expected = steady_sliding_intercept_nm(with_drag, speed, sigma)
+            expected -= steady_sliding_intercept_nm(without, speed, sigma)
+            assert shift == pytest.approx(expected, rel=0.1)
 
 
 def test_cli_writes_csv_and_parquet(tmp_path: Path) -> None:

@@ -32,10 +32,16 @@ def hold(plant: Plant, n: int, torque_nm: float, elevation_rad: float) -> np.nda
     )
 
 
+def sheath_of(kinetic: float, ratio: float, viscous: float = 0.0) -> SheathParameters:
+    return SheathParameters(
+        kinetic_coefficient=kinetic, static_to_kinetic_ratio=ratio, viscous_coefficient_ns_m=viscous
+    )
+
+
 def frictionless(**motor: float) -> SuitParameters:
     return SuitParameters(
         motor=MotorParameters(coulomb_friction_nm=0.0, viscous_friction_nms_rad=0.0, **motor),
-        sheath=SheathParameters(kinetic_coefficient=0.0, static_to_kinetic_ratio=1.0),
+        sheath=sheath_of(0.0, 1.0),
     )
 
 
@@ -73,8 +79,10 @@ def test_cable_cannot_push() -> None:
     record = hold(plant, 8000, -1.0, th)  # the motor "pushes": the cable must go slack, never negative
     assert np.all(record[:, k.R_T_OUT] >= 0.0)
     state = plant.state()
-    assert state.anchor_tension_n == 0.0
     assert state.sheath_entry_tension_n == 0.0
+    # The distal segment relaxes through the sheath's viscous drag: the node creeps to the slack point
+    # exponentially (time constant (c_v/(1 − k) + c_d)/k_d ≈ 80 ms); after 2 s nothing is left.
+    assert 0.0 <= state.anchor_tension_n < 1e-6
     # A free mannequin arm under its own weight falls: a slack cable holds nothing up.
     arm = ArmParameters(gravity_torque_nm=2.0, damping_nms_rad=0.5)
     plant = Plant(SuitParameters(), arm, elevation_rad=th, tension_n=20.0)
@@ -87,7 +95,7 @@ def test_cable_cannot_push() -> None:
 
 
 def test_sheath_sticks_below_breakaway_and_slips_above() -> None:
-    sheath = SheathParameters(kinetic_coefficient=0.12, static_to_kinetic_ratio=1.4)
+    sheath = sheath_of(0.12, 1.4)
     suit = replace(frictionless(), sheath=sheath)
     th = math.radians(60.0)
     t0 = 10.0
@@ -114,7 +122,7 @@ def test_sliding_follows_the_papers_single_bend_law(direction: float) -> None:
     # Supplement eq. S5: T_out = T_in (1 − k)/(1 + k) raising, (1 + k)/(1 − k) lowering, at speeds far
     # above the Stribeck velocity.
     kin = 0.12
-    sheath = SheathParameters(kinetic_coefficient=kin, static_to_kinetic_ratio=1.3)
+    sheath = sheath_of(kin, 1.3)
     suit = replace(frictionless(), sheath=sheath)
     th0 = math.radians(60.0)
     plant = Plant(suit, ArmParameters(), elevation_rad=th0, tension_n=20.0)
@@ -129,6 +137,67 @@ def test_sliding_follows_the_papers_single_bend_law(direction: float) -> None:
     assert not state.sheath_stuck
     expected = (1 - kin) / (1 + kin) if direction > 0 else (1 + kin) / (1 - kin)
     assert state.anchor_tension_n / state.sheath_entry_tension_n == pytest.approx(expected, rel=1e-3)
+
+
+def slide_at_constant_speed(sheath: SheathParameters, speed_rad_s: float) -> tuple[Plant, np.ndarray]:
+    """Arm driven at a constant elevation speed against a constant motor torque, frictionless motor."""
+    suit = replace(frictionless(), sheath=sheath)
+    th0 = math.radians(50.0 if speed_rad_s > 0 else 90.0)
+    plant = Plant(suit, ArmParameters(), elevation_rad=th0, tension_n=20.0)
+    n = 2400  # 0.6 s: far beyond the transients of the stiff cable on the light rotor
+    t = (np.arange(n) + 1) * suit.substep_s
+    record = plant.integrate(
+        n, motor_mode=k.MOTOR_TORQUE, command=torque_command(0.7), arm_mode=k.ARM_PRESCRIBED,
+        arm_a=th0 + speed_rad_s * t, arm_b=np.full(n, speed_rad_s),
+    )
+    return plant, record
+
+
+@pytest.mark.parametrize("direction", [1.0, -1.0])
+@pytest.mark.parametrize(("kin", "viscous"), [(0.0, 40.0), (0.12, 20.0), (0.12, 100.0)])
+def test_sliding_with_viscous_drag_follows_the_extended_law(
+    direction: float, kin: float, viscous: float
+) -> None:
+    # Node balance while sliding: (1 − σk)·T_in − (1 + σk)·T_out = c_v·v, v the cable speed in the
+    # sheath (> 0 towards the motor). Hand-derived from T_in − T_out = σk(T_in + T_out) + c_v·v.
+    sheath = sheath_of(kin, 1.2, viscous)
+    speed = 0.8 * direction
+    plant, _ = slide_at_constant_speed(sheath, speed)
+    state = plant.state()
+    assert not state.sheath_stuck
+    v = state.sheath_slip_velocity_m_s
+    # In steady sliding the node follows the anchor: v = r(θ)·θ̇ (the segments' stretch barely changes).
+    assert v == pytest.approx(k.moment_arm_m(plant.vector, state.elevation_rad) * speed, rel=0.02)
+    t_in, t_out = state.sheath_entry_tension_n, state.anchor_tension_n
+    sigma = direction
+    balance = (1 - sigma * kin) * t_in - (1 + sigma * kin) * t_out
+    assert balance == pytest.approx(viscous * v, rel=1e-6, abs=1e-9)
+
+
+def test_viscous_drag_only_dissipates() -> None:
+    # A viscous drag takes c_v·v² of power from the cable and never gives any back: with no Coulomb
+    # friction the sheath's dissipated energy is exactly Σ c_v·v²·dt, and it never decreases.
+    viscous = 30.0
+    sheath = sheath_of(0.0, 1.0, viscous)
+    suit = replace(frictionless(), sheath=sheath)
+    plant = Plant(suit, ArmParameters(), elevation_rad=1.0, tension_n=15.0)
+    dt = suit.substep_s
+    start = plant.state().sheath_dissipated_j
+    powers, losses = [], []
+    for i in range(4000):  # one second of a 1 Hz swing, step by step to read every slip velocity
+        t = (i + 1) * dt
+        plant.integrate(
+            1, motor_mode=k.MOTOR_TORQUE, command=torque_command(0.4), arm_mode=k.ARM_PRESCRIBED,
+            arm_a=np.array([1.0 + 0.4 * math.sin(2 * math.pi * t)]),
+            arm_b=np.array([0.4 * 2 * math.pi * math.cos(2 * math.pi * t)]),
+        )
+        state = plant.state()
+        powers.append(viscous * state.sheath_slip_velocity_m_s**2)
+        losses.append(state.sheath_dissipated_j)
+    assert np.all(np.diff(losses) >= -1e-12)
+    dissipated = losses[-1] - start
+    assert dissipated > 0.05
+    assert dissipated == pytest.approx(float(np.sum(powers)) * dt, rel=1e-9)
 
 
 def cycle_energy(substep_s: float) -> tuple[float, float, float]:
@@ -188,6 +257,7 @@ def test_no_blow_up_at_the_corners_of_the_documented_ranges(
 ) -> None:
     suit = SuitParameters(
         motor=MotorParameters(rotor_inertia_kgm2=rotor),
+        sheath=SheathParameters(viscous_coefficient_ns_m=100.0 if cable > 1e4 else 0.0),
         transmission=TransmissionParameters(
             cable_stiffness_n_m=cable, distal_stiffness_n_m=distal, distal_damping_ns_m=0.0
         ),

@@ -10,8 +10,9 @@ The plant (REFERENCE §6) is, from the motor to the arm:
 * **sheath**: the cable inside it lumped into one massless node at position ``s`` (> 0 towards the
   motor) held by friction proportional to the normal force ``(T_in + T_out)`` (the paper's single-bend
   law, supplement eq. S1–S5). It sticks while ``|T_in − T_out| ≤ k_s·(T_in + T_out)`` and slides with
-  the Stribeck coefficient ``k(v)`` otherwise. Because the node is massless, each step solves its
-  position exactly (implicit Euler, piecewise linear), which is stable for any step;
+  the Stribeck coefficient ``k(v)`` otherwise, plus a viscous drag ``c_v·v`` that does not depend on
+  the normal force (the lubricant or liner shearing). Because the node is massless, each step solves
+  its position exactly (implicit Euler, piecewise linear), which is stable for any step;
 * **distal segment** (textile, tissue, cable to the anchor): a damped spring that only pulls;
 * **anchor** on the arm through the cuff geometry (REFERENCE §3): path length
   ``L(θ) = sqrt(a² + b² − 2ab·cos(ψ − θ))`` whose derivative is minus the moment arm ``r(θ)``;
@@ -68,7 +69,8 @@ P_ARM_MIN = 20
 P_ARM_MAX = 21
 P_STOP_K = 22
 P_STOP_C = 23
-N_PARAM = 24
+P_SHEATH_VISCOUS = 24
+N_PARAM = 25
 
 # --- state vector -------------------------------------------------------------------------------
 X_SPOOL_Q = 0  # spool angle, rad (> 0 reeling in)
@@ -159,22 +161,47 @@ def sliding_node_position(
 ) -> float:
     """Node position after one implicit step of sliding in direction ``sigma`` with coefficient ``k``.
 
-    Sliding balances the node: ``T_in − T_out = σ·k·(T_in + T_out)``, i.e. ``T_out = g·T_in`` with
-    ``g = (1 − σk)/(1 + σk)`` (the paper's law). ``T_in`` falls and ``T_out`` rises with ``s``, so the
-    balance has one root; both tensions are piecewise linear in ``s`` and it is found in closed form.
+    Sliding balances the node: ``T_in − T_out = σ·k·(T_in + T_out) + c_v·v`` (the paper's law plus the
+    sheath's viscous drag ``c_v·v``, ``v = (s − s0)/dt``), i.e. ``g·T_in − T_out − c_v·v/(1 + σk) = 0``
+    with ``g = (1 − σk)/(1 + σk)``. ``T_in`` falls, ``T_out`` and the drag rise with ``s``, so the
+    balance has one root; every term is piecewise linear in ``s`` (breakpoints where the motor-side
+    cable and the distal segment go slack), and the root is found in closed form piece by piece.
     """
     kc = p[P_K_CABLE]
     kd = p[P_K_DISTAL]
     c = p[P_C_DISTAL] / dt
     g = (1.0 - sigma * k) / (1.0 + sigma * k)
+    cv = p[P_SHEATH_VISCOUS] / ((1.0 + sigma * k) * dt)
     # Where the damped distal force turns positive, and where the segment is taut at all.
     s_damped = (kd * ya + c * s0 + p[P_C_DISTAL] * yda) / (kd + c)
     s_taut = max(ya, s_damped)
-    if s_taut < xm:
-        s_star = (g * kc * xm + kd * ya + c * s0 + p[P_C_DISTAL] * yda) / (g * kc + kd + c)
-        return float(min(max(s_star, s_taut), xm))
-    # Both segments slack between xm and s_taut: the node moves no further than it has to.
-    return float(min(max(s0, xm), s_taut))
+    if cv == 0.0 and s_taut >= xm:
+        # Both segments slack between xm and s_taut: the node moves no further than it has to.
+        return float(min(max(s0, xm), s_taut))
+    low = min(s_taut, xm)
+    high = max(s_taut, xm)
+    for piece in range(3):
+        left = -math.inf if piece == 0 else (low if piece == 1 else high)
+        right = low if piece == 0 else (high if piece == 1 else math.inf)
+        # On this piece the balance is affine, a − b·s; which segments pull decides a and b.
+        a = cv * s0
+        b = cv
+        if right <= xm:
+            a += g * kc * xm
+            b += g * kc
+        if left >= s_taut:
+            a += (kd + c) * s_damped
+            b += kd + c
+        if b <= 0.0:
+            return float(min(max(s0, left), right))
+        root = a / b
+        if root < left:
+            # The balance jumps through zero at this breakpoint (a segment turning taut with its
+            # damper already pulling): the node stops there, the tension taking up the difference.
+            return float(left)
+        if root <= right:
+            return float(root)
+    return float(high)
 
 
 @jit
@@ -193,6 +220,7 @@ def sheath_step(
     stuck = x[X_STUCK] > 0.5
     s1 = s0
     g = 1.0
+    k_used = 0.0
     if not stuck:
         sigma = x[X_SLIP_DIR]
         k = stribeck_coefficient(p, abs(x[X_SLIP_V]))
@@ -202,6 +230,7 @@ def sheath_step(
         if moved > 0.0 and not (slow and inside_cone):
             s1 = s_try
             g = (1.0 - sigma * k) / (1.0 + sigma * k)
+            k_used = k
         else:
             stuck = True
     if stuck:
@@ -212,6 +241,7 @@ def sheath_step(
             sigma = 1.0 if imbalance > 0.0 else -1.0
             s1 = sliding_node_position(p, dt, s0, xm, ya, yda, sigma, k_static)
             g = (1.0 - sigma * k_static) / (1.0 + sigma * k_static)
+            k_used = k_static
             stuck = (s1 - s0) * sigma <= 0.0
             if stuck:
                 s1 = s0
@@ -224,10 +254,12 @@ def sheath_step(
         x[X_STUCK] = 1.0
         x[X_SLIP_V] = 0.0
     else:
-        # While sliding the node is balanced by definition of the friction law.
-        t_out = g * t_in
+        # While sliding the node is balanced by definition of the friction law (Coulomb part
+        # through g, the viscous drag on top).
+        slip_v = (s1 - s0) / dt
+        t_out = max(0.0, g * t_in - p[P_SHEATH_VISCOUS] * slip_v / (1.0 + x[X_SLIP_DIR] * k_used))
         x[X_STUCK] = 0.0
-        x[X_SLIP_V] = (s1 - s0) / dt
+        x[X_SLIP_V] = slip_v
     x[X_E_SHEATH] += (t_in - t_out) * (s1 - s0)
     stretch = s1 - ya
     x[X_DISTAL_STRETCH] = stretch

@@ -42,6 +42,7 @@ def pack_parameters(suit: SuitParameters, arm: ArmParameters) -> NDArray[np.floa
     p[k.P_K_STATIC] = s.static_coefficient
     p[k.P_V_STRIBECK] = s.stribeck_velocity_m_s
     p[k.P_V_STICK] = s.stick_velocity_m_s
+    p[k.P_SHEATH_VISCOUS] = s.viscous_coefficient_ns_m
     p[k.P_K_CABLE] = t.cable_stiffness_n_m
     p[k.P_K_DISTAL] = t.distal_stiffness_n_m
     p[k.P_C_DISTAL] = t.distal_damping_ns_m
