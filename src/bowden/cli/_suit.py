@@ -33,7 +33,7 @@ from bowden.hardware.ak60_codec import (
 )
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
-from bowden.runtime import MonotonicClock
+from bowden.runtime import MonotonicClock, SafetyConfig
 
 if TYPE_CHECKING:
     from bowden.hardware.ads1115 import ADS1115LoadCell
@@ -155,6 +155,22 @@ def add_can_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--i2c-bus", type=int, help="I²C bus number of the ADS1115 load cell (optional)")
     group.add_argument("--load-cell-gain", type=float, default=defaults.load_cell_gain_n_per_v,
                        help="load cell N per V (default 100)")
+
+
+def add_safety_arguments(parser: argparse.ArgumentParser) -> None:
+    """The two watchdogs a lab may need to tune to its links (IMU over Wi-Fi, motor over CAN)."""
+    imu_ms, motor_ms = 1e3 * SafetyConfig().imu_max_age_s, 1e3 * SafetyConfig().motor_max_silence_s
+    group = parser.add_argument_group("watchdogs (each stops the suit safely)")
+    group.add_argument("--imu-max-age-ms", type=float, default=imu_ms,
+                       help=f"newest IMU sample older than this (default {imu_ms:g} ms)")
+    group.add_argument("--motor-silence-ms", type=float, default=motor_ms,
+                       help=f"no valid motor reply for this long (default {motor_ms:g} ms)")
+
+
+def safety_config(args: argparse.Namespace) -> SafetyConfig:
+    """The watchdog thresholds of :func:`add_safety_arguments`, validated."""
+    return SafetyConfig(imu_max_age_s=args.imu_max_age_ms / 1e3,
+                        motor_max_silence_s=args.motor_silence_ms / 1e3)
 
 
 def require_hardware_extra(command: str, options: CanSuitOptions) -> None:

@@ -29,9 +29,11 @@ from bowden.cli._suit import (
     Backend,
     CanSuitOptions,
     add_can_arguments,
+    add_safety_arguments,
     open_can_backend,
     open_sim_backend,
     require_hardware_extra,
+    safety_config,
 )
 from bowden.contracts import (
     CONDITION_PRETENSION,
@@ -89,6 +91,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                      help="with --serve: address to listen on (default 127.0.0.1: this machine only)")
     web.add_argument("--port", type=int, default=8765,
                      help="with --serve: port (default 8765; 0 picks a free one)")
+    add_safety_arguments(parser)
     add_can_arguments(parser)
     parser.set_defaults(handler=run)
 
@@ -172,7 +175,7 @@ def _serving(args: argparse.Namespace, model: CompensationModel) -> Iterator[Ser
             f"bowden run --serve needs the web extra ({error.name} is missing): pip install 'bowden[web]'"
         ) from None
     config = ServeConfig(store_path=args.record, model=model, backend=CommandLineBackend(args.backend),
-                         host=args.host, port=args.port, rate_hz=args.rate)
+                         host=args.host, port=args.port, rate_hz=args.rate, safety=safety_config(args))
     with ServerThread(config) as server:
         for line in server.announcement(title="bowden run --serve"):
             print(line, flush=True)
@@ -218,7 +221,8 @@ def run_trial(
     shown = reference.elevation_rad if server is not None else None
     loop = ControlLoop(
         controller=controller, motor=backend.motor, elevation_sensor=backend.imu, clock=backend.clock,
-        config=LoopConfig(rate_hz=args.rate, duration_s=args.duration), tension_sensor=backend.load_cell,
+        config=LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args)),
+        tension_sensor=backend.load_cell,
         reference_elevation=backend.reference_elevation or shown,
     )
     sinks: list[Callable[[Row], None]] = [recorder.record] if recorder is not None else []
@@ -245,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
     if args.serve and args.record is None:
         raise ParameterError("--serve needs --record study.db (the trial and the questionnaires go there)")
     # Everything that can be wrong with the arguments is found before any device is touched.
-    LoopConfig(rate_hz=args.rate, duration_s=args.duration)
+    LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args))
     reference = _reference(args)
     model = _model(args)
     trial = None

@@ -17,7 +17,14 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bowden.cli._suit import CanSuitOptions, add_can_arguments, open_can_backend, require_hardware_extra
+from bowden.cli._suit import (
+    CanSuitOptions,
+    add_can_arguments,
+    add_safety_arguments,
+    open_can_backend,
+    require_hardware_extra,
+    safety_config,
+)
 from bowden.errors import BowdenError, ParameterError
 
 if TYPE_CHECKING:
@@ -60,6 +67,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="address to listen on (default 127.0.0.1: this machine only)",
     )
     parser.add_argument("--port", type=int, default=8765, help="port (default 8765; 0 picks a free one)")
+    add_safety_arguments(parser)
     add_can_arguments(parser)
     parser.set_defaults(handler=run)
 
@@ -95,7 +103,8 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
     from bowden.model import CompensationModel
     from bowden.runtime import LoopConfig
 
-    LoopConfig(rate_hz=args.rate_hz)  # a wrong rate is refused now, not at the first trial
+    safety = safety_config(args)
+    LoopConfig(rate_hz=args.rate_hz, safety=safety)  # refused now, not at the first trial
     backend: SuitBackend
     if args.backend == "can":
         if args.model is None:
@@ -111,7 +120,7 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
         else CompensationModel.from_friction(k=args.friction_k)
     )
     return ServeConfig(store_path=args.store, model=model, backend=backend, host=args.host, port=args.port,
-                       rate_hz=args.rate_hz)
+                       rate_hz=args.rate_hz, safety=safety)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -21,6 +21,7 @@ from starlette.applications import Starlette
 
 from bowden.errors import BowdenError, ParameterError
 from bowden.model import CompensationModel
+from bowden.runtime import SafetyConfig
 from bowden.web.app import create_app
 from bowden.web.live import LiveHub
 from bowden.web.questionnaire_store import QuestionnaireStore
@@ -48,6 +49,8 @@ class ServeConfig:
         Where to listen; loopback unless told otherwise (the token is the only guard beyond it).
     rate_hz
         Control-loop rate.
+    safety
+        Watchdog thresholds of the trials' loops.
     token
         The session token; None draws a fresh one.
     """
@@ -58,6 +61,7 @@ class ServeConfig:
     host: str = "127.0.0.1"
     port: int = 8765
     rate_hz: float = 500.0
+    safety: SafetyConfig = field(default_factory=SafetyConfig)
     token: str | None = None
 
     def __post_init__(self) -> None:
@@ -98,6 +102,7 @@ def build_server(config: ServeConfig) -> WebServer:
         store_path=config.store_path,
         hub=LiveHub(),
         rate_hz=config.rate_hz,
+        safety=config.safety,
     )
     app = create_app(
         manager=manager, questionnaires=questionnaires, token=token, allowed_hosts=config.allowed_hosts

@@ -25,32 +25,26 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Final
 
 from bowden import __version__
-from bowden.contracts import TRIAL_COLUMNS
-from bowden.control import Fault
 from bowden.errors import BowdenError, ConflictError
 from bowden.model import CompensationModel
-from bowden.runtime import ControlLoop, LoopConfig, LoopReport, LoopState, Recorder, Row, TrialInfo
+from bowden.runtime import (
+    ControlLoop,
+    LoopConfig,
+    LoopReport,
+    LoopState,
+    Recorder,
+    Row,
+    SafetyConfig,
+    TrialInfo,
+)
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, SampleTap, Stamped, Thinning
+from bowden.web.samples import FLAGS, STATE, TIME, console_samples, display_samples, fault_names
 from bowden.web.suits import OpenSuit, SuitBackend
-from bowden.web.trial_setup import TrialSetup, controller_for, tension_estimate_n
+from bowden.web.trial_setup import TrialSetup, controller_for
 
 _log = logging.getLogger(__name__)
-
-_COLUMN: Final = {name: index for index, name in enumerate(TRIAL_COLUMNS)}
-_T, _REF, _EL, _VEL = (_COLUMN[n] for n in ("time_s", "reference_elevation_rad", "elevation_rad",
-                                             "elevation_velocity_rad_s"))
-_DES, _CMD, _TAU, _LOAD = (_COLUMN[n] for n in ("desired_tension_n", "commanded_torque_nm",
-                                                 "motor_torque_nm", "tension_n"))
-_STATE, _FLAGS = _COLUMN["controller_state"], _COLUMN["fault_flags"]
-_DEG: Final = 57.29577951308232
-
-
-def fault_names(flags: int) -> list[str]:
-    """Names of the :class:`bowden.control.Fault` bits set in ``flags``."""
-    return [f.name for f in Fault if f.value and flags & f.value and f.name is not None]
 
 
 @dataclass
@@ -84,6 +78,8 @@ class TrialManager:
         The browsers to inform.
     rate_hz
         Control rate.
+    safety
+        Watchdog thresholds of the trials' loops.
     display_rate_hz
         Rate of the samples sent to browsers (≥ the display's frame rate is enough).
     health_period_s
@@ -98,6 +94,7 @@ class TrialManager:
         store_path: str | Path,
         hub: LiveHub,
         rate_hz: float = 500.0,
+        safety: SafetyConfig | None = None,
         display_rate_hz: float = 100.0,
         health_period_s: float = 0.25,
     ) -> None:
@@ -106,6 +103,7 @@ class TrialManager:
         self.store_path = Path(store_path)
         self.hub = hub
         self.rate_hz = rate_hz
+        self.safety = safety if safety is not None else SafetyConfig()
         self.health_period_s = health_period_s
         self._thinning = Thinning(display_rate_hz)
         self._trial: _Trial | None = None
@@ -285,7 +283,7 @@ class TrialManager:
             motor=suit.motor,
             elevation_sensor=suit.elevation_sensor,
             clock=suit.clock,
-            config=LoopConfig(rate_hz=self.rate_hz, duration_s=setup.duration_s),
+            config=LoopConfig(rate_hz=self.rate_hz, duration_s=setup.duration_s, safety=self.safety),
             tension_sensor=suit.tension_sensor,
             record=record,
             reference_elevation=setup.reference.elevation_rad,
@@ -368,42 +366,20 @@ class TrialManager:
         if not rows:
             return
         for _, _, row in rows:
-            flags = int(row[_FLAGS])
+            flags = int(row[FLAGS])
             if flags:
                 trial.flags_seen |= flags
                 trial.fault_cycles += 1
         trial.last_row = rows[-1][2]
-        kept = self._thinning.keep(rows, _T)
+        kept = self._thinning.keep(rows, TIME)
         if kept:
             self._publish_samples(kept)
 
     def _publish_samples(self, kept: list[Stamped]) -> None:
-        stamps = [round(1e3 * s[0], 3) for s in kept]
-        sequence = [s[1] for s in kept]
-        rows = [s[2] for s in kept]
-        times = [round(float(r[_T]), 4) for r in rows]
-        reference = [round(float(r[_REF]) * _DEG, 3) for r in rows]
-        elevation = [round(float(r[_EL]) * _DEG, 3) for r in rows]
-        display: dict[str, object] = {
-            "type": "samples", "seq": sequence, "stamp_ms": stamps, "t": times,
-            "reference_deg": reference, "elevation_deg": elevation,
-        }
+        display = display_samples(kept)
         self.hub.publish(display, (ROLE_DISPLAY,))
-        if self.hub.count(ROLE_CONSOLE) == 0:
-            return
-        model = self.model
-        console = dict(display)
-        console.update(
-            desired_tension_n=[round(float(r[_DES]), 3) for r in rows],
-            estimated_tension_n=[
-                round(tension_estimate_n(model, float(r[_TAU]), float(r[_VEL])), 3) for r in rows
-            ],
-            load_cell_tension_n=[round(float(r[_LOAD]), 3) for r in rows],
-            commanded_torque_nm=[round(float(r[_CMD]), 4) for r in rows],
-            motor_torque_nm=[round(float(r[_TAU]), 4) for r in rows],
-            fault_flags=[int(r[_FLAGS]) for r in rows],
-        )
-        self.hub.publish(console, (ROLE_CONSOLE,))
+        if self.hub.count(ROLE_CONSOLE):  # the console's extra columns only when someone watches
+            self.hub.publish(console_samples(display, kept, self.model), (ROLE_CONSOLE,))
 
     # --- status ----------------------------------------------------------------------------------
     def health(self) -> dict[str, object]:
@@ -413,12 +389,12 @@ class TrialManager:
             return {"type": "health", "state": "idle"}
         timing = trial.loop.timing
         row = trial.last_row
-        state = LoopState(int(row[_STATE])).name.lower() if row is not None else "starting"
-        latest_flags = int(row[_FLAGS]) if row is not None else 0
+        state = LoopState(int(row[STATE])).name.lower() if row is not None else "starting"
+        latest_flags = int(row[FLAGS]) if row is not None else 0
         return {
             "type": "health",
             "state": state,
-            "trial_time_s": float(row[_T]) if row is not None else 0.0,
+            "trial_time_s": float(row[TIME]) if row is not None else 0.0,
             "cycles": timing.cycles,
             "deadline_misses": timing.deadline_misses,
             "skipped_cycles": timing.skipped_cycles,
