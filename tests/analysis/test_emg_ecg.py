@@ -107,7 +107,7 @@ def test_denoising_and_gate_improve_on_the_described_algorithm_at_high_emg(conta
 
 
 def test_noise_model_spectrum_integrates_to_the_variance_and_is_flat_for_white_noise():
-    from bowden.analysis.emg_ecg import _NoiseModel
+    from bowden.analysis.emg_ecg_noise import NoiseModel as _NoiseModel
 
     rng = np.random.default_rng(3)
     white = 2.0 * rng.standard_normal(200_000)

@@ -43,9 +43,9 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import fft as sp_fft
-from scipy.interpolate import PchipInterpolator
 
+from bowden.analysis.emg_ecg_fit import alignment_shifts, fit_beats
+from bowden.analysis.emg_ecg_noise import NoiseModel, cp_gate, denoised_templates
 from bowden.analysis.emg_signal import EmgSignal
 from bowden.errors import ParameterError, RecordingError
 
@@ -164,17 +164,23 @@ def remove_ecg_from_channel(
     template = _moving_templates(y, peaks, start, end, offsets, params.template_beats)
     if params.method == "template":
         return _subtract_plain(y, peaks, start, end, template, half)
-    noise: _NoiseModel | None = None
+    noise: NoiseModel | None = None
     if params.denoise_template or params.gate:
         plain = _subtract_plain(y, peaks, start, end, template, half)
-        noise = _NoiseModel.of(plain, start, end, offsets.size)
+        noise = NoiseModel.of(plain, start, end, offsets.size)
     if noise is not None and params.denoise_template:
-        template = _denoised_templates(template, noise, params.template_beats)
-    aligned = peaks + _alignment_shifts(y, peaks, template, half, qrs, shift)
-    gate = noise if params.gate else None
-    where, artefact = _fit_adaptive(y, aligned, start, end, template, half, qrs, stretch, gate)
+        template = denoised_templates(template, noise, params.template_beats)
+    aligned = peaks + alignment_shifts(y, peaks, template, half, qrs, shift)
+    fit = fit_beats(y, aligned, start, end, template, half, qrs, stretch)
+    artefact = fit.artefact
+    if noise is not None and params.gate:
+        keep = cp_gate(noise, fit.template, fit.sections, fit.sse, fit.energy)
+        keep_cell = np.take_along_axis(
+            np.vstack([keep, np.zeros((1, peaks.size), dtype=bool)]).T, fit.section_of, 1
+        )
+        artefact = np.where(keep_cell, artefact, 0.0)
     cleaned = y.copy()
-    cleaned[where] -= artefact
+    cleaned[fit.index[fit.inside]] -= artefact[fit.inside]
     return cleaned
 
 
@@ -236,251 +242,3 @@ def _moving_templates(
     total = sums[hi] - sums[lo] - beats
     count = counts[hi] - counts[lo] - inside
     return np.asarray(np.divide(total, count, out=np.zeros_like(total), where=count > 0), dtype=np.float64)
-
-
-def _alignment_shifts(
-    y: NDArray[np.float64],
-    peaks: NDArray[np.int64],
-    template: NDArray[np.float64],
-    half: int,
-    qrs: int,
-    max_shift: int,
-) -> NDArray[np.int64]:
-    """Lag (samples) maximising the cross-correlation of each template's QRS with its beat."""
-    if max_shift == 0:
-        return np.zeros(peaks.size, dtype=np.int64)
-    q = template[:, half - qrs : half + qrs + 1]
-    q = q - q.mean(axis=1, keepdims=True)
-    lags = np.arange(-max_shift, max_shift + 1)
-    score = np.empty((peaks.size, lags.size))
-    for j, lag in enumerate(lags):
-        segment = y[(peaks + lag)[:, np.newaxis] + np.arange(-qrs, qrs + 1)]
-        score[:, j] = np.sum(q * (segment - segment.mean(axis=1, keepdims=True)), axis=1)
-    return np.asarray(lags[np.argmax(score, axis=1)], dtype=np.int64)
-
-
-def _fit_adaptive(
-    y: NDArray[np.float64],
-    aligned: NDArray[np.int64],
-    start: NDArray[np.int64],
-    end: NDArray[np.int64],
-    template: NDArray[np.float64],
-    half: int,
-    qrs: int,
-    stretch: int,
-    gate: _NoiseModel | None,
-) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-    """Best stretched variant per beat with per-section LS scale and offset.
-
-    Returns the sample indices of every beat's samples and the fitted artefact at those samples
-    (beats do not overlap, so each index appears once).
-    """
-    n_beats = aligned.size
-    lo = start - aligned  # first offset of each beat relative to its aligned R-peak
-    hi = end - aligned  # one past the last offset
-    offsets = np.arange(-half, half + 1)
-    index = np.clip(aligned[:, np.newaxis] + offsets, 0, y.size - 1)
-    inside = (offsets >= lo[:, np.newaxis]) & (offsets < hi[:, np.newaxis])
-    ys = np.where(inside, y[index], 0.0)
-    ts = np.where(inside, template, 0.0)
-    # Sums of 1, t, t², y, t·y, y² per beat over column slices (t and y are 0 outside the beat).
-    # The P section of variant d is [lo, -(qrs+d)): a part that no variant touches,
-    # [lo, -(qrs+stretch)), plus a narrow band whose prefix sums give every variant's share;
-    # likewise the T section (qrs+d, hi). No full-width cumulative sums are needed.
-    quantities = (inside.astype(np.float64), ts, ts * ts, ys, ts * ys, ys * ys)
-
-    def column_sums(first: int, stop: int) -> NDArray[np.float64]:
-        return np.stack([q[:, first:stop].sum(axis=1) for q in quantities])
-
-    def band_prefix(first: int, stop: int) -> NDArray[np.float64]:
-        band = np.stack([q[:, first:stop] for q in quantities])
-        return np.concatenate([np.zeros((6, n_beats, 1)), np.cumsum(band, axis=2)], axis=2)
-
-    outer = qrs + stretch
-    p_fixed = column_sums(0, half - outer)
-    t_fixed = column_sums(half + outer + 1, offsets.size)
-    p_band = band_prefix(half - outer, half - qrs + stretch)  # offsets -(qrs+S) … -(qrs-S)-1
-    t_band = band_prefix(half + qrs - stretch + 1, half + outer + 1)  # offsets qrs-S+1 … qrs+S
-    t_band_total = t_band[:, :, -1]
-
-    base_qrs = PchipInterpolator(np.arange(-qrs, qrs + 1), template[:, half - qrs : half + qrs + 1], axis=1)
-    best_width = np.full(n_beats, qrs)
-    best_fit = np.zeros((6, n_beats))  # scale and offset of the P, QRS and T sections
-    best_sse = np.full(n_beats, np.inf)
-    section_sse = np.zeros((3, n_beats))  # residual energy of each section's fit, V²
-    section_energy = np.zeros((3, n_beats))  # energy of each section before any subtraction, V²
-    variants: dict[int, NDArray[np.float64]] = {}
-    for d in range(-stretch, stretch + 1):
-        width = qrs + d
-        qrs_offsets = np.arange(-width, width + 1)
-        t_qrs = np.asarray(base_qrs(qrs_offsets * (qrs / width)), dtype=np.float64)
-        variants[width] = t_qrs
-        y_qrs = y[aligned[:, np.newaxis] + qrs_offsets]
-        qrs_sums = np.stack(
-            [
-                np.full(n_beats, float(qrs_offsets.size)),
-                t_qrs.sum(1),
-                (t_qrs**2).sum(1),
-                y_qrs.sum(1),
-                (t_qrs * y_qrs).sum(1),
-                (y_qrs**2).sum(1),
-            ]
-        )
-        sums = (
-            p_fixed + p_band[:, :, stretch - d],
-            qrs_sums,
-            t_fixed + t_band_total - t_band[:, :, d + stretch],
-        )
-        fits = [_section_fit(section) for section in sums]
-        sse = fits[0][2] + fits[1][2] + fits[2][2]
-        better = sse < best_sse
-        if not np.any(better):
-            continue
-        best_sse[better] = sse[better]
-        best_width[better] = width
-        for section, (scale, offset, residual) in enumerate(fits):
-            best_fit[2 * section, better] = scale[better]
-            best_fit[2 * section + 1, better] = offset[better]
-            section_sse[section, better] = residual[better]
-            section_energy[section, better] = sums[section][5][better]
-    # The chosen QRS variant of each beat, written into its template row (only the QRS columns).
-    values = ts.copy()
-    for width, t_qrs in variants.items():
-        chosen = np.flatnonzero(best_width == width)
-        if chosen.size:
-            values[chosen, half - width : half + width + 1] = t_qrs[chosen]
-    w = best_width[:, np.newaxis]
-    in_p = offsets < -w
-    in_t = offsets > w
-    scale = np.where(in_p, best_fit[0][:, None], np.where(in_t, best_fit[4][:, None], best_fit[2][:, None]))
-    offset = np.where(in_p, best_fit[1][:, None], np.where(in_t, best_fit[5][:, None], best_fit[3][:, None]))
-    artefact = scale * values + offset
-    if gate is not None:
-        sections = (in_p & inside, ~in_p & ~in_t & inside, in_t & inside)
-        keep = _cp_gate(gate, values, sections, section_sse, section_energy)
-        artefact *= np.where(in_p, keep[0][:, None], np.where(in_t, keep[2][:, None], keep[1][:, None]))
-    return np.asarray(index[inside], dtype=np.int64), np.asarray(artefact[inside], dtype=np.float64)
-
-
-@dataclass(frozen=True)
-class _NoiseModel:
-    """The EMG under the artefact, as the gate and the template denoising need it.
-
-    ``power`` holds rfft bins of length ``nfft`` such that ``qᵀ·C·q ≈ Σ_full |Q_k|²·P_k / nfft``
-    for any vector q of at most nfft/2 samples (C: covariance of the EMG), and ``beat_scale`` the
-    variance of each beat relative to the channel's (the EMG follows the activation).
-    """
-
-    nfft: int
-    power: NDArray[np.float64]
-    beat_scale: NDArray[np.float64]
-
-    @classmethod
-    def of(
-        cls, residual: NDArray[np.float64], start: NDArray[np.int64], end: NDArray[np.int64], width: int
-    ) -> _NoiseModel:
-        """Estimate from a residual (the channel after plain template subtraction).
-
-        Bartlett's method: the mean periodogram of non-overlapping segments of nfft/2 samples,
-        whose expectation is the spectrum of the autocovariance under a triangular lag window of
-        nfft/2 lags (never negative). The residual holds what the plain subtraction left of the
-        ECG too, which errs on the side of more noise, i.e. of subtracting less.
-        """
-        nfft = 1 << math.ceil(math.log2(2 * width))  # rows of ``width`` never wrap onto themselves
-        segment = nfft // 2
-        count = max(1, residual.size // segment)
-        segments = np.resize(residual, count * segment).reshape(count, segment)
-        if residual.size < segment:
-            segments[0, residual.size :] = 0.0
-        spectra = sp_fft.rfft(segments, nfft, axis=1)
-        power = np.mean(spectra.real**2 + spectra.imag**2, axis=0) / min(segment, residual.size)
-        channel_variance = float(np.mean(residual * residual))
-        squares = np.concatenate([[0.0], np.cumsum(residual * residual)])
-        beat_variance = (squares[end] - squares[start]) / np.maximum(end - start, 1)
-        scale = beat_variance / channel_variance if channel_variance > 0.0 else np.zeros(start.size)
-        return cls(nfft=nfft, power=np.asarray(power, dtype=np.float64), beat_scale=scale)
-
-
-def _denoised_templates(
-    template: NDArray[np.float64], noise: _NoiseModel, n_beats: int
-) -> NDArray[np.float64]:
-    """Templates through one Wiener filter: keep the frequencies where the heartbeat stands out.
-
-    A template is the mean of ``n_beats`` beats, so it carries their EMG with 1/n_beats of its
-    power spectrum ``P(f)``; a template row of ``width`` samples then holds ``width·P(f)/n_beats``
-    of EMG per frequency bin. Against the mean power of the templates ``S(f)`` the Wiener gain is
-    ``max(0, 1 − width·P(f) / (n_beats·S(f)))`` (Wiener 1949). The ECG after
-    the EMG band-pass lies mostly below ~60 Hz and the EMG mostly above, so the gain removes
-    most of the template's EMG and keeps the heartbeat, without a cut-off chosen by hand. ``P``
-    is the :class:`_NoiseModel`'s. The filter is zero-phase (a real gain applied to the spectrum).
-    """
-    width = template.shape[1]
-    spectra = sp_fft.rfft(template, noise.nfft, axis=1)
-    template_power = np.mean(spectra.real**2 + spectra.imag**2, axis=0)
-    noise_power = width * noise.power / n_beats
-    gain = np.maximum(0.0, 1.0 - noise_power / np.maximum(template_power, np.finfo(float).tiny))
-    return np.asarray(sp_fft.irfft(spectra * gain, noise.nfft, axis=1)[:, :width], dtype=np.float64)
-
-
-def _cp_gate(
-    noise: _NoiseModel,
-    template: NDArray[np.float64],
-    sections: tuple[NDArray[np.bool_], ...],
-    sse: NDArray[np.float64],
-    energy: NDArray[np.float64],
-) -> NDArray[np.bool_]:
-    """Which beat sections (sections x beats) to subtract: those whose fit lowers Mallows' Cp.
-
-    Subtracting a section's fit ``a·t + b`` changes the error of the cleaned signal (against the
-    EMG ``e`` underneath) from ``|m|²`` (artefact ``m`` left in) to the misfit plus the part of
-    the EMG that the fit takes away: the projection ``H·e`` of the EMG onto span{t, 1}. With ``C``
-    the covariance of the EMG, E[energy] = |m|² + E|e|² and E[sse] = E[error after] + E|e|² −
-    2·tr(C·H) (Mallows 1973, Technometrics 15:661, for correlated noise), so the fit helps in
-    expectation iff ``sse + 2·tr(C·H) < energy``. For white EMG tr(C·H) is 2σ²; band-limited
-    EMG concentrates its power, and a template that is mostly EMG (a P or T wave that the 20 Hz
-    high-pass has flattened, averaged with the neighbours' EMG) takes away several times more:
-    this is what made the ungated subtraction lose to a plain high-pass at high EMG levels.
-
-    ``C`` is the :class:`_NoiseModel`'s: the channel's spectrum after plain template subtraction,
-    scaled per beat by the beat's variance.
-    """
-    n_beats = template.shape[0]
-    weight = np.full(noise.power.size, 2.0)  # rfft bins stand for two bins of the full spectrum ...
-    weight[0] = 1.0
-    weight[-1] = 1.0  # ... except DC and Nyquist
-    weighted_power = (weight * noise.power / noise.nfft).astype(np.float32)
-    # The constant direction 1/√L of a run of L samples: qᵀCq = r(0) + (2/L)·Σ_{τ<L} (L − τ)·r(τ),
-    # from prefix sums of the autocovariance r (no transform per beat).
-    r = sp_fft.irfft(noise.power, noise.nfft)[: noise.nfft // 2]
-    lag = np.arange(r.size)
-    first_moment = np.concatenate([[0.0], np.cumsum(r[1:])])
-    second_moment = np.concatenate([[0.0], np.cumsum(lag[1:] * r[1:])])
-    penalty = np.zeros((len(sections), n_beats))
-    for k, mask in enumerate(sections):
-        count = np.maximum(mask.sum(axis=1), 1)
-        last = np.minimum(count - 1, r.size - 1)
-        penalty[k] = r[0] + 2.0 * (count * first_moment[last] - second_moment[last]) / count
-        t = np.where(mask, template, 0.0)
-        centred = np.where(mask, t - (t.sum(axis=1) / count)[:, np.newaxis], 0.0)
-        norm = np.sqrt(np.sum(centred * centred, axis=1))
-        # Single precision is plenty for a penalty and halves the cost of the transforms.
-        unit = (centred / np.where(norm > 0.0, norm, 1.0)[:, np.newaxis]).astype(np.float32)
-        spectra = sp_fft.rfft(unit, noise.nfft, axis=1)
-        penalty[k] += (spectra.real**2 + spectra.imag**2) @ weighted_power
-    return np.asarray(sse + 2.0 * penalty * noise.beat_scale < energy, dtype=np.bool_)
-
-
-def _section_fit(
-    sums: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """LS scale a, offset b and residual energy of y ≈ a·t + b from (n, Σt, Σt², Σy, Σty, Σy²).
-
-    A flat or empty template section gets a = 0 (the offset alone is fitted).
-    """
-    n, st, stt, sy, sty, syy = sums
-    det = n * stt - st * st
-    ok = det > 1e-12 * np.maximum(n * stt, 1e-300)
-    a = np.where(ok, (n * sty - st * sy) / np.where(ok, det, 1.0), 0.0)
-    b = np.where(n > 0, (sy - a * st) / np.maximum(n, 1.0), 0.0)
-    sse = np.maximum(syy - a * sty - b * sy, 0.0)
-    return np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64), np.asarray(sse, dtype=np.float64)
