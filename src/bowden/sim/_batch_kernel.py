@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from bowden.control import Controller
 from bowden.model import STANDARD_GRAVITY_M_S2
 from bowden.sim import _kernels as k
-from bowden.sim._kernels import jit
+from bowden.sim._kernels import drop_stale_dependent_cache, jit
 
 # --- controller parameter vector -----------------------------------------------------------------
 C_PRETENSION = 0  # NaN: support law
@@ -298,3 +298,8 @@ def run_trial(
                 x[k.X_T_OUT] = 0.0
                 k.arm_step(x, p, dt, shoulder)
                 x[k.X_TIME] += dt
+
+
+# run_trial compiles the plant of _kernels.py into itself; numba would reuse a cache made with older
+# kernels (it only watches this file), so drop that cache whenever either file changed.
+drop_stale_dependent_cache(run_trial, __file__, k.__file__)

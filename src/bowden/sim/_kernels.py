@@ -26,8 +26,11 @@ Sources of each number are in :mod:`bowden.sim.parameters`.
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
 import math
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, TypeVar, cast
 
 import numba
@@ -40,6 +43,39 @@ _F = TypeVar("_F", bound=Callable[..., Any])
 def jit(func: _F) -> _F:
     """Compile ``func`` in nopython mode, cached on disk, keeping its Python signature for mypy."""
     return cast(_F, numba.njit(cache=True, nogil=True)(func))
+
+
+def drop_stale_dependent_cache(dispatcher: Any, module_file: str, *sources: str) -> bool:
+    """Drop the on-disk numba cache of ``module_file`` when any of ``sources`` changed since it was made.
+
+    Numba keys a cached function on its own source file only: a function in another module that calls
+    kernels of this one (the batch trial loop calls :func:`plant_step`) would otherwise be loaded from
+    its cache with the *old* kernels compiled in, silently simulating the previous physics. A digest of
+    the module and its sources is kept beside the cache; when it differs, the module's cache entries
+    (``<stem>.*.nbi``/``.nbc``) are removed so numba compiles afresh. Returns True when it dropped any.
+    Degrades to doing nothing if numba's cache layout is not the expected one.
+    """
+    cache_path = getattr(getattr(dispatcher, "_cache", None), "_cache_path", None)
+    if not isinstance(cache_path, str):
+        return False
+    digest = hashlib.sha256()
+    for source in (module_file, *sources):
+        digest.update(Path(source).read_bytes())
+    directory = Path(cache_path)
+    stem = Path(module_file).stem
+    marker = directory / f"{stem}.sources.sha256"
+    with contextlib.suppress(OSError):
+        if marker.read_text(encoding="ascii") == digest.hexdigest():
+            return False
+    dropped = False
+    for entry in (*directory.glob(f"{stem}.*.nbi"), *directory.glob(f"{stem}.*.nbc")):
+        with contextlib.suppress(OSError):
+            entry.unlink()
+            dropped = True
+    with contextlib.suppress(OSError):
+        directory.mkdir(parents=True, exist_ok=True)
+        marker.write_text(digest.hexdigest(), encoding="ascii")
+    return dropped
 
 
 GRAVITY_M_S2 = 9.81
