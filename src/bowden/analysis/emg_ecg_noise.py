@@ -119,3 +119,25 @@ def cp_gate(
         spectra = sp_fft.rfft(unit, noise.nfft, axis=1)
         penalty[k] += (spectra.real**2 + spectra.imag**2) @ weighted_power
     return np.asarray(sse + 2.0 * penalty * noise.beat_scale < energy, dtype=np.bool_)
+
+
+def synthetic_emg(
+    noise: NoiseModel, n: int, start: NDArray[np.int64], end: NDArray[np.int64], rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """Gaussian noise of ``n`` samples with the model's spectrum and each beat's variance, V.
+
+    White noise shaped in the frequency domain by the square root of the model's spectrum
+    (interpolated onto the record's frequency grid; a circular convolution, harmless for a
+    stationary process), then scaled per beat by the square root of ``beat_scale``.
+    """
+    length = sp_fft.next_fast_len(n, real=True)
+    spectrum = sp_fft.rfft(rng.standard_normal(length))
+    model_frequency = np.arange(noise.power.size) / noise.nfft  # cycles per sample
+    frequency = np.arange(spectrum.size) / length
+    spectrum *= np.sqrt(np.interp(frequency, model_frequency, noise.power))
+    out = np.asarray(sp_fft.irfft(spectrum, length)[:n], dtype=np.float64)
+    gain = np.ones(n)
+    for first, stop, scale in zip(start, end, noise.beat_scale, strict=True):
+        gain[first:stop] = math.sqrt(max(float(scale), 0.0))
+    out *= gain
+    return out
