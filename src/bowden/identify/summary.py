@@ -171,7 +171,8 @@ def _direction_warnings(line: DirectionSummary, thresholds: SummaryThresholds) -
     if line.rejected_fraction > thresholds.max_rejected_fraction:
         warnings.append(
             f"{line.direction}: the robust fit rejected {100 * line.rejected_fraction:.1f} % of the "
-            "samples as outliers; look at the figure for a second population (stick-slip, slack cable)"
+            "samples as outliers; look at the figure for other populations (stick-slip, a slack cable, "
+            "or lines fanning out with speed: friction that depends on velocity)"
         )
     if not line.converged:
         warnings.append(f"{line.direction}: robustfit hit its iteration limit without converging")
