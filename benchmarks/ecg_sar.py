@@ -32,7 +32,7 @@ from bowden.sim.emg import BASELINE_NOISE_V, ecg_artefact, emg_carrier
 
 # The test suite's generators, loaded from their file (tests/ is not a package on sys.path).
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "analysis"))
-from conftest import RATE_HZ, ecg_wave, emg_noise, smooth_activation  # noqa: E402
+from conftest import RATE_HZ, ecg_wave, emg_noise, smooth_activation
 
 LEVELS_V = (30e-6, 100e-6, 300e-6, 1000e-6)
 Case = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]  # emg, ecg, true peaks

@@ -120,6 +120,56 @@ def test_noise_model_spectrum_integrates_to_the_variance_and_is_flat_for_white_n
     assert np.mean(model.beat_scale) == pytest.approx(1.0, rel=0.02)
 
 
+@pytest.mark.parametrize("emg_rms_v", [100e-6, 1000e-6])
+def test_default_gate_leaves_emg_without_ecg_alone(contaminated_emg, emg_rms_v):
+    # No ECG at all, at the true R-peaks of one: every fit there is fitted EMG, and the pooled
+    # gate with the search-aware penalty must subtract (almost) nothing.
+    case = contaminated_emg(duration_s=40.0, seed=2, emg_rms_v=emg_rms_v)
+    clean = emg_filter(EmgSignal(values=case.emg_v, rate_hz=RATE_HZ))
+    out = emg_remove_ecg(clean, case.r_peaks).values[:, 0]
+    assert sar_db(out, clean.values[:, 0]) > 30.0
+    described = EcgRemovalParameters(gate=False, denoise_template=False)
+    assert (
+        sar_db(emg_remove_ecg(clean, case.r_peaks, parameters=described).values[:, 0], clean.values[:, 0])
+        < 21.0
+    )
+
+
+def test_strong_emg_with_weak_ecg_is_not_made_worse(contaminated_emg):
+    # 1000 µV EMG, ECG ~13 dB below it: the described algorithm loses ~5 dB to doing nothing.
+    case, raw, truth = _case(contaminated_emg, 1, 1000e-6)
+    banded = emg_filter(raw)
+    out = emg_remove_ecg(banded, case.r_peaks, channels=("pectoralis_major",)).channel("pectoralis_major")
+    assert sar_db(out, truth) > sar_db(banded.channel("pectoralis_major"), truth)
+
+
+def test_pooled_gate_follows_the_fitted_line_of_gain_against_emg_variance():
+    from bowden.analysis.emg_ecg import _pooled_gate
+
+    scale = np.linspace(0.2, 1.8, 41)
+    noise = 0.3 * np.sin(np.arange(41))  # zero-mean scatter, orthogonal enough to the line
+    gain = np.vstack([5.0 - 10.0 * scale + noise, -1.0 + 0.0 * scale + noise, 2.0 + noise])
+    keep = _pooled_gate(gain, scale)
+    # The least-squares line of the first row crosses zero near scale 0.5, whatever the scatter.
+    assert np.all(keep[0][scale < 0.45]) and not np.any(keep[0][scale > 0.55])
+    assert not np.any(keep[1]) and np.all(keep[2])
+
+
+def test_synthetic_emg_has_the_model_variance_and_each_beat_its_scale():
+    from bowden.analysis.emg_ecg_noise import NoiseModel, synthetic_emg
+
+    rng = np.random.default_rng(8)
+    coloured = sps.lfilter([1.0], [1.0, -0.8], rng.standard_normal(400_000))
+    coloured[200_000:] *= 2.0  # the second half's beats have 4x the variance of the first half's
+    start = np.arange(0, 400_000, 1000)
+    model = NoiseModel.of(coloured, start, start + 1000, 1001)
+    out = synthetic_emg(model, coloured.size, start, start + 1000, np.random.default_rng(1))
+    assert np.var(out[:200_000]) == pytest.approx(np.var(coloured[:200_000]), rel=0.05)
+    assert np.var(out[200_000:]) == pytest.approx(np.var(coloured[200_000:]), rel=0.05)
+    # The spectrum's shape: lag-1 autocorrelation of an AR(1) with coefficient 0.8.
+    assert np.corrcoef(out[:-1], out[1:])[0, 1] == pytest.approx(0.8, abs=0.02)
+
+
 def test_template_methods_remove_a_pure_repeating_ecg_exactly():
     # Identical beats at a constant rate: every template equals the beat, so plain subtraction
     # leaves nothing, and the adaptive fit (scale 1, offset 0, no stretch) leaves nothing either.

@@ -54,6 +54,7 @@ EcgMethod = Literal["adaptive", "template"]
 _MAX_HALF_BEAT_S = 1.0  # beyond 1 s from an R-peak nothing of the heartbeat is left to remove
 _BOOTSTRAP_SEED = 20040601  # fixed: the same channel always gets the same gate
 _BOOTSTRAP_DRAWS = 1
+_BOOTSTRAP_BEATS = 32  # beats refitted per draw (the penalty is pooled over them)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -173,9 +174,10 @@ def remove_ecg_from_channel(
         noise = NoiseModel.of(plain, start, end, offsets.size)
     if noise is not None and params.denoise_template:
         template = denoised_templates(template, noise, params.template_beats)
-    def fit_to(signal: NDArray[np.float64]) -> BeatFit:
-        aligned = peaks + alignment_shifts(signal, peaks, template, half, qrs, shift)
-        return fit_beats(signal, aligned, start, end, template, half, qrs, stretch)
+
+    def fit_to(signal: NDArray[np.float64], rows: NDArray[np.int64] | slice = slice(None)) -> BeatFit:
+        aligned = peaks[rows] + alignment_shifts(signal, peaks[rows], template[rows], half, qrs, shift)
+        return fit_beats(signal, aligned, start[rows], end[rows], template[rows], half, qrs, stretch)
 
     fit = fit_to(y)
     artefact = fit.artefact
@@ -215,7 +217,7 @@ def _pooled_gate(gain: NDArray[np.float64], beat_scale: NDArray[np.float64]) -> 
 
 def _search_penalty(
     fit: BeatFit,
-    fit_to: Callable[[NDArray[np.float64]], BeatFit],
+    fit_to: Callable[[NDArray[np.float64], NDArray[np.int64]], BeatFit],
     noise: NoiseModel,
     n: int,
     start: NDArray[np.int64],
@@ -232,19 +234,23 @@ def _search_penalty(
     parametric bootstrap: the whole fit, alignment and stretch search included, is repeated on the
     fitted artefact plus synthetic EMG ``e*`` with the channel's spectrum and per-beat variance, and
     ``Σ ŷ*ᵢ·e*ᵢ`` per section is the estimate. One draw per beat is noisy, so the estimate is pooled
-    over the beats per section type after dividing by each beat's EMG variance, and scaled back.
+    over the beats per section type after dividing by each beat's EMG variance, and scaled back;
+    being pooled, it needs only ``_BOOTSTRAP_BEATS`` beats spread over the record.
     """
     rng = np.random.default_rng(_BOOTSTRAP_SEED)
+    rows = np.unique(
+        np.linspace(0, start.size - 1, min(start.size, _BOOTSTRAP_BEATS)).round().astype(np.int64)
+    )
     mean_artefact = np.zeros(n)
     mean_artefact[fit.index[fit.inside]] = fit.artefact[fit.inside]
     scale = np.maximum(noise.beat_scale, np.finfo(float).tiny)
     pooled = np.zeros(3)
     for _ in range(_BOOTSTRAP_DRAWS):
         emg = synthetic_emg(noise, n, start, end, rng)
-        refit = fit_to(mean_artefact + emg)
+        refit = fit_to(mean_artefact + emg, rows)
         products = np.where(refit.inside, refit.artefact * emg[refit.index], 0.0)
         for section, mask in enumerate(refit.sections):
-            pooled[section] += np.mean(np.sum(np.where(mask, products, 0.0), axis=1) / scale)
+            pooled[section] += np.mean(np.sum(np.where(mask, products, 0.0), axis=1) / scale[rows])
     return np.asarray(pooled[:, np.newaxis] / _BOOTSTRAP_DRAWS * scale[np.newaxis, :], dtype=np.float64)
 
 

@@ -1,8 +1,8 @@
-"""The EMG under an ECG artefact: its spectrum, a Wiener filter for templates, a section gate.
+"""The EMG under an ECG artefact: its spectrum, a Wiener filter for templates, synthetic EMG.
 
 Support for :mod:`bowden.analysis.emg_ecg`: the noise model is measured on the channel after plain
-template subtraction; the templates are denoised with it (Wiener 1949) and a fitted section is
-kept only where Mallows' Cp with the EMG's covariance says it pays (Mallows 1973).
+template subtraction; the templates are denoised with it (Wiener 1949) and synthetic EMG with its
+spectrum feeds the bootstrap of the section gate (``emg_ecg._search_penalty``).
 """
 
 from __future__ import annotations
@@ -71,54 +71,6 @@ def denoised_templates(template: NDArray[np.float64], noise: NoiseModel, n_beats
     noise_power = width * noise.power / n_beats
     gain = np.maximum(0.0, 1.0 - noise_power / np.maximum(template_power, np.finfo(float).tiny))
     return np.asarray(sp_fft.irfft(spectra * gain, noise.nfft, axis=1)[:, :width], dtype=np.float64)
-
-
-def cp_gate(
-    noise: NoiseModel,
-    template: NDArray[np.float64],
-    sections: tuple[NDArray[np.bool_], ...],
-    sse: NDArray[np.float64],
-    energy: NDArray[np.float64],
-) -> NDArray[np.bool_]:
-    """Which beat sections (sections x beats) to subtract: those whose fit lowers Mallows' Cp.
-
-    Subtracting a section's fit ``a·t + b`` changes the error of the cleaned signal (against the
-    EMG ``e`` underneath) from ``|m|²`` (artefact ``m`` left in) to the misfit plus the part of
-    the EMG that the fit takes away: the projection ``H·e`` of the EMG onto span{t, 1}. With ``C``
-    the covariance of the EMG, E[energy] = |m|² + E|e|² and E[sse] = E[error after] + E|e|² −
-    2·tr(C·H) (Mallows 1973, Technometrics 15:661, for correlated noise), so the fit helps in
-    expectation iff ``sse + 2·tr(C·H) < energy``. For white EMG tr(C·H) is 2σ²; band-limited
-    EMG concentrates its power, and a template that is mostly EMG (a P or T wave that the 20 Hz
-    high-pass has flattened, averaged with the neighbours' EMG) takes away several times more:
-    this is what made the ungated subtraction lose to a plain high-pass at high EMG levels.
-
-    ``C`` is the :class:`NoiseModel`'s: the channel's spectrum after plain template subtraction,
-    scaled per beat by the beat's variance.
-    """
-    n_beats = template.shape[0]
-    weight = np.full(noise.power.size, 2.0)  # rfft bins stand for two bins of the full spectrum ...
-    weight[0] = 1.0
-    weight[-1] = 1.0  # ... except DC and Nyquist
-    weighted_power = (weight * noise.power / noise.nfft).astype(np.float32)
-    # The constant direction 1/√L of a run of L samples: qᵀCq = r(0) + (2/L)·Σ_{τ<L} (L − τ)·r(τ),
-    # from prefix sums of the autocovariance r (no transform per beat).
-    r = sp_fft.irfft(noise.power, noise.nfft)[: noise.nfft // 2]
-    lag = np.arange(r.size)
-    first_moment = np.concatenate([[0.0], np.cumsum(r[1:])])
-    second_moment = np.concatenate([[0.0], np.cumsum(lag[1:] * r[1:])])
-    penalty = np.zeros((len(sections), n_beats))
-    for k, mask in enumerate(sections):
-        count = np.maximum(mask.sum(axis=1), 1)
-        last = np.minimum(count - 1, r.size - 1)
-        penalty[k] = r[0] + 2.0 * (count * first_moment[last] - second_moment[last]) / count
-        t = np.where(mask, template, 0.0)
-        centred = np.where(mask, t - (t.sum(axis=1) / count)[:, np.newaxis], 0.0)
-        norm = np.sqrt(np.sum(centred * centred, axis=1))
-        # Single precision is plenty for a penalty and halves the cost of the transforms.
-        unit = (centred / np.where(norm > 0.0, norm, 1.0)[:, np.newaxis]).astype(np.float32)
-        spectra = sp_fft.rfft(unit, noise.nfft, axis=1)
-        penalty[k] += (spectra.real**2 + spectra.imag**2) @ weighted_power
-    return np.asarray(sse + 2.0 * penalty * noise.beat_scale < energy, dtype=np.bool_)
 
 
 def synthetic_emg(
