@@ -18,19 +18,20 @@ electromyograms", IEEE Access 8:30905–30917 (REFERENCE §5), not from its tool
 
 Two additions to the description, both on by default and both switchable off
 (:class:`EcgRemovalParameters`), because the fit above also fits EMG. Each beat gets 6 least-squares
-parameters and the best of 21 shifts x 21 stretches, and its 40-beat template carries 1/40 of the
-neighbours' EMG power: on pure EMG without any ECG this removes about 1 % of the EMG energy
-(−19 dB). Once the ECG is more than ~13 dB below the EMG, that is more than the ECG it removes, and
-a plain 30 Hz high-pass did better (tests/analysis/test_emg_ecg.py tabulates the numbers):
+parameters after the best of 21 shifts and then the best of 21 stretches, and its 40-beat template
+carries 1/40 of the neighbours' EMG power: on pure EMG without any ECG the described algorithm
+removes about 1 % of the EMG energy (−19 dB). Once the ECG is more than ~13 dB below the EMG, that
+is more than the ECG it removes (tests/analysis/test_emg_ecg.py and docs/study.md tabulate it):
 
 7. *template denoising*: each template passes through one Wiener filter whose noise spectrum is the
-   EMG's, measured on the channel (:func:`_denoised_templates`);
-8. *section gate*: a section's fit is subtracted only where it lowers the expected error of the
-   cleaned signal, judged by Mallows' Cp with the EMG's own covariance (:func:`_cp_gate`).
+   EMG's, measured on the channel (:func:`~bowden.analysis.emg_ecg_noise.denoised_templates`);
+8. *section gate*: a section's fit is subtracted only where it is expected to lower the error of
+   the cleaned signal, by Mallows' Cp in Efron's covariance-penalty form with the search included
+   (a parametric bootstrap, :func:`_search_penalty`), pooled per section type as a line in the
+   beat's EMG variance (:func:`_pooled_gate`).
 
-The residual energy of every variant comes from prefix sums of the P/T sections (which do not
-depend on the variant except through where they end) plus the QRS section, so 21 variants cost
-little more than one. ``method="template"`` is the plain template subtraction: the same moving
+The fit itself (all beats, shifts and stretch variants at once) is
+:mod:`bowden.analysis.emg_ecg_fit`. ``method="template"`` is the plain template subtraction: the same moving
 40-beat template, subtracted at the detected R-peaks without alignment, stretching, scaling,
 denoising or gate. Beats whose QRS window does not fit inside the record are left untouched.
 """
