@@ -41,7 +41,7 @@ from bowden.sim.peers.ak60_peer import COMMAND, ENTER, EXIT, ReceivedFrame
 from bowden.sim.suit import SimulatedSuit
 from bowden.web.server import ServerThread
 
-from .conftest import trial_request
+from .conftest import store_snapshot, trial_request
 
 _channels = itertools.count()
 ZERO_COMMAND_NM = 0.01  # a zero-torque MIT command unpacks to +3.7 mNm at ±15 Nm (12-bit field)
@@ -310,3 +310,26 @@ def test_run_serve_shows_the_run_and_the_console_stops_it(wire_suit: WireSuit, t
     assert_ramped_down(rows)
     assert all(r[1] is not None for r in rows)  # the reference the display showed
     assert max(math.degrees(r[2]) for r in rows) > 30.0
+
+
+def test_a_real_suit_that_cannot_be_opened_refuses_the_start_and_leaves_nothing_open(
+    tmp_path: Path,
+) -> None:
+    model = tmp_path / "model.json"
+    CompensationModel.from_friction(k=0.12).save(model)
+    store = tmp_path / "study.sqlite"
+    port = free_udp_port()
+    common = ["serve", "--backend", "can", "--model", str(model), "--store", str(store), "--port", "0",
+              "--imu-port", str(port), "--calibration-s", "0.1"]
+    unplugged = build_parser().parse_args([*common, "--interface", "no-such-interface", "--channel", "can5"])
+    silent_imu = build_parser().parse_args([*common, "--interface", "virtual",
+                                            "--channel", f"bowden-web-can-{next(_channels)}"])
+    for args, message in ((unplugged, "cannot open the CAN interface no-such-interface:can5"),
+                          (silent_imu, f"is the IMU sending /quaternion to port {port}?")):
+        with ServerThread(serve_config(args)) as server, httpx.Client(base_url=server.url) as http:
+            auth = {"X-Bowden-Token": server.web.token.value}
+            before = store_snapshot(store)
+            for _ in range(2):  # the second attempt finds the UDP port and the bus free again
+                refused = http.post("/api/trial/start", headers=auth, json=trial_request(), timeout=10.0)
+                assert refused.status_code == 503 and message in refused.json()["error"]
+            assert not server.web.manager.running and store_snapshot(store) == before
