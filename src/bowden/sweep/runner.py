@@ -120,7 +120,7 @@ def run_sweep(
         for index, participant in enumerate(cohorts[point.seed]):
             tasks.append(_Task(point, suit, sid, participant, index))
     pending = [t for t in tasks if not directory.has_part(t.point.point_id, t.participant.participant_id)]
-    workers = len(client.scheduler_info().get("workers", {}))
+    workers = len(client.nthreads())
 
     models: dict[str, Any] = {}
     identify_futures: dict[Any, str] = {}

@@ -160,10 +160,14 @@ def points_table(points: pd.DataFrame, axis_names: tuple[str, ...], *, top: int 
         shown = pd.concat([shown, paper.head(1)])
     names = list(dict.fromkeys([ax.BLEND_01, ax.BLEND_99, *axis_names]))
     names = [n for n in names if n in shown.columns]
-    table = Table(title=f"sweep: {len(points)} configurations, best {min(top, len(points))} by tension RMSE")
+    table = Table(
+        title=f"sweep: {len(points)} configurations, best {min(top, len(points))} by tension RMSE",
+        caption="RMSE: tension, entire cycle; lower: lowering phase; |peak|: lowering peak % error",
+    )
+    short = {ax.BLEND_01: "θ̇01 rad/s", ax.BLEND_99: "θ̇99 rad/s"}
     for name in names:
-        table.add_column(name, justify="right")
-    for header in ("tension RMSE (N)", "lowering (N)", "|lowering peak| (%)", "at (%)", "rank", "spike rank"):
+        table.add_column(short.get(name, name), justify="right")
+    for header in ("RMSE (N)", "lower (N)", "|peak| (%)", "at (%)", "rank", "spike"):
         table.add_column(header, justify="right")
     table.add_column("", justify="left")
     for _, row in shown.iterrows():
