@@ -26,6 +26,8 @@ REFERENCES = {
     "wiener": "Wiener N. (1949). Extrapolation, Interpolation, and Smoothing of Stationary Time Series. "
     "MIT Press.",
     "mallows": "Mallows C.L. (1973). Some comments on Cp. Technometrics 15(4):661–675.",
+    "efron": "Efron B. (2004). The estimation of prediction error: covariance penalties and "
+    "cross-validation. J Am Stat Assoc 99(467):619–632.",
     "fritsch": "Fritsch F.N., Carlson R.E. (1980). Monotone piecewise cubic interpolation. SIAM J Numer Anal "
     "17(2):238–246. (PCHIP)",
 }
@@ -100,9 +102,11 @@ def methods_text(
                 )
             if e.gate:
                 sentences.append(
-                    "A section's fit was subtracted only where it lowered Mallows' Cp computed with the "
-                    f"EMG's own covariance {cite('mallows')}, i.e. where it was expected to remove more "
-                    "artefact than EMG."
+                    "Each wave (P, QRS, T) was subtracted only where it was expected to remove more "
+                    "artefact than EMG: the fit's expected error, including its search over shifts and "
+                    f"stretches, was priced by a covariance penalty {cite('mallows')}{cite('efron')} "
+                    "bootstrapped on synthetic EMG with the channel's spectrum, and the decision was made "
+                    "per wave type from a straight line in the beats' EMG variance."
                 )
         else:
             sentences.append(
