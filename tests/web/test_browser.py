@@ -15,13 +15,15 @@ from pathlib import Path
 
 import pytest
 
+from bowden.cli import build_parser
+from bowden.cli.serve import serve_config
 from bowden.model import CompensationModel
 from bowden.sim.questionnaires import FATIGUE_SITES, NORDIC_SITES
 from bowden.web.server import ServeConfig, ServerThread
 from bowden.web.suits import SimulatedBackend
 from bowden.web.trial_setup import parse_setup
 
-from .conftest import TOKEN, store_snapshot, trial_request
+from .conftest import TOKEN, WireSuit, assert_safe_state_after, store_snapshot, trial_request
 
 sync_api = pytest.importorskip("playwright.sync_api")
 CHROMIUM = Path("/usr/bin/chromium")
@@ -218,3 +220,33 @@ def test_a_questionnaire_submitted_through_the_form_is_in_the_store(server, brow
     page.wait_for_function("() => document.getElementById('message').textContent.includes('already stored')")
     assert store_snapshot(server.web.config.store_path) == before
     page.context.close()
+
+
+def test_the_console_stop_button_puts_the_real_suit_in_its_safe_state(
+    wire_suit: WireSuit, browser: Windows, tmp_path: Path
+) -> None:
+    """``bowden serve --backend can``: a trial started and stopped by clicking in the console."""
+    args = build_parser().parse_args(["serve", *wire_suit.args(), "--store", str(tmp_path / "study.sqlite"),
+                                      "--port", "0", "--rate-hz", "250"])
+    with ServerThread(serve_config(args)) as server:
+        console = browser.new_page()
+        console.goto(f"{server.url}/console#token={server.web.token.value}")
+        console.wait_for_function("() => document.getElementById('connection').textContent === 'live'")
+        console.fill("#participant", "P31")
+        console.select_option("#condition", "support_25")
+        console.select_option("#speed", "V2")
+        console.click("#start")  # the arm hangs still for the IMU calibration meanwhile
+        console.wait_for_function("() => document.getElementById('trial-state').textContent === 'running'")
+        wire_suit.imu.hold_arm_down(False)
+        console.wait_for_function("() => Number(document.getElementById('h-cycles').textContent) > 100")
+        assert console.inner_text("#h-suit").startswith("AK60-6 id 1 on virtual:")
+        assert wire_suit.motor.in_motor_mode
+        since = len(wire_suit.frames())
+        console.click("#stop")
+        console.wait_for_function("() => document.getElementById('h-state').textContent === 'safe (ended)'")
+        assert "operator stop (console)" in console.inner_text("#last-result")
+        ARTIFACTS.mkdir(parents=True, exist_ok=True)
+        console.screenshot(path=str(ARTIFACTS / "console-real-suit.png"), full_page=True)
+        console.context.close()
+    assert not wire_suit.motor.in_motor_mode
+    assert_safe_state_after(wire_suit.frames(), since)

@@ -16,82 +16,31 @@ import itertools
 import json
 import math
 import re
-import socket
 import sqlite3
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 
-import can
 import httpx
-import pytest
 from websockets.sync.client import ClientConnection, connect
 
 from bowden.cli import build_parser, main
 from bowden.cli.serve import serve_config
 from bowden.control import Fault
 from bowden.model import CompensationModel
-from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.runtime import LoopState
-from bowden.sim.arm import PrescribedArm
-from bowden.sim.peers import AK60Peer, NgimuPeer, WallTimePlant
-from bowden.sim.peers.ak60_peer import COMMAND, ENTER, EXIT, ReceivedFrame
-from bowden.sim.suit import SimulatedSuit
+from bowden.sim.peers.ak60_peer import COMMAND, ENTER, EXIT
 from bowden.web.server import ServerThread
 
-from .conftest import store_snapshot, trial_request
-
-_channels = itertools.count()
-ZERO_COMMAND_NM = 0.01  # a zero-torque MIT command unpacks to +3.7 mNm at ±15 Nm (12-bit field)
-
-
-@dataclass
-class WireSuit:
-    """The simulated suit behind its wire peers, and the arguments that reach it."""
-
-    plant: WallTimePlant
-    motor: AK60Peer
-    imu: NgimuPeer
-    channel: str
-    imu_port: int
-    model: Path
-
-    def args(self) -> list[str]:
-        # Lenient watchdogs: on a loaded shared machine the peers' threads can be starved for tens of
-        # ms, which would (rightly) stop the suit before the test reaches the behaviour it checks.
-        return ["--backend", "can", "--interface", "virtual", "--channel", self.channel,
-                "--imu-port", str(self.imu_port), "--calibration-s", "0.2", "--model", str(self.model),
-                "--imu-max-age-ms", "500", "--motor-silence-ms", "500"]
-
-    def frames(self) -> list[ReceivedFrame]:
-        return list(self.motor.received)
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
-        probe.bind(("0.0.0.0", 0))
-        return int(probe.getsockname()[1])
-
-
-@pytest.fixture
-def wire_suit(tmp_path: Path) -> Iterator[WireSuit]:
-    before = set(threading.enumerate())
-    channel = f"bowden-web-can-{next(_channels)}"
-    model = tmp_path / "model.json"
-    CompensationModel.from_friction(k=0.12).save(model)
-    plant = WallTimePlant(SimulatedSuit(arm=PrescribedArm.following(MinimumJerkCycle())))
-    port = free_udp_port()
-    with can.Bus(interface="virtual", channel=channel) as bus, AK60Peer(bus, plant) as motor, \
-            NgimuPeer(plant, ("127.0.0.1", port), rate_hz=200.0) as imu:
-        imu.hold_arm_down()  # the participant stands with the arm hanging for the calibration
-        plant.start()
-        yield WireSuit(plant, motor, imu, channel, port, model)
-    leaked = [t for t in threading.enumerate() if t not in before and t.is_alive()]
-    for thread in leaked:
-        thread.join(timeout=2.0)
-    assert not [t.name for t in leaked if t.is_alive()], "threads left running"
+from .conftest import (
+    WireSuit,
+    assert_safe_state_after,
+    free_udp_port,
+    store_snapshot,
+    trial_request,
+    virtual_channel,
+)
 
 
 @contextlib.contextmanager
@@ -124,17 +73,6 @@ def samples_until(ws: ClientConnection, predicate, *, timeout_s: float = 20.0) -
             seen.append(message)
             if predicate(message):
                 return seen
-
-
-def assert_safe_state_after(frames: list[ReceivedFrame], since: int) -> None:
-    """From frame ``since`` on: torque commands, the last one zero, then motor mode exited, then nothing."""
-    tail = frames[since:]
-    kinds = [f.kind for f in tail]
-    assert EXIT in kinds, "the motor never left motor mode"
-    exit_at = kinds.index(EXIT)
-    assert exit_at > 0 and all(f.kind == COMMAND for f in tail[:exit_at])
-    assert abs(tail[exit_at - 1].torque_nm) < ZERO_COMMAND_NM, "the last command before exiting was not zero"
-    assert kinds[exit_at + 1:] == [], "the motor was commanded after leaving motor mode"
 
 
 def assert_ramped_down(rows: list[tuple[object, ...]]) -> None:
@@ -323,7 +261,7 @@ def test_a_real_suit_that_cannot_be_opened_refuses_the_start_and_leaves_nothing_
               "--imu-port", str(port), "--calibration-s", "0.1"]
     unplugged = build_parser().parse_args([*common, "--interface", "no-such-interface", "--channel", "can5"])
     silent_imu = build_parser().parse_args([*common, "--interface", "virtual",
-                                            "--channel", f"bowden-web-can-{next(_channels)}"])
+                                            "--channel", virtual_channel()])
     for args, message in ((unplugged, "cannot open the CAN interface no-such-interface:can5"),
                           (silent_imu, f"is the IMU sending /quaternion to port {port}?")):
         with ServerThread(serve_config(args)) as server, httpx.Client(base_url=server.url) as http:
