@@ -9,8 +9,10 @@ pyemgpipeline's closest chain (its zero-phase Butterworth band-pass of effective
 forward-backward, full-wave rectifier, linear envelope; it has no ECG removal and no RMS window).
 
 The paper pipeline is timed twice: one trial after another, and ``--workers`` trials at a time in
-threads, as ``analyse_study(..., workers=)`` (and so ``bowden study``/``bowden analyze``) runs it.
-Trials are generated in batches of 2·workers, so memory stays small.
+worker processes, as ``analyse_study(..., workers=)`` (and so ``bowden study``/``bowden analyze``) runs
+it (threads measured no faster than one: the many mid-sized NumPy steps hold the GIL). The pool is
+started before the clock runs; pickling the trials to the workers is timed.
+All trials are generated first (not timed) and kept in memory, about 1.8 GB.
 
 Target (issue 6): ≤ 15 s for the whole study here. Prints the times and their ratios; no assertion.
 
@@ -20,8 +22,9 @@ Usage: ``python benchmarks/analysis.py [--participants 17] [--seed 0] [--workers
 from __future__ import annotations
 
 import argparse
+import functools
 import time
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 from numpy.typing import NDArray
@@ -105,25 +108,26 @@ def main(argv: list[str] | None = None) -> None:
     # CPU time of this process as well as wall time: on a shared machine the wall clock also counts
     # the time other processes hold the cores, the CPU time does not.
     cpu = dict.fromkeys(timings, 0.0)
-    samples = 0
     n_trials = args.participants * len(CONDITIONS) * len(SPEEDS)
-    batch = 2 * args.workers
-    pool = ThreadPoolExecutor(max_workers=args.workers)
-    for first in range(0, n_trials, batch):
-        trials = [synthetic_trial(rng, rng.uniform(50.0, 90.0)) for _ in range(min(batch, n_trials - first))]
-        samples += sum(emg.values.size for emg in trials)
+    # All trials in memory (≈ 1.8 GB for 17 participants), so every method sees the same list and
+    # the workers are never idle waiting for the next batch to be generated.
+    trials = [synthetic_trial(rng, rng.uniform(50.0, 90.0)) for _ in range(n_trials)]
+    samples = sum(emg.values.size for emg in trials)
+    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        one_trial = functools.partial(bowden_steps, params=params)
+        warm_up = [synthetic_trial(np.random.default_rng(), 1.0) for _ in range(args.workers)]
+        list(pool.map(one_trial, warm_up))  # start the workers before the clock runs
         runs = (
-            ("bowden paper pipeline", lambda t=trials: [bowden_steps(e, params) for e in t]),
-            (parallel, lambda t=trials: list(pool.map(lambda e: bowden_steps(e, params), t))),
-            ("bowden same steps (no ECG)", lambda t=trials: [bowden_same_steps(e) for e in t]),
-            ("pyemgpipeline", lambda t=trials: [pyemgpipeline_steps(e) for e in t]),
+            ("bowden paper pipeline", lambda: [bowden_steps(e, params) for e in trials]),
+            (parallel, lambda: list(pool.map(one_trial, trials))),
+            ("bowden same steps (no ECG)", lambda: [bowden_same_steps(e) for e in trials]),
+            ("pyemgpipeline", lambda: [pyemgpipeline_steps(e) for e in trials]),
         )
         for name, run in runs:
             start, start_cpu = time.perf_counter(), time.process_time()
             run()
             timings[name] += time.perf_counter() - start
             cpu[name] += time.process_time() - start_cpu
-    pool.shutdown()
     print(
         f"study: {args.participants} participants, {n_trials} trials, 8 muscles, "
         f"{samples / 1e6:.0f} M samples"

@@ -17,9 +17,10 @@ are listed there), ``workers`` of them at a time; this module does what needs th
 
 from __future__ import annotations
 
+import functools
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -122,21 +123,15 @@ def analyse_study(
     parameters
         Settings of every step; defaults reproduce the paper.
     workers
-        Trials analysed at the same time, in threads (the EMG filters, FFTs and array operations
-        release the GIL). The result does not depend on it: every trial is computed alone and
+        Trials analysed at the same time, in worker processes (trials and results are pickled
+        between them). The result does not depend on it: every trial is computed alone and
         the results are gathered in input order.
     """
     params = parameters or AnalysisParameters()
     if not (isinstance(workers, int) and workers >= 1):
         raise ParameterError(f"workers must be a positive integer, got {workers!r}")
 
-    def one(item: tuple[Any, ...]) -> TrialOutcomes:
-        if len(item) not in (2, 3):
-            raise ParameterError("each trial must be (metadata, recording) or (metadata, recording, emg)")
-        emg = item[2] if len(item) == 3 else None
-        return analyse_trial(TrialMetadata.coerce(item[0]), item[1], emg, params)
-
-    results = list(_ordered_map(one, trials, workers))
+    results = list(_ordered_map(functools.partial(_analyse_item, params=params), trials, workers))
     if not results:
         raise ParameterError("analyse_study needs at least one trial")
     sources: dict[str, int] = defaultdict(int)
@@ -177,14 +172,26 @@ def analyse_study(
     return StudyOutcomes(outcomes=outcomes, curves=pd.concat(curve_frames, ignore_index=True), info=info)
 
 
+def _analyse_item(item: tuple[Any, ...], params: AnalysisParameters) -> TrialOutcomes:
+    """One trial of :func:`analyse_study` (module level, so that worker processes can run it)."""
+    if len(item) not in (2, 3):
+        raise ParameterError("each trial must be (metadata, recording) or (metadata, recording, emg)")
+    emg = item[2] if len(item) == 3 else None
+    return analyse_trial(TrialMetadata.coerce(item[0]), item[1], emg, params)
+
+
 def _ordered_map(
     function: Callable[[tuple[Any, ...]], TrialOutcomes], items: Iterable[tuple[Any, ...]], workers: int
 ) -> Iterator[TrialOutcomes]:
-    """``map(function, items)`` on ``workers`` threads, in input order, ≤ 2·workers items in flight."""
+    """``map(function, items)`` on ``workers`` processes, in input order, ≤ 2·workers items in flight.
+
+    Processes, not threads: the EMG steps are many mid-sized NumPy operations whose Python
+    overhead holds the GIL, and two threads measured no faster than one (benchmarks/analysis.py).
+    """
     if workers == 1:
         yield from map(function, items)
         return
-    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="bowden-analysis") as pool:
+    with ProcessPoolExecutor(max_workers=workers) as pool:
         pending: list[Future[TrialOutcomes]] = []
         for item in items:
             pending.append(pool.submit(function, item))
