@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import multiprocessing
 import time
 from concurrent.futures import ProcessPoolExecutor
 
@@ -113,7 +114,8 @@ def main(argv: list[str] | None = None) -> None:
     # the workers are never idle waiting for the next batch to be generated.
     trials = [synthetic_trial(rng, rng.uniform(50.0, 90.0)) for _ in range(n_trials)]
     samples = sum(emg.values.size for emg in trials)
-    with ProcessPoolExecutor(max_workers=args.workers) as pool:
+    spawn = multiprocessing.get_context("spawn")  # as analyse_study starts its workers
+    with ProcessPoolExecutor(max_workers=args.workers, mp_context=spawn) as pool:
         one_trial = functools.partial(bowden_steps, params=params)
         warm_up = [synthetic_trial(np.random.default_rng(), 1.0) for _ in range(args.workers)]
         list(pool.map(one_trial, warm_up))  # start the workers before the clock runs

@@ -18,6 +18,7 @@ are listed there), ``workers`` of them at a time; this module does what needs th
 from __future__ import annotations
 
 import functools
+import multiprocessing
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -191,7 +192,10 @@ def _ordered_map(
     if workers == 1:
         yield from map(function, items)
         return
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    # Fresh interpreters ("spawn"), not forks: the caller may hold threads (progress bars, a server)
+    # whose locks a forked child would inherit mid-use.
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
         pending: list[Future[TrialOutcomes]] = []
         for item in items:
             pending.append(pool.submit(function, item))
