@@ -22,7 +22,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
-import httpx
+import httpx2 as httpx  # what the dev extra installs (starlette's TestClient uses it too)
 from websockets.sync.client import ClientConnection, connect
 
 from bowden.cli import build_parser, main
