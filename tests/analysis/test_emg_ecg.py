@@ -65,7 +65,7 @@ def test_r_peaks_respect_refractory_interval_and_handle_inverted_leads():
     assert emg_detect_r_peaks(EmgSignal(values=np.zeros(4000), rate_hz=RATE_HZ)).size == 0
 
 
-@pytest.mark.parametrize(("emg_rms_v", "min_gain_db"), [(30e-6, 15.0), (100e-6, 9.0)])
+@pytest.mark.parametrize(("emg_rms_v", "min_gain_db"), [(30e-6, 15.0), (100e-6, 9.0), (300e-6, 5.0)])
 def test_adaptive_removal_raises_sar_and_beats_high_pass_and_plain(contaminated_emg, emg_rms_v, min_gain_db):
     _, raw, truth = _case(contaminated_emg, 0, emg_rms_v)
     peaks = emg_detect_r_peaks(raw, channel="pectoralis_major")
