@@ -103,3 +103,17 @@ EMG_RATE_HZ: Final = 2000.0
 
 # --- Movement phases -----------------------------------------------------------------------------
 PHASES: Final = ("entire", "raising", "lowering")
+
+# --- Questionnaires between conditions (paper: "Questionnaires") --------------------------------
+# Item names as stored in the study store's questionnaires table (questionnaire, item, score).
+QUESTIONNAIRE_NORDIC: Final = "nordic"  # modified Nordic questionnaire: discomfort 1-7 per body site
+QUESTIONNAIRE_BORG_RPE: Final = "borg_rpe"  # Borg rating of perceived exertion 6-20, item "rpe"
+QUESTIONNAIRE_FATIGUE: Final = "fatigue"  # perceived fatigue 1-7 per muscle group
+QUESTIONNAIRES: Final = (QUESTIONNAIRE_NORDIC, QUESTIONNAIRE_BORG_RPE, QUESTIONNAIRE_FATIGUE)
+BORG_RPE_ITEM: Final = "rpe"
+NORDIC_SITES: Final = (
+    "upper_neck", "lower_neck", "right_shoulder", "left_shoulder", "upper_back", "right_upper_arm",
+    "left_upper_arm", "right_elbow", "left_elbow", "right_forearm", "left_forearm", "right_wrist_hand",
+    "left_wrist_hand", "middle_back", "lower_back", "hips",
+)
+FATIGUE_SITES: Final = ("pectoralis_major", "deltoids", "trapezius", "biceps", "triceps", "latissimus_dorsi")

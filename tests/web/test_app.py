@@ -8,9 +8,9 @@ import pytest
 from starlette.testclient import TestClient
 from starlette.websockets import WebSocketDisconnect
 
+from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.control import Fault
 from bowden.runtime import LoopState
-from bowden.sim.questionnaires import FATIGUE_SITES, NORDIC_SITES
 from bowden.web.app import STATIC_DIR
 
 from .conftest import AUTH, BASE, TOKEN, store_snapshot, trial_request

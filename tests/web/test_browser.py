@@ -17,8 +17,8 @@ import pytest
 
 from bowden.cli import build_parser
 from bowden.cli.serve import serve_config
+from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.model import CompensationModel
-from bowden.sim.questionnaires import FATIGUE_SITES, NORDIC_SITES
 from bowden.web.server import ServeConfig, ServerThread
 from bowden.web.suits import SimulatedBackend
 from bowden.web.trial_setup import parse_setup

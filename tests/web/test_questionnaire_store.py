@@ -2,9 +2,9 @@ import sqlite3
 
 import pytest
 
+from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.errors import ConflictError
 from bowden.runtime import Recorder, TrialInfo
-from bowden.sim.questionnaires import FATIGUE_SITES, NORDIC_SITES
 from bowden.web.questionnaire_store import QuestionnaireStore
 from bowden.web.questionnaires import QuestionnaireResponse
 

@@ -1,8 +1,7 @@
 import pytest
 
-from bowden.contracts import CONDITIONS
+from bowden.contracts import CONDITIONS, FATIGUE_SITES, NORDIC_SITES
 from bowden.errors import RequestError
-from bowden.sim.questionnaires import FATIGUE_SITES, NORDIC_SITES
 from bowden.web.questionnaires import (
     FATIGUE_SITE_LABELS,
     NORDIC_SITE_LABELS,

@@ -17,17 +17,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from bowden.contracts import MUSCLES
+from bowden.contracts import (
+    BORG_RPE_ITEM,
+    FATIGUE_SITES,
+    MUSCLES,
+    NORDIC_SITES,
+    QUESTIONNAIRE_BORG_RPE,
+    QUESTIONNAIRE_FATIGUE,
+    QUESTIONNAIRE_NORDIC,
+)
 
 if TYPE_CHECKING:
     from bowden.sim.results import TrialSimulation
 
-NORDIC_SITES = (
-    "upper_neck", "lower_neck", "right_shoulder", "left_shoulder", "upper_back", "right_upper_arm",
-    "left_upper_arm", "right_elbow", "left_elbow", "right_forearm", "left_forearm", "right_wrist_hand",
-    "left_wrist_hand", "middle_back", "lower_back", "hips",
-)
-FATIGUE_SITES = ("pectoralis_major", "deltoids", "trapezius", "biceps", "triceps", "latissimus_dorsi")
 # Sites pressed by the shoulder cuff and the backpack frame, with latent points per 10 N of tension.
 _PRESSURE_POINTS_PER_10N = {"upper_neck": 0.55, "right_shoulder": 0.75, "lower_neck": 0.25, "upper_back": 0.2}
 _AGONISTS = [MUSCLES.index(m) for m in ("anterior_deltoid", "medial_deltoid", "trapezius")]
@@ -40,8 +42,8 @@ def _likert(latent: float, low: int, high: int) -> int:
 def questionnaire_answers(trials: Sequence[TrialSimulation], *, seed: int) -> pd.DataFrame:
     """Answers after each condition: columns ``participant_id, condition, questionnaire, item, score``.
 
-    ``questionnaire`` is ``"nordic"`` (items :data:`NORDIC_SITES`, 1–7), ``"borg_rpe"`` (item
-    ``"rpe"``, 6–20) or ``"fatigue"`` (items :data:`FATIGUE_SITES`, 1–7).
+    ``questionnaire`` is ``"nordic"`` (items :data:`bowden.contracts.NORDIC_SITES`, 1–7), ``"borg_rpe"`` (item
+    ``"rpe"``, 6–20) or ``"fatigue"`` (items :data:`bowden.contracts.FATIGUE_SITES`, 1–7).
     """
     groups: dict[tuple[str, str], list[TrialSimulation]] = {}
     for trial in trials:
@@ -57,10 +59,11 @@ def questionnaire_answers(trials: Sequence[TrialSimulation], *, seed: int) -> pd
         for site in NORDIC_SITES:
             pressure = _PRESSURE_POINTS_PER_10N.get(site, 0.0) * tension / 10.0
             latent = 1.0 + pressure * (1.0 + 0.3 * participant.discomfort_sensitivity) + style
-            rows.append((pid, condition, "nordic", site, _likert(latent + 0.4 * rng.standard_normal(), 1, 7)))
+            score = _likert(latent + 0.4 * rng.standard_normal(), 1, 7)
+            rows.append((pid, condition, QUESTIONNAIRE_NORDIC, site, score))
         rpe = 8.0 + 12.0 * effort + 0.8 * participant.discomfort_sensitivity + 1.2 * rng.standard_normal()
-        rows.append((pid, condition, "borg_rpe", "rpe", _likert(rpe, 6, 20)))
+        rows.append((pid, condition, QUESTIONNAIRE_BORG_RPE, BORG_RPE_ITEM, _likert(rpe, 6, 20)))
         for site in FATIGUE_SITES:
             latent = 1.4 + 4.0 * effort + style + 0.5 * rng.standard_normal()
-            rows.append((pid, condition, "fatigue", site, _likert(latent, 1, 7)))
+            rows.append((pid, condition, QUESTIONNAIRE_FATIGUE, site, _likert(latent, 1, 7)))
     return pd.DataFrame(rows, columns=["participant_id", "condition", "questionnaire", "item", "score"])

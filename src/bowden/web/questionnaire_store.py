@@ -25,7 +25,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Final
 
-from bowden.contracts import CONDITIONS
+from bowden.contracts import CONDITIONS, QUESTIONNAIRES
 from bowden.errors import ConflictError, StoreError
 from bowden.runtime.store_schema import configure_connection
 from bowden.web.questionnaires import (
@@ -34,7 +34,6 @@ from bowden.web.questionnaires import (
     BORG_RPE,
     LIKERT_HIGH,
     LIKERT_LOW,
-    QUESTIONNAIRES,
     QuestionnaireResponse,
 )
 

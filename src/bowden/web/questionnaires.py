@@ -20,16 +20,24 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Final
 
-from bowden.contracts import CONDITION_LABELS, CONDITIONS
+from bowden.contracts import (
+    BORG_RPE_ITEM,
+    CONDITION_LABELS,
+    CONDITIONS,
+    FATIGUE_SITES,
+    NORDIC_SITES,
+    QUESTIONNAIRE_BORG_RPE,
+    QUESTIONNAIRE_FATIGUE,
+    QUESTIONNAIRE_NORDIC,
+    QUESTIONNAIRES,
+)
 from bowden.errors import RequestError
-from bowden.sim.questionnaires import FATIGUE_SITES, NORDIC_SITES
 from bowden.web.validation import choice, integer_in, no_unknown_fields, participant_id
 
-NORDIC: Final = "nordic"
-BORG_RPE: Final = "borg_rpe"
-FATIGUE: Final = "fatigue"
-QUESTIONNAIRES: Final = (NORDIC, BORG_RPE, FATIGUE)
-BORG_ITEM: Final = "rpe"
+NORDIC: Final = QUESTIONNAIRE_NORDIC
+BORG_RPE: Final = QUESTIONNAIRE_BORG_RPE
+FATIGUE: Final = QUESTIONNAIRE_FATIGUE
+BORG_ITEM: Final = BORG_RPE_ITEM
 
 LIKERT_LOW: Final = 1
 LIKERT_HIGH: Final = 7
