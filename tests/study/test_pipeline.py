@@ -1,4 +1,8 @@
-"""A reduced study end to end: bench → identification → cohort → trials → analysis → stats → report."""
+"""A reduced study end to end: bench → identification → cohort → trials → analysis → stats → report.
+
+The issue's size: 2 participants, 1 repetition per trial (which the analysis then keeps: the paper's
+dropped first repetition is the only one).
+"""
 
 import re
 
@@ -10,7 +14,7 @@ from bowden.errors import ParameterError
 from bowden.study.pipeline import StudySettings, run_study
 from bowden.study.store import StudyStore
 
-SETTINGS = StudySettings(participants=3, repetitions=2, quick_bench=True, seed=4)
+SETTINGS = StudySettings(participants=2, repetitions=1, quick_bench=True, seed=4)
 
 
 @pytest.fixture(scope="module")
@@ -20,7 +24,7 @@ def study(tmp_path_factory):
 
 
 def test_every_stage_ran_and_the_report_is_labelled_simulated(study):
-    assert study.trials_simulated == 3 * 4 * 3 and study.trials_skipped == 0
+    assert study.trials_simulated == 2 * 4 * 3 and study.trials_skipped == 0
     text = study.report.read_text(encoding="utf-8")
     assert "SIMULATED" in text and "not human data" in text
     for caption in (
@@ -40,18 +44,21 @@ def test_every_stage_ran_and_the_report_is_labelled_simulated(study):
 def test_outcomes_are_finite_and_stored(study):
     with StudyStore(study.store) as store:
         outcomes = store.outcomes()
-        assert len(store.completed_trials()) == 36
-        assert set(store.questionnaires()["participant"]) == {"P01", "P02", "P03"}
+        assert len(store.completed_trials()) == 24
+        assert set(store.questionnaires()["participant"]) == {"P01", "P02"}
     values = outcomes[outcomes["measure"].isin(["tension_rmse_n", "elevation_rmse_rad", "sparc"])]["value"]
     assert len(values) > 0 and np.isfinite(values).all()
     # Tension errors exist only where a suit was worn.
     tension = outcomes[outcomes["measure"] == "tension_rmse_n"]
     assert set(tension["condition"]) == {"pretension", "support_25", "support_50"}
+    # One repetition per trial, kept (there is no second to fall back on), in each phase.
+    assert set(tension["repetition"]) == {1}
+    assert len(tension) == 2 * 3 * 3 * 3  # participants × suit conditions × speeds × phases
 
 
 def test_a_second_run_resumes_without_simulating_again(study):
     again = run_study(SETTINGS, study.directory)
-    assert again.trials_simulated == 0 and again.trials_skipped == 36
+    assert again.trials_simulated == 0 and again.trials_skipped == 24
 
 
 def test_other_settings_in_the_same_directory_are_refused(study):
@@ -76,9 +83,15 @@ def test_analyze_command_on_the_store(study, tmp_path, capsys):
     )
     assert code == 0
     assert report.exists() and (tmp_path / "export" / "outcomes.csv").exists()
-    assert "analysed 36 trials" in capsys.readouterr().out
+    assert "analysed 24 trials" in capsys.readouterr().out
 
 
 def test_analyze_command_on_a_missing_store(tmp_path, capsys):
     assert main(["analyze", str(tmp_path / "nothing")]) == 1
     assert "no study store" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("field", "value"), [("repetitions", 0), ("repetitions", 51), ("participants", 1)])
+def test_settings_out_of_range_are_refused_by_name(field, value):
+    with pytest.raises(ParameterError, match=f"{field} must be between"):
+        StudySettings(**{field: value})

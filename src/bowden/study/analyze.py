@@ -74,7 +74,12 @@ def analyze_store(
             repetitions = int(
                 store.trial_metadata(trials[0].trial_id).get("repetitions", REPETITIONS_PER_TRIAL)
             )
-        parameters = AnalysisParameters(segmentation=SegmentationParameters(expected_repetitions=repetitions))
+        # The paper drops each trial's first repetition (adaptation); a one-repetition trial keeps it,
+        # and the methods text says so.
+        segmentation = SegmentationParameters(
+            expected_repetitions=repetitions, drop_first=min(1, repetitions - 1)
+        )
+        parameters = AnalysisParameters(segmentation=segmentation)
 
         def items() -> Iterator[tuple[TrialMetadata, Any, Any]]:
             with progress.bar("analysing trials", len(trials)) as advance:

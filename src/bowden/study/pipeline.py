@@ -52,7 +52,8 @@ class StudySettings:
     seed
         Seed of everything random: bench noise, cohort, condition orders, trial noise.
     repetitions
-        Raise-and-lower cycles per trial (paper: 10; the first is dropped in the analysis).
+        Raise-and-lower cycles per trial (paper: 10; the analysis drops the first unless it is the only
+        one).
     quick_bench
         Use a reduced bench protocol (for tests and demonstrations) instead of the paper's.
     store_emg
@@ -68,10 +69,8 @@ class StudySettings:
     def __post_init__(self) -> None:
         if not 2 <= self.participants <= 200:
             raise ParameterError(f"participants must be between 2 and 200, got {self.participants}")
-        if not 2 <= self.repetitions <= 50:
-            raise ParameterError(
-                f"repetitions must be between 2 and 50 (the first is dropped), got {self.repetitions}"
-            )
+        if not 1 <= self.repetitions <= 50:
+            raise ParameterError(f"repetitions must be between 1 and 50, got {self.repetitions}")
 
 
 @dataclass
