@@ -28,6 +28,7 @@ caption { caption-side: top; text-align: left; font-weight: 600; padding: 4px 0;
 figure { margin: 1.2em 0; }
 figcaption { font-size: 0.9em; color: #444; }
 img { max-width: 100%; }
+pre { white-space: pre-wrap; font-size: 0.85em; }
 .banner { background: #fff4d6; border: 1px solid #e0b84a; padding: .6em 1em; margin: 1em 0; }
 .note { color: #555; font-size: 0.92em; }
 .side-by-side { display: flex; gap: 2em; flex-wrap: wrap; align-items: flex-start; }
@@ -53,6 +54,9 @@ class HtmlDocument:
 
     def table(self, frame: pd.DataFrame, caption: str, float_format: str = "{:.3g}") -> None:
         """A DataFrame as an HTML table with a caption; floats formatted with ``float_format``."""
+        if frame.index.nlevels == 1 and frame.columns.nlevels == 1 and frame.index.name is not None:
+            # The index's name goes into the header's corner instead of a row of its own.
+            frame = frame.rename_axis(index=None, columns=frame.index.name)
         body = frame.to_html(float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True)
         opening_end = body.index(">") + 1  # after pandas' "<table ...>"
         self.parts.append(
