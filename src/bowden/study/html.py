@@ -56,7 +56,7 @@ class HtmlDocument:
         """A DataFrame as an HTML table with a caption; floats formatted with ``float_format``."""
         if frame.index.nlevels == 1 and frame.columns.nlevels == 1 and frame.index.name is not None:
             # The index's name goes into the header's corner instead of a row of its own.
-            frame = frame.rename_axis(index=None, columns=frame.index.name)
+            frame = frame.rename_axis(index=None, columns=str(frame.index.name))
         body = frame.to_html(float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True)
         opening_end = body.index(">") + 1  # after pandas' "<table ...>"
         self.parts.append(
