@@ -240,7 +240,7 @@ def generate_cohort(
     seed: int = 0,
     *,
     n_participants: int = PAPER_COHORT_SIZE,
-    n_female: int = PAPER_COHORT_FEMALE,
+    n_female: int | None = None,
     height_m: tuple[float, float] = PAPER_HEIGHT_M,
     mass_kg: tuple[float, float] = PAPER_MASS_KG,
     age_years: tuple[float, float] = PAPER_AGE_YEARS,
@@ -251,10 +251,12 @@ def generate_cohort(
     index of 22 ± 2.5 kg/m², and then the sample is shifted and scaled to the requested mean and
     standard deviation (so women stay shorter on average and mass stays correlated with stature).
     Individual differences in arm dynamics, movement and EMG are drawn around the defaults of
-    :class:`VirtualParticipant`.
+    :class:`VirtualParticipant`. ``n_female`` defaults to the paper's proportion (12 of 17).
     """
     if not (2 <= n_participants <= 500):
         raise ParameterError(f"n_participants must be between 2 and 500, got {n_participants}")
+    if n_female is None:  # the paper's proportion of women, 12 in 17
+        n_female = round(n_participants * PAPER_COHORT_FEMALE / PAPER_COHORT_SIZE)
     if not (0 <= n_female <= n_participants):
         raise ParameterError(f"n_female must be between 0 and n_participants, got {n_female}")
     rng = np.random.default_rng(seed)

@@ -147,8 +147,7 @@ def run_study(
         store.put_artifact("settings.json", settings_file.read_text())
         with timer.stage("cohort"):
             # The paper's 12 women in 17, kept in proportion for other cohort sizes.
-            n_female = round(settings.participants * 12 / 17)
-            cohort = generate_cohort(settings.seed, n_participants=settings.participants, n_female=n_female)
+            cohort = generate_cohort(settings.seed, n_participants=settings.participants)
             for participant in cohort:
                 store.add_participant(
                     participant.participant_id, participant.subject, {"age_years": participant.age_years}

@@ -41,9 +41,6 @@ from bowden.sweep.spec import SweepPoint, SweepSpec
 from bowden.sweep.summary import summarize_points
 from bowden.sweep.task import identify_suit, score_participant
 
-# The paper's 12 women in 17, kept in proportion for other cohort sizes (as bowden study does).
-_FEMALE_FRACTION = 12 / 17
-
 
 @dataclass
 class SweepRun:
@@ -74,8 +71,7 @@ class _Task:
 
 def cohort(spec: SweepSpec, seed: int) -> tuple[VirtualParticipant, ...]:
     """The virtual participants of ``seed`` (drawn like ``bowden study``'s cohort)."""
-    n_female = round(spec.participants * _FEMALE_FRACTION)
-    return generate_cohort(seed, n_participants=spec.participants, n_female=n_female)
+    return generate_cohort(seed, n_participants=spec.participants)
 
 
 def protocol_settings(spec: SweepSpec) -> ProtocolSettings:
