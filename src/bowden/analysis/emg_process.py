@@ -49,6 +49,9 @@ class EmgProcessParameters:
         detects on each contaminated channel itself.
     min_rr_s
         Refractory interval of the R-peak detector, s.
+    min_rr_fraction
+        Of two detected beats closer than this fraction of the median RR interval, the one less like
+        the median beat is dropped (0: keep all); see :func:`~bowden.analysis.emg_detect_r_peaks`.
     ecg
         Details of the template subtraction (its ``method`` is overridden by ``ecg_removal``).
     check
@@ -63,6 +66,7 @@ class EmgProcessParameters:
     ecg_channels: tuple[str, ...] = ECG_CONTAMINATED_MUSCLES
     ecg_reference_channel: str | None = None
     min_rr_s: float = 0.3
+    min_rr_fraction: float = 0.6
     ecg: EcgRemovalParameters = field(default_factory=EcgRemovalParameters)
     check: EmgCheckParameters | None = field(default_factory=EmgCheckParameters)
 
@@ -81,6 +85,8 @@ class EmgProcessParameters:
             raise ParameterError(f"envelope_window_s must be positive, got {self.envelope_window_s}")
         if not (math.isfinite(self.min_rr_s) and self.min_rr_s > 0.0):
             raise ParameterError(f"min_rr_s must be positive, got {self.min_rr_s}")
+        if not (math.isfinite(self.min_rr_fraction) and 0.0 <= self.min_rr_fraction < 1.0):
+            raise ParameterError(f"min_rr_fraction must be in [0, 1), got {self.min_rr_fraction}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -129,11 +135,19 @@ def emg_pipeline(emg: EmgSignal, parameters: EmgProcessParameters | None = None)
     peaks: dict[str, NDArray[np.int64]] = {}
     if params.ecg_removal != "none":
         if params.ecg_reference_channel is not None:
-            shared = emg_detect_r_peaks(emg, channel=params.ecg_reference_channel, min_rr_s=params.min_rr_s)
+            shared = emg_detect_r_peaks(
+                emg,
+                channel=params.ecg_reference_channel,
+                min_rr_s=params.min_rr_s,
+                min_rr_fraction=params.min_rr_fraction,
+            )
             peaks = dict.fromkeys(targets, shared)
         else:
             peaks = {
-                name: emg_detect_r_peaks(emg, channel=name, min_rr_s=params.min_rr_s) for name in targets
+                name: emg_detect_r_peaks(
+                    emg, channel=name, min_rr_s=params.min_rr_s, min_rr_fraction=params.min_rr_fraction
+                )
+                for name in targets
             }
     filtered = emg_filter(emg, low_hz=params.low_hz, high_hz=params.high_hz, order=params.filter_order)
     if params.ecg_removal != "none" and targets:

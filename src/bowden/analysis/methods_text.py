@@ -80,7 +80,13 @@ def methods_text(
         )
         sentences.append(
             f"R-peaks were detected on {detect_on} with a Pan–Tompkins detector {cite('pan')} "
-            f"(refractory period {1000.0 * emg.min_rr_s:g} ms)."
+            f"(refractory period {1000.0 * emg.min_rr_s:g} ms)"
+            + (
+                f"; of two beats closer than {emg.min_rr_fraction:g} times the median RR interval, the one "
+                "less like the median beat was dropped."
+                if emg.min_rr_fraction > 0.0
+                else "."
+            )
         )
         if emg.ecg_removal == "adaptive":
             e = emg.ecg
