@@ -65,13 +65,14 @@ def run_simulate(args: argparse.Namespace) -> int:
 
     # A line redrawn in place on a terminal; in a log (not a terminal) only every tenth of the way.
     live = sys.stderr.isatty()
-    printed_tenths = [0]
+    printed_tenths = 0
 
     def progress(done: int, total: int) -> None:
+        nonlocal printed_tenths
         if live:
             print(f"\rbench: {done}/{total} strokes", end="", file=sys.stderr, flush=True)
-        elif done * 10 // total > printed_tenths[0]:
-            printed_tenths[0] = done * 10 // total
+        elif done * 10 // total > printed_tenths:
+            printed_tenths = done * 10 // total
             print(f"bench: {done}/{total} strokes", file=sys.stderr, flush=True)
 
     frame = run_bench(protocol=protocol, seed=args.seed, progress=False if args.quiet else progress)
