@@ -1,7 +1,7 @@
 """Simulation speed and the simulated study's tension tracking, measured in one run.
 
     .venv/bin/python benchmarks/simulation.py [--participants 17] [--table]
-        [--sheath-viscous N·s/m] [--motor-viscous Nm·s/rad] [--rotor-inertia kg·m²]
+        [--cohort-seed N] [--sheath-viscous N·s/m] [--motor-viscous Nm·s/rad] [--rotor-inertia kg·m²]
 
 Prints simulated seconds per wall second for the plant alone, for the SimulatedSuit driven by a
 Python control loop (as the runtime does) and for the batch study, and the wall time of the whole
@@ -69,6 +69,7 @@ def main() -> None:
     )
     parser.add_argument("--participants", type=int, default=17)
     parser.add_argument("--table", action="store_true", help="print the tension RMSE table")
+    parser.add_argument("--cohort-seed", type=int, default=0, help="seed of the cohort and the study")
     parser.add_argument("--sheath-viscous", type=float, help="SheathParameters.viscous_coefficient_ns_m")
     parser.add_argument("--motor-viscous", type=float, help="MotorParameters.viscous_friction_nms_rad")
     parser.add_argument("--rotor-inertia", type=float, help="MotorParameters.rotor_inertia_kgm2")
@@ -102,9 +103,9 @@ def main() -> None:
     print(f"SimulatedSuit + Controller.step in a Python loop at 500 Hz: {loop_rate(model, suit):.1f} "
           "simulated s per wall s")
 
-    cohort = generate_cohort(0, n_participants=args.participants, n_female=round(args.participants * 12 / 17))
+    cohort = generate_cohort(args.cohort_seed, n_participants=args.participants)
     start = time.perf_counter()
-    result = simulate_cohort(cohort, model=model, suit=suit, seed=0)
+    result = simulate_cohort(cohort, model=model, suit=suit, seed=args.cohort_seed)
     wall = time.perf_counter() - start
     simulated = sum(t.duration_s for t in result.trials)
     print(f"whole cohort ({len(cohort)} participants, {len(result.trials)} trials, "
@@ -139,6 +140,12 @@ def print_table(result: object) -> None:
             for p in ("entire", "raising", "lowering")
         ]
         print(f"| {c.CONDITION_LABELS[condition]} | " + " | ".join(row) + " |")
+    entire = np.array([
+        [np.mean(cells[(condition, s, "entire")]) for s in c.SPEEDS]
+        for condition in (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50)
+    ])
+    print(f"\nentire-cycle RMSE grows with speed in every condition: {bool(np.all(np.diff(entire, axis=1) > 0))}; "
+          f"with support at every speed: {bool(np.all(np.diff(entire, axis=0) > 0))}")
     print("\n| Peak lowering error | V1 | V2 | V3 |")
     print("|---|---|---|---|")
     for condition in (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50):

@@ -10,11 +10,15 @@ import pytest
 
 from bowden.analysis import TrialMetadata, analyse_study
 from bowden.model import CompensationLine, CompensationModel
+from bowden.model.transmission import slopes_from_friction
 from bowden.sim import ProtocolSettings, generate_cohort, simulate_cohort
+from bowden.sim.parameters import SheathParameters
 
+# The lines of the default simulated suit (its quasi-static slopes; intercepts near the bench's).
+_RAISING_SLOPE, _LOWERING_SLOPE = slopes_from_friction(SheathParameters().kinetic_coefficient, 0.035)
 MODEL = CompensationModel(
-    raising=CompensationLine(intercept_nm=0.07, slope_m=0.0464),
-    lowering=CompensationLine(intercept_nm=-0.07, slope_m=0.0264),
+    raising=CompensationLine(intercept_nm=0.11, slope_m=_RAISING_SLOPE),
+    lowering=CompensationLine(intercept_nm=-0.11, slope_m=_LOWERING_SLOPE),
 )
 AGONISTS = ("anterior_deltoid", "medial_deltoid", "trapezius", "pectoralis_major")
 

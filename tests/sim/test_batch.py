@@ -10,13 +10,17 @@ import pytest
 from bowden import contracts as c
 from bowden.control import ControllerLimits, build_controller
 from bowden.model import CompensationLine, CompensationModel
+from bowden.model.transmission import slopes_from_friction
 from bowden.sim import ProtocolSettings, generate_cohort, simulate_cohort, simulate_trial
 from bowden.sim import _batch_kernel as bk
+from bowden.sim.parameters import SheathParameters
 from bowden.sim.results import TRUE_TENSION, phase_masks, rmse
 
+# The lines of the default simulated suit (its quasi-static slopes; intercepts near the bench's).
+_RAISING_SLOPE, _LOWERING_SLOPE = slopes_from_friction(SheathParameters().kinetic_coefficient, 0.035)
 MODEL = CompensationModel(
-    raising=CompensationLine(intercept_nm=0.07, slope_m=0.0464),
-    lowering=CompensationLine(intercept_nm=-0.07, slope_m=0.0264),
+    raising=CompensationLine(intercept_nm=0.11, slope_m=_RAISING_SLOPE),
+    lowering=CompensationLine(intercept_nm=-0.11, slope_m=_LOWERING_SLOPE),
 )
 SHORT = ProtocolSettings(repetitions=2, lead_in_s=0.3, tail_s=0.1)
 

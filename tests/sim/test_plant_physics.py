@@ -62,7 +62,8 @@ def test_static_equilibrium_with_friction_lies_inside_both_friction_bands(torque
     # sheath within its static cone, T_out/T_in ∈ [(1 − k_s)/(1 + k_s), (1 + k_s)/(1 − k_s)].
     suit = SuitParameters()
     th = math.radians(70.0)
-    plant = Plant(suit, ArmParameters(), elevation_rad=th, tension_n=12.0)
+    # 13 N start: R·T = 0.455 Nm, strictly inside the 0.5 Nm command's Coulomb band (not on its edge).
+    plant = Plant(suit, ArmParameters(), elevation_rad=th, tension_n=13.0)
     hold(plant, 20000, torque_nm, th)
     state = plant.state()
     assert state.spool_velocity_rad_s == 0.0 and state.sheath_stuck

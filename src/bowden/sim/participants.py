@@ -33,6 +33,16 @@ PAPER_HEIGHT_M = (1.70, 0.11)
 PAPER_MASS_KG = (63.23, 11.51)
 PAPER_AGE_YEARS = (29.33, 7.04)
 
+# Between-wearer spread of the sheath friction (log-normal SD of ``sheath_friction_scale``). The
+# controller is identified once, on the mannequin; each wearer's body routes the sheath differently.
+# The paper's own table shows the signature of such a per-wearer gain error: its 50 % support RMSE
+# exceeds the pretension RMSE, in quadrature, by the same 5.1-5.5 N in all six speed x direction
+# cells (sqrt(RMSE_50^2 - RMSE_pre^2)), i.e. an error proportional to the load that depends on neither
+# speed nor direction. 0.3 is a wrap angle that differs by about +-30 % between bodies (k ~ mu*Phi/2);
+# no measurement of the paper's suit exists, docs/simulation.md shows the effect of the value.
+WEARER_FRICTION_LOG_SD = 0.3
+WEARER_FRICTION_SCALE_RANGE = (0.5, 2.0)
+
 
 @dataclass(frozen=True, kw_only=True)
 class ExpectedAssistance:
@@ -118,8 +128,11 @@ class VirtualParticipant:
     discomfort_sensitivity
         How strongly the participant reports discomfort under cuff pressure (questionnaires), z-score.
     sheath_friction_scale
-        The suit's sheath friction on this body relative to the bench: the sheath's bends (wrap angle
-        φ) follow the wearer's back and shoulder, so ``k = μ·sin(φ/2)`` differs between wearers.
+        The suit's sheath friction on this body relative to the mannequin bench. The sheath's bends
+        follow the wearer's back and shoulder, and in the capstan limit ``k ≈ μ·Φ/2`` grows with the
+        total wrap angle Φ, so a wearer whose routing bends the sheath 30 % more has ≈ 30 % more
+        friction than the bench the controller was identified on (see
+        :data:`WEARER_FRICTION_LOG_SD`).
     """
 
     participant_id: str
@@ -292,7 +305,9 @@ def generate_cohort(
                 heart_rate_bpm=float(np.clip(rng.normal(70.0, 8.0), 50.0, 100.0)),
                 ecg_amplitude=float(np.clip(rng.lognormal(math.log(0.3), 0.3), 0.05, 1.5)),
                 discomfort_sensitivity=float(np.clip(rng.normal(0.0, 1.0), -3.0, 3.0)),
-                sheath_friction_scale=float(np.clip(rng.normal(1.0, 0.12), 0.7, 1.3)),
+                sheath_friction_scale=float(
+                    np.clip(rng.lognormal(0.0, WEARER_FRICTION_LOG_SD), *WEARER_FRICTION_SCALE_RANGE)
+                ),
             )
         )
     return tuple(cohort)
