@@ -144,8 +144,9 @@ def print_table(result: object) -> None:
         [np.mean(cells[(condition, s, "entire")]) for s in c.SPEEDS]
         for condition in (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50)
     ])
-    print(f"\nentire-cycle RMSE grows with speed in every condition: {bool(np.all(np.diff(entire, axis=1) > 0))}; "
-          f"with support at every speed: {bool(np.all(np.diff(entire, axis=0) > 0))}")
+    with_speed, with_support = np.all(np.diff(entire, axis=1) > 0), np.all(np.diff(entire, axis=0) > 0)
+    print(f"\nentire-cycle RMSE grows with speed in every condition: {bool(with_speed)}; "
+          f"with support at every speed: {bool(with_support)}")
     print("\n| Peak lowering error | V1 | V2 | V3 |")
     print("|---|---|---|---|")
     for condition in (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50):
