@@ -1,7 +1,8 @@
 """Simulation speed and the simulated study's tension tracking, measured in one run.
 
     .venv/bin/python benchmarks/simulation.py [--participants 17] [--table]
-        [--cohort-seed N] [--sheath-viscous N·s/m] [--motor-viscous Nm·s/rad] [--rotor-inertia kg·m²]
+        [--cohort-seed N] [--sheath-kinetic k] [--sheath-viscous N·s/m] [--motor-coulomb Nm]
+        [--motor-viscous Nm·s/rad] [--rotor-inertia kg·m²] [--wearer-friction-sd log-SD]
 
 Prints simulated seconds per wall second for the plant alone, for the SimulatedSuit driven by a
 Python control loop (as the runtime does) and for the batch study, and the wall time of the whole
@@ -29,6 +30,7 @@ from bowden.model.transmission import slopes_from_friction
 from bowden.sim import PrescribedArm, SimulatedSuit, generate_cohort, run_bench, simulate_cohort
 from bowden.sim import _kernels as k
 from bowden.sim.parameters import ArmParameters, SuitParameters
+from bowden.sim.participants import WEARER_FRICTION_LOG_SD
 from bowden.sim.plant import Plant
 from bowden.sim.results import TRUE_TENSION, phase_masks, rmse
 
@@ -70,11 +72,19 @@ def main() -> None:
     parser.add_argument("--participants", type=int, default=17)
     parser.add_argument("--table", action="store_true", help="print the tension RMSE table")
     parser.add_argument("--cohort-seed", type=int, default=0, help="seed of the cohort and the study")
+    parser.add_argument("--sheath-kinetic", type=float, help="SheathParameters.kinetic_coefficient")
     parser.add_argument("--sheath-viscous", type=float, help="SheathParameters.viscous_coefficient_ns_m")
+    parser.add_argument("--motor-coulomb", type=float, help="MotorParameters.coulomb_friction_nm")
+    parser.add_argument("--wearer-friction-sd", type=float, default=WEARER_FRICTION_LOG_SD,
+                        help="generate_cohort's wearer_friction_log_sd")
     parser.add_argument("--motor-viscous", type=float, help="MotorParameters.viscous_friction_nms_rad")
     parser.add_argument("--rotor-inertia", type=float, help="MotorParameters.rotor_inertia_kgm2")
     args = parser.parse_args()
     suit = SuitParameters()
+    if args.sheath_kinetic is not None:
+        suit = replace(suit, sheath=replace(suit.sheath, kinetic_coefficient=args.sheath_kinetic))
+    if args.motor_coulomb is not None:
+        suit = replace(suit, motor=replace(suit.motor, coulomb_friction_nm=args.motor_coulomb))
     if args.sheath_viscous is not None:
         suit = replace(suit, sheath=replace(suit.sheath, viscous_coefficient_ns_m=args.sheath_viscous))
     if args.motor_viscous is not None:
@@ -103,7 +113,9 @@ def main() -> None:
     print(f"SimulatedSuit + Controller.step in a Python loop at 500 Hz: {loop_rate(model, suit):.1f} "
           "simulated s per wall s")
 
-    cohort = generate_cohort(args.cohort_seed, n_participants=args.participants)
+    cohort = generate_cohort(
+        args.cohort_seed, n_participants=args.participants, wearer_friction_log_sd=args.wearer_friction_sd
+    )
     start = time.perf_counter()
     result = simulate_cohort(cohort, model=model, suit=suit, seed=args.cohort_seed)
     wall = time.perf_counter() - start

@@ -44,3 +44,13 @@ def test_invalid_participant_names_the_field() -> None:
         VirtualParticipant(participant_id="X", subject=subject, visuomotor_lag_s=2.0)
     with pytest.raises(ParameterError, match="n_female"):
         generate_cohort(0, n_participants=5, n_female=6)
+
+
+def test_wearer_friction_spread_is_log_normal_and_can_be_switched_off() -> None:
+    cohort = generate_cohort(0, n_participants=400, wearer_friction_log_sd=0.3)
+    scales = np.log([p.sheath_friction_scale for p in cohort])
+    assert scales.std() == pytest.approx(0.3, rel=0.15)  # 400 draws: SD known to ≈ 4 %
+    assert abs(scales.mean()) < 0.06
+    assert all(p.sheath_friction_scale == 1.0 for p in generate_cohort(0, wearer_friction_log_sd=0.0))
+    with pytest.raises(ParameterError, match="wearer_friction_log_sd"):
+        generate_cohort(0, wearer_friction_log_sd=-0.1)

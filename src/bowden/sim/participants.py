@@ -257,6 +257,7 @@ def generate_cohort(
     height_m: tuple[float, float] = PAPER_HEIGHT_M,
     mass_kg: tuple[float, float] = PAPER_MASS_KG,
     age_years: tuple[float, float] = PAPER_AGE_YEARS,
+    wearer_friction_log_sd: float = WEARER_FRICTION_LOG_SD,
 ) -> tuple[VirtualParticipant, ...]:
     """Draw a cohort like the paper's (defaults), reproducibly from ``seed``.
 
@@ -265,6 +266,8 @@ def generate_cohort(
     standard deviation (so women stay shorter on average and mass stays correlated with stature).
     Individual differences in arm dynamics, movement and EMG are drawn around the defaults of
     :class:`VirtualParticipant`. ``n_female`` defaults to the paper's proportion (12 of 17).
+    ``wearer_friction_log_sd`` is the log-normal spread of the sheath friction between wearers
+    (:data:`WEARER_FRICTION_LOG_SD`; 0 gives every wearer the bench's friction).
     """
     if not (2 <= n_participants <= 500):
         raise ParameterError(f"n_participants must be between 2 and 500, got {n_participants}")
@@ -272,6 +275,8 @@ def generate_cohort(
         n_female = round(n_participants * PAPER_COHORT_FEMALE / PAPER_COHORT_SIZE)
     if not (0 <= n_female <= n_participants):
         raise ParameterError(f"n_female must be between 0 and n_participants, got {n_female}")
+    if not (0.0 <= wearer_friction_log_sd <= 1.0):
+        raise ParameterError(f"wearer_friction_log_sd must be in [0, 1], got {wearer_friction_log_sd}")
     rng = np.random.default_rng(seed)
     sexes = ["female"] * n_female + ["male"] * (n_participants - n_female)
     order = rng.permutation(n_participants)
@@ -306,7 +311,7 @@ def generate_cohort(
                 ecg_amplitude=float(np.clip(rng.lognormal(math.log(0.3), 0.3), 0.05, 1.5)),
                 discomfort_sensitivity=float(np.clip(rng.normal(0.0, 1.0), -3.0, 3.0)),
                 sheath_friction_scale=float(
-                    np.clip(rng.lognormal(0.0, WEARER_FRICTION_LOG_SD), *WEARER_FRICTION_SCALE_RANGE)
+                    np.clip(rng.lognormal(0.0, wearer_friction_log_sd), *WEARER_FRICTION_SCALE_RANGE)
                 ),
             )
         )
