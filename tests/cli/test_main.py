@@ -45,3 +45,15 @@ def test_module_entry_point_runs():
         [sys.executable, "-m", "bowden", "version"], capture_output=True, text=True, check=True
     )
     assert result.stdout.strip() == f"bowden {__version__}"
+
+
+def test_every_subcommand_help_renders_cleanly(capsys):
+    # argparse %-formats argument help but not descriptions: a literal "%%" there shows up doubled.
+    choices = build_parser()._subparsers._group_actions[0].choices  # type: ignore[union-attr]
+    for name in choices:
+        with pytest.raises(SystemExit) as exit_info:
+            main([name, "--help"])
+        assert exit_info.value.code == 0
+        out = capsys.readouterr().out
+        assert f"usage: bowden {name}" in out
+        assert "%%" not in out and "%(" not in out, name

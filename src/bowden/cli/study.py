@@ -15,7 +15,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="run the paper end to end on a simulated suit and a virtual cohort, and write the report",
         description=(
             "Simulate the mannequin bench, identify the transmission, run the study protocol on a virtual "
-            "cohort (no suit, pretension, 25 %% and 50 %% support at three speeds), analyse it, fit the "
+            "cohort (no suit, pretension, 25 % and 50 % support at three speeds), analyse it, fit the "
             "statistics and write an HTML report. Resumes an interrupted run in the same --out directory."
         ),
     )
