@@ -132,3 +132,15 @@ def test_the_simulated_arm_follows_the_run_reference_from_the_loop_start(tmp_pat
     error_deg = np.abs(elevation_deg - followed)[settled]
     assert error_deg.mean() < 1.5 and error_deg.max() < 6.0
     assert np.all(np.abs(elevation_deg[settled & (t < lead_in_s)] - 20.0) < 3.0)
+
+
+def test_serve_without_a_model_uses_the_simulated_suits_friction(tmp_path: Path) -> None:
+    store = str(tmp_path / "s.sqlite")
+    default = serve_config(build_parser().parse_args(["serve", "--store", store]))
+    expected = CompensationModel.from_friction(k=SuitParameters().sheath.kinetic_coefficient)
+    assert default.model.raising.slope_m == pytest.approx(expected.raising.slope_m, rel=1e-12)
+    assert default.model.lowering.slope_m == pytest.approx(expected.lowering.slope_m, rel=1e-12)
+    chosen = serve_config(build_parser().parse_args(["serve", "--store", store, "--friction-k", "0.2"]))
+    assert chosen.model.raising.slope_m == pytest.approx(
+        CompensationModel.from_friction(k=0.2).raising.slope_m, rel=1e-12
+    )

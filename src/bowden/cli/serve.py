@@ -52,8 +52,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--friction-k",
         type=float,
-        default=0.12,
-        help="sim without --model: ideal single-bend model with this k = mu*sin(phi/2) (default 0.12)",
+        help="sim without --model: ideal single-bend model with this k = mu*sin(phi/2) "
+        "(default: the simulated suit's sheath k)",
     )
     parser.add_argument("--backend", choices=("sim", "can"), default="sim",
                         help="where trials run: the simulated suit (default) or the real one over CAN")
@@ -114,11 +114,11 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
         backend = can_backend(options)
     else:
         backend = SimulatedBackend(time_scale=args.time_scale)
-    model = (
-        CompensationModel.load(args.model)
-        if args.model is not None
-        else CompensationModel.from_friction(k=args.friction_k)
-    )
+    if args.model is not None:
+        model = CompensationModel.load(args.model)
+    else:
+        k = args.friction_k if args.friction_k is not None else _sim_friction_k()
+        model = CompensationModel.from_friction(k=k)
     return ServeConfig(store_path=args.store, model=model, backend=backend, host=args.host, port=args.port,
                        rate_hz=args.rate_hz, safety=safety)
 
@@ -130,3 +130,9 @@ def run(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
     serve(config)
     return 0
+
+
+def _sim_friction_k() -> float:
+    from bowden.sim.parameters import SuitParameters
+
+    return SuitParameters().sheath.kinetic_coefficient
