@@ -43,7 +43,8 @@ def cells() -> dict[str, dict[tuple[str, str], float]]:
             values["peak_time"][(trial.condition, trial.speed)].append(
                 100.0 * float(frac[lowering][np.argmax(percent[lowering])])
             )
-    return {name: {cell: float(np.mean(v)) for cell, v in by_cell.items()} for name, by_cell in values.items()}
+    return {name: {cell: float(np.mean(v)) for cell, v in by_cell.items()} 
+            for name, by_cell in values.items()}
 
 
 def test_tension_error_grows_with_support_and_with_speed(cells) -> None:
