@@ -43,7 +43,7 @@ def cells() -> dict[str, dict[tuple[str, str], float]]:
             values["peak_time"][(trial.condition, trial.speed)].append(
                 100.0 * float(frac[lowering][np.argmax(percent[lowering])])
             )
-    return {name: {cell: float(np.mean(v)) for cell, v in by_cell.items()} 
+    return {name: {cell: float(np.mean(v)) for cell, v in by_cell.items()}
             for name, by_cell in values.items()}
 
 
