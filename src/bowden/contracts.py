@@ -35,7 +35,7 @@ TRIAL_COMMANDED_TORQUE: Final = "commanded_torque_nm"  # motor torque sent
 TRIAL_MOTOR_TORQUE: Final = "motor_torque_nm"  # motor torque reported
 TRIAL_MOTOR_VELOCITY: Final = "motor_velocity_rad_s"
 TRIAL_TENSION: Final = "tension_n"  # load cell, NaN when absent
-TRIAL_STATE: Final = "controller_state"  # int, the runtime loop's state (see bowden.runtime)
+TRIAL_STATE: Final = "controller_state"  # int, one of the LOOP_STATE_* codes below
 TRIAL_FAULT: Final = "fault_flags"  # int bit set of bowden.control.Fault
 TRIAL_COLUMNS: Final = (
     TRIAL_TIME,
@@ -51,6 +51,11 @@ TRIAL_COLUMNS: Final = (
     TRIAL_STATE,
     TRIAL_FAULT,
 )
+
+# Codes of the control loop's state in TRIAL_STATE (bowden.runtime.LoopState; never renumber).
+LOOP_STATE_RUNNING: Final = 1  # assistance: the controller's torque goes to the motor
+LOOP_STATE_RAMPING_DOWN: Final = 2  # a watchdog or a stop request fired: torque ramps to zero
+LOOP_STATE_SAFE: Final = 3  # torque zero and motor mode exited
 
 # --- Study design --------------------------------------------------------------------------------
 # Conditions in the paper's order; "no_suit" is always first, the others are randomised.

@@ -67,6 +67,7 @@ def test_trial_is_reproducible_and_explains_itself() -> None:
     assert not np.any(np.isnan(trial[c.TRIAL_DESIRED_TENSION]))
     assert np.all(trial[TRUE_TENSION] >= 0.0)
     assert frame[c.TRIAL_FAULT].eq(0).all()
+    assert frame[c.TRIAL_STATE].eq(c.LOOP_STATE_RUNNING).all()  # what the runtime loop records when assisting
     masks = phase_masks(trial)
     assert masks["raising"].sum() == pytest.approx(masks["lowering"].sum(), rel=0.01)
     # The reference shown is the paper's minimum-jerk cycle.

@@ -12,17 +12,18 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 
+from bowden.contracts import LOOP_STATE_RAMPING_DOWN, LOOP_STATE_RUNNING, LOOP_STATE_SAFE
 from bowden.errors import ParameterError
 
 MAX_RAMP_DOWN_S = 0.1
 
 
 class LoopState(IntEnum):
-    """The loop's state, recorded every cycle in the ``controller_state`` column (never renumber)."""
+    """The loop's state, recorded every cycle in the ``controller_state`` column (codes: contracts)."""
 
-    RUNNING = 1  # assistance: the controller's torque goes to the motor
-    RAMPING_DOWN = 2  # a watchdog or a stop request fired: torque ramps to zero
-    SAFE = 3  # torque zero and motor mode exited
+    RUNNING = LOOP_STATE_RUNNING  # assistance: the controller's torque goes to the motor
+    RAMPING_DOWN = LOOP_STATE_RAMPING_DOWN  # a watchdog or a stop request fired: torque ramps to zero
+    SAFE = LOOP_STATE_SAFE  # torque zero and motor mode exited
 
 
 @dataclass(frozen=True, kw_only=True)

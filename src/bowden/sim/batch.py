@@ -199,7 +199,7 @@ def simulate_trial(
         draws_control, draws_human, out,
     )
     signals = {name: np.ascontiguousarray(out[:, index]) for index, name in _OUTPUT_NAMES.items()}
-    signals[c.TRIAL_STATE] = np.zeros(n_control)
+    signals[c.TRIAL_STATE] = np.full(n_control, float(c.LOOP_STATE_RUNNING))  # no watchdog in a batch trial
     ordered = {name: signals[name] for name in (*c.TRIAL_COLUMNS[1:], LIMIT_FLAGS, *_truth_names())}
     return TrialSimulation(
         participant=participant,

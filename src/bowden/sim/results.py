@@ -41,7 +41,7 @@ SIGNAL_DESCRIPTIONS: Mapping[str, str] = {
     c.TRIAL_MOTOR_TORQUE: "motor-reported torque, Nm",
     c.TRIAL_MOTOR_VELOCITY: "spool velocity, rad/s",
     c.TRIAL_TENSION: "load-cell tension (noise), N",
-    c.TRIAL_STATE: "controller state (0: running)",
+    c.TRIAL_STATE: "loop state (contracts.LOOP_STATE_RUNNING throughout)",
     c.TRIAL_FAULT: "fault bits (bowden.control.Fault)",
     LIMIT_FLAGS: "limit bits (bowden.control.Limit)",
     TRUE_TENSION: "true anchor tension, N",
