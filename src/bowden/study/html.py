@@ -57,6 +57,10 @@ class HtmlDocument:
         if frame.index.nlevels == 1 and frame.columns.nlevels == 1 and frame.index.name is not None:
             # The index's name goes into the header's corner instead of a row of its own.
             frame = frame.rename_axis(index=None, columns=str(frame.index.name))
+        elif any(name is not None for name in frame.index.names):
+            # pandas would give the index names a header row of their own, empty but for them; the row
+            # labels (simulated/paper, pre/25%/50%, V1-V3) say what they are.
+            frame = frame.rename_axis(index=[None] * frame.index.nlevels)
         body = frame.to_html(float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True)
         opening_end = body.index(">") + 1  # after pandas' "<table ...>"
         self.parts.append(
