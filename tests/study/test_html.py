@@ -23,7 +23,9 @@ def test_single_index_name_goes_into_the_header_corner() -> None:
 
 def test_multi_level_tables_have_one_header_row_per_column_level() -> None:
     columns = pd.MultiIndex.from_product([["V1", "V2"], ["entire", "raising"]], names=["speed", "phase"])
-    index = pd.MultiIndex.from_product([["simulated", "paper"], ["pre", "50%"]], names=["source", "condition"])
+    index = pd.MultiIndex.from_product(
+        [["simulated", "paper"], ["pre", "50%"]], names=["source", "condition"]
+    )
     frame = pd.DataFrame([[1.0] * 4] * 4, index=index, columns=columns)
     document = HtmlDocument(title="t")
     document.table(frame, "caption")
