@@ -20,7 +20,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from bowden.cli.run import open_sim_backend
+from bowden.cli._suit import open_sim_backend
 from bowden.control import build_controller
 from bowden.model import CompensationModel, Subject
 from bowden.runtime import ControlLoop, LoopConfig, Recorder, SafetyConfig, TrialInfo

@@ -60,7 +60,7 @@ class HtmlDocument:
         elif any(name is not None for name in frame.index.names):
             # pandas would give the index names a header row of their own, empty but for them; the row
             # labels (simulated/paper, pre/25%/50%, V1-V3) say what they are.
-            frame = frame.rename_axis(index=[None] * frame.index.nlevels)
+            frame = frame.set_axis(frame.index.set_names([None] * frame.index.nlevels), axis="index")
         body = frame.to_html(float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True)
         opening_end = body.index(">") + 1  # after pandas' "<table ...>"
         self.parts.append(
