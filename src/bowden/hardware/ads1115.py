@@ -19,14 +19,13 @@ from __future__ import annotations
 
 import logging
 import math
-import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from types import TracebackType
 from typing import Final, Protocol, Self
 
 from bowden.errors import DeviceTimeoutError, HardwareError, MalformedFrameError, ParameterError
+from bowden.hardware.lifecycle import StartedInWith, StoppableThread
 from bowden.hardware.protocols import TensionSample
 
 _log = logging.getLogger(__name__)
@@ -169,7 +168,7 @@ class ADS1115Counters:
     malformed: int = 0
 
 
-class ADS1115LoadCell:
+class ADS1115LoadCell(StartedInWith):
     """The load cell as a :class:`~bowden.hardware.TensionSensor`.
 
     Parameters
@@ -198,8 +197,7 @@ class ADS1115LoadCell:
         self._latest: TensionSample | None = None
         self._latest_volts = math.nan
         self.failure: str | None = None
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._poller = StoppableThread(self._poll, "ads1115")
 
     def start(self) -> Self:
         """Configure continuous conversion, check it took, and start the reader thread.
@@ -209,7 +207,7 @@ class ADS1115LoadCell:
         HardwareError
             If the ADC does not answer or does not keep the configuration.
         """
-        if self._thread is not None:
+        if self._poller.running:
             return self
         c = self.config
         word = encode_config(mux=c.mux, pga=c.pga, continuous=True, data_rate=c.data_rate)
@@ -223,33 +221,18 @@ class ADS1115LoadCell:
                 f"ADS1115 at {c.address:#x} did not keep its configuration "
                 f"(wrote {word:#06x}, read {readback:#06x}): is it an ADS1115?"
             )
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._poll, name="ads1115", daemon=True)
-        self._thread.start()
+        self._poller.start()
         return self
 
     def close(self) -> None:
         """Stop the thread and put the ADC back into single-shot (power-down) mode."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-            self._thread = None
+        if self._poller.running:
+            self._poller.stop()
             try:
                 self._bus.write_i2c_block_data(self.config.address, REG_CONFIG, register_bytes(DEFAULT_CONFIG
                                                                                                 & ~OS_BIT))
             except OSError as error:
                 _log.warning("ADS1115: could not power down (%s)", error)
-
-    def __enter__(self) -> Self:
-        return self.start()
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def read(self) -> TensionSample | None:
         """The latest tension sample (never blocks), or None before the first conversion."""
@@ -291,9 +274,10 @@ class ADS1115LoadCell:
         # The first result is ready one period after configuring; before that the conversion
         # register still holds its power-on 0, which would read as a real 0 V sample.
         deadline = time.monotonic() + 1.5 * period
-        if self._stop.wait(1.5 * period):
+        stop = self._poller.stop_requested
+        if stop.wait(1.5 * period):
             return
-        while not self._stop.is_set():
+        while not stop.is_set():
             try:
                 data = self._bus.read_i2c_block_data(address, REG_CONVERSION, 2)
                 volts = conversion_to_volts(data, full_scale)
@@ -315,6 +299,6 @@ class ADS1115LoadCell:
             deadline += period
             remaining = deadline - time.monotonic()
             if remaining > 0.0:
-                self._stop.wait(remaining)
+                stop.wait(remaining)
             else:
                 deadline = time.monotonic()

@@ -28,7 +28,6 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import TracebackType
 from typing import Any, Self
 
 from pythonosc import osc_packet
@@ -44,6 +43,7 @@ from bowden.hardware.elevation import (
     humerus_direction,
     quaternion_normalised,
 )
+from bowden.hardware.lifecycle import StartedInWith
 from bowden.hardware.protocols import ElevationSample
 
 _log = logging.getLogger(__name__)
@@ -146,7 +146,7 @@ class _CountingServer(BlockingOSCUDPServer):
         return accepted
 
 
-class NgimuClient:
+class NgimuClient(StartedInWith):
     """Elevation from an NGIMU on the upper arm (implements :class:`~bowden.hardware.ElevationSensor`).
 
     Parameters
@@ -216,16 +216,6 @@ class NgimuClient:
         host, port = self._server.server_address[:2]
         return str(host), int(port)
 
-    def __enter__(self) -> Self:
-        return self.start()
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     # --- ElevationSensor -------------------------------------------------------------------------
     def read(self) -> ElevationSample | None:

@@ -18,7 +18,6 @@ import time
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
-from types import TracebackType
 from typing import Final, Self
 
 import can
@@ -35,6 +34,7 @@ from bowden.hardware.ak60_codec import (
     pack_reply,
     unpack_command,
 )
+from bowden.hardware.lifecycle import StartedInWith, StoppableThread
 from bowden.hardware.protocols import MotorState
 from bowden.sim.peers.wall_time import WallTimePlant
 
@@ -54,7 +54,7 @@ class ReceivedFrame:
     torque_nm: float
 
 
-class AK60Peer:
+class AK60Peer(StartedInWith):
     """The motor end of the CAN bus, backed by a simulated plant.
 
     Parameters
@@ -115,39 +115,22 @@ class AK60Peer:
         self._last_state: MotorState | None = None
         self._applied_torque_nm = 0.0
         self._next_raw_reply: bytes | None = None
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._server = StoppableThread(self._serve, f"ak60-peer-{self.motor_id}")
 
     # --- lifecycle -------------------------------------------------------------------------------
     def start(self) -> Self:
         """Start answering frames in a background thread."""
-        if self._thread is None:
+        if not self._server.running:
             # The plant's motor is the physics of a torque source: powered once, and "rest mode" is
             # zero torque, as the firmware commands zero current when not in motor mode.
             self._last_state = self._plant.enable_motor()
-            self._thread = threading.Thread(
-                target=self._serve, name=f"ak60-peer-{self.motor_id}", daemon=True
-            )
-            self._thread.start()
+            self._server.start()
         return self
 
     def close(self) -> None:
         """Stop the thread (the bus stays open: its owner shuts it down)."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-            self._thread = None
+        self._server.stop()
 
-    def __enter__(self) -> Self:
-        return self.start()
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     # --- fault injection -------------------------------------------------------------------------
     def mute(self, muted: bool = True) -> None:
@@ -173,7 +156,7 @@ class AK60Peer:
 
     # --- firmware --------------------------------------------------------------------------------
     def _serve(self) -> None:
-        while not self._stop.is_set():
+        while not self._server.stop_requested.is_set():
             message = self._bus.recv(timeout=0.02)
             if message is None or message.is_extended_id or message.is_error_frame:
                 continue

@@ -21,7 +21,6 @@ import socket
 import threading
 import time
 from collections.abc import Callable
-from types import TracebackType
 from typing import Self
 
 from pythonosc.osc_bundle_builder import OscBundleBuilder
@@ -35,6 +34,7 @@ from bowden.hardware.elevation import (
     quaternion_multiply,
     rotate,
 )
+from bowden.hardware.lifecycle import StartedInWith, StoppableThread
 from bowden.hardware.ngimu import QUATERNION_ADDRESS, SENSORS_ADDRESS
 from bowden.sim.peers.wall_time import WallTimePlant
 
@@ -65,7 +65,7 @@ def arm_gyro_rad_s(
     return rotate(quaternion_conjugate(orientation), omega_world)
 
 
-class NgimuPeer:
+class NgimuPeer(StartedInWith):
     """Streams the simulated arm as NGIMU OSC bundles to ``target``.
 
     Parameters
@@ -104,35 +104,19 @@ class NgimuPeer:
         self._paused = threading.Event()
         self._nan = threading.Event()
         self._arm_down = threading.Event()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._streamer = StoppableThread(self._stream, "ngimu-peer")
         self.sent = 0
 
     def start(self) -> Self:
         """Start streaming in a background thread."""
-        if self._thread is None:
-            self._thread = threading.Thread(target=self._stream, name="ngimu-peer", daemon=True)
-            self._thread.start()
+        self._streamer.start()
         return self
 
     def close(self) -> None:
         """Stop streaming and close the socket."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-            self._thread = None
+        self._streamer.stop()
         self._socket.close()
 
-    def __enter__(self) -> Self:
-        return self.start()
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def pause(self, paused: bool = True) -> None:
         """Stop (or resume) sending, as an IMU out of battery or out of Wi-Fi range."""
@@ -180,7 +164,7 @@ class NgimuPeer:
     def _stream(self) -> None:
         period = 1.0 / self.rate_hz
         deadline = self._time_source()
-        while not self._stop.is_set():
+        while not self._streamer.stop_requested.is_set():
             deadline += period
             remaining = deadline - self._time_source()
             if remaining > 0.0:
