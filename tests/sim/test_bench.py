@@ -15,7 +15,7 @@ from bowden.cli import main
 from bowden.errors import ParameterError
 from bowden.identify import TransmissionIdentifier
 from bowden.model.transmission import slopes_from_friction
-from bowden.sim import BenchProtocol, SuitParameters, run_bench
+from bowden.sim import BenchProtocol, SimulatedSuit, SuitParameters, generate_cohort, run_bench
 
 SHORT = BenchProtocol(spool_speeds_rad_s=(1.0, 3.0), loads_nm=(1.0, 3.0), repetitions=1)
 
@@ -114,3 +114,25 @@ def test_cli_writes_csv_and_parquet(tmp_path: Path) -> None:
 def test_bad_protocol_names_the_field() -> None:
     with pytest.raises(ParameterError, match="spool_speeds_rad_s"):
         BenchProtocol(spool_speeds_rad_s=(100.0,))
+
+
+def test_cli_refuses_a_bad_seed_or_output_before_simulating(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    args = ["bench", "simulate", "--speeds", "2", "--loads", "2", "--repetitions", "1", "--quiet"]
+    assert main([*args, "-o", str(tmp_path / "bench.csv"), "--seed", "-1"]) == 1
+    assert "seed must be an integer in [0, 4294967295], got -1" in capsys.readouterr().err
+    missing = tmp_path / "no-such-dir" / "bench.csv"
+    assert main([*args, "-o", str(missing)]) == 1
+    assert "is not a directory" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("seed", [-1, 2**32, 1.5, True])
+def test_seeds_numpy_would_reject_are_refused_by_name(seed: object) -> None:
+    with pytest.raises(ParameterError, match="seed must be an integer"):
+        run_bench(seed=seed)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="seed must be an integer"):
+        generate_cohort(seed)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="seed must be an integer"):
+        SimulatedSuit(seed=seed)  # type: ignore[arg-type]

@@ -54,6 +54,9 @@ def run_simulate(args: argparse.Namespace) -> int:
     fmt = _FORMATS.get(output.suffix.lower())
     if fmt is None:
         raise ParameterError(f"cannot tell the format of {output}: use a .csv or .parquet extension")
+    if not output.absolute().parent.is_dir():  # before a minute of simulation, not after it
+        raise OutputFileError(f"cannot write the bench recording to {output}: "
+                              f"{output.absolute().parent} is not a directory")
     overrides: dict[str, object] = {}
     if args.speeds:
         overrides["spool_speeds_rad_s"] = tuple(args.speeds)

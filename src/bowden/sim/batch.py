@@ -22,7 +22,7 @@ from bowden.model import CompensationModel
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim import _batch_kernel as bk
 from bowden.sim import _kernels as k
-from bowden.sim.parameters import SuitParameters
+from bowden.sim.parameters import SuitParameters, check_seed
 from bowden.sim.participants import ExpectedAssistance, VirtualParticipant, human_vector
 from bowden.sim.plant import equilibrium_state, pack_parameters
 from bowden.sim.questionnaires import questionnaire_answers
@@ -135,6 +135,7 @@ def simulate_trial(
     seed: int = 0,
 ) -> TrialSimulation:
     """Simulate one trial (``repetitions`` cycles of the reference) of ``participant``."""
+    check_seed(seed)
     settings = settings if settings is not None else ProtocolSettings()
     if condition not in c.CONDITIONS:
         raise ParameterError(f"unknown condition {condition!r}; known: {', '.join(c.CONDITIONS)}")
@@ -239,6 +240,7 @@ def simulate_cohort(
 
     ``progress(done, total)`` is called after each trial when given.
     """
+    check_seed(seed)
     settings = settings if settings is not None else ProtocolSettings()
     if not participants:
         raise ParameterError("simulate_cohort needs at least one participant")

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from bowden import contracts as c
 from bowden.errors import ParameterError
 from bowden.sim import _kernels as k
-from bowden.sim.parameters import ArmParameters, SuitParameters
+from bowden.sim.parameters import ArmParameters, SuitParameters, check_seed
 from bowden.sim.plant import Plant
 
 _RAMP_CHUNK_S = 0.005  # the host updates the spool's velocity target every 5 ms during ramps
@@ -183,6 +183,7 @@ def run_bench(
     DataFrame with the bench-recording columns (``contracts.BENCH_COLUMNS``) and ``trial`` (one
     number per stroke; holds belong to the stroke that follows them).
     """
+    check_seed(seed)
     suit = suit if suit is not None else SuitParameters()
     protocol = protocol if protocol is not None else BenchProtocol()
     bench = _Bench(suit, protocol, seed)

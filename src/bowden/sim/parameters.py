@@ -15,6 +15,14 @@ from dataclasses import dataclass, field, fields
 from bowden.errors import ParameterError
 from bowden.model import CuffGeometry
 
+MAX_SEED = 2**32 - 1  # numpy seeds are unsigned; one 32-bit word keeps them portable
+
+
+def check_seed(seed: object, name: str = "seed") -> None:
+    """Refuse a seed numpy would reject (negative, not an integer) with an error that names it."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise ParameterError(f"{name} must be an integer in [0, {MAX_SEED}], got {seed!r}")
+
 
 def _check_range(owner: object, name: str, low: float, high: float, *, low_open: bool = False) -> None:
     value = getattr(owner, name)

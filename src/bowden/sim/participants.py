@@ -24,7 +24,7 @@ from bowden.errors import ParameterError
 from bowden.model import STANDARD_GRAVITY_M_S2, Subject, arm_model
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim import _kernels as k
-from bowden.sim.parameters import ArmParameters
+from bowden.sim.parameters import ArmParameters, check_seed
 
 # Paper, Results: cohort summary statistics.
 PAPER_COHORT_SIZE = 17
@@ -277,6 +277,7 @@ def generate_cohort(
         raise ParameterError(f"n_female must be between 0 and n_participants, got {n_female}")
     if not (0.0 <= wearer_friction_log_sd <= 1.0):
         raise ParameterError(f"wearer_friction_log_sd must be in [0, 1], got {wearer_friction_log_sd}")
+    check_seed(seed)
     rng = np.random.default_rng(seed)
     sexes = ["female"] * n_female + ["male"] * (n_participants - n_female)
     order = rng.permutation(n_participants)

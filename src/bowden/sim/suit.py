@@ -18,7 +18,7 @@ from bowden.errors import HardwareError, ParameterError
 from bowden.hardware.protocols import ElevationSample, MotorState, TensionSample
 from bowden.sim import _kernels as k
 from bowden.sim.arm import ArmDriver, PrescribedArm
-from bowden.sim.parameters import SuitParameters
+from bowden.sim.parameters import SuitParameters, check_seed
 from bowden.sim.plant import Plant, PlantState
 
 # Winding temperature: first-order model, copper loss ∝ torque². The AK60-6's ≈ 0.45 Nm/A at the
@@ -59,6 +59,7 @@ class SimulatedSuit:
         seed: int = 0,
         initial_tension_n: float = 5.0,
     ) -> None:
+        check_seed(seed)
         self.parameters = parameters if parameters is not None else SuitParameters()
         self.arm: ArmDriver = arm if arm is not None else PrescribedArm.hold(math.radians(20.0))
         self.plant = Plant(

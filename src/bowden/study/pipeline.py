@@ -30,6 +30,7 @@ from bowden.model import CompensationModel
 from bowden.runtime.recorder import TrialInfo
 from bowden.sim.batch import ProtocolSettings, condition_order, simulate_trial, trial_seed
 from bowden.sim.bench import BenchProtocol, run_bench
+from bowden.sim.parameters import check_seed
 from bowden.sim.participants import VirtualParticipant, generate_cohort
 from bowden.sim.questionnaires import questionnaire_answers
 from bowden.sim.results import TrialSimulation
@@ -71,6 +72,7 @@ class StudySettings:
             raise ParameterError(f"participants must be between 2 and 200, got {self.participants}")
         if not 1 <= self.repetitions <= 50:
             raise ParameterError(f"repetitions must be between 1 and 50, got {self.repetitions}")
+        check_seed(self.seed)
 
 
 @dataclass
