@@ -85,6 +85,7 @@ def test_plant_axes_reach_the_simulated_suit():
         axes=(
             (ax.SHEATH_KINETIC, (0.1,)),
             (ax.SHEATH_STATIC_RATIO, (1.5,)),
+            (ax.SHEATH_VISCOUS, (12.0,)),
             (ax.TORQUE_CONSTANT_RATIO, (0.85,)),
             (ax.MOTOR_COULOMB, (0.2,)),
             (ax.IMU_LATENCY, (0.02,)),
@@ -92,11 +93,13 @@ def test_plant_axes_reach_the_simulated_suit():
     )
     suit = spec.points()[0].suit(SuitParameters())
     assert suit.sheath.kinetic_coefficient == 0.1 and suit.sheath.static_to_kinetic_ratio == 1.5
+    assert suit.sheath.viscous_coefficient_ns_m == 12.0
     assert suit.motor.torque_constant_ratio == 0.85 and suit.motor.coulomb_friction_nm == 0.2
     assert suit.imu.latency_s == 0.02
     assert ax.plant_values(suit) == {
         ax.SHEATH_KINETIC: 0.1,
         ax.SHEATH_STATIC_RATIO: 1.5,
+        ax.SHEATH_VISCOUS: 12.0,
         ax.TORQUE_CONSTANT_RATIO: 0.85,
         ax.MOTOR_COULOMB: 0.2,
         ax.IMU_LATENCY: 0.02,

@@ -6,10 +6,10 @@ Two kinds of axis:
   elevation velocities where the raising line has 1 % and 99 % weight, or the same blend as a width
   (``θ̇₀₉₉ − θ̇₀₀₁``) and a centre (``(θ̇₀₀₁ + θ̇₀₉₉)/2``, the sigmoid's midpoint M). Changing them
   changes the controller only; the identified lines stay.
-* **plant** — fields of :class:`bowden.sim.SuitParameters`: the suit itself (sheath friction, the
-  motor's true torque constant, its Coulomb friction, the IMU's latency). The simulator's own
-  dataclasses validate the values, so a value outside a field's documented range is refused with
-  that field's message.
+* **plant** — fields of :class:`bowden.sim.SuitParameters`: the suit itself (sheath friction and
+  viscous drag, the motor's true torque constant, its Coulomb friction, the IMU's latency). The
+  simulator's own dataclasses validate the values, so a value outside a field's documented range is
+  refused with that field's message.
 
 A point's values are a mapping ``axis name → value``; axes that are not swept keep the paper's
 blend (−1, +1 rad/s) and the simulator's defaults.
@@ -31,6 +31,7 @@ BLEND_WIDTH = "blend_width_rad_s"
 BLEND_CENTER = "blend_center_rad_s"
 SHEATH_KINETIC = "sheath_kinetic_coefficient"
 SHEATH_STATIC_RATIO = "sheath_static_to_kinetic_ratio"
+SHEATH_VISCOUS = "sheath_viscous_coefficient_ns_m"
 TORQUE_CONSTANT_RATIO = "torque_constant_ratio"
 MOTOR_COULOMB = "motor_coulomb_friction_nm"
 IMU_LATENCY = "imu_latency_s"
@@ -60,6 +61,7 @@ AXES: dict[str, Axis] = {
         Axis(BLEND_CENTER, "controller", "blend centre (θ̇₀₀₁ + θ̇₀₉₉)/2, rad/s (paper 0)"),
         Axis(SHEATH_KINETIC, "plant", "sheath friction k = μ_k·sin(φ/2) (SheathParameters)"),
         Axis(SHEATH_STATIC_RATIO, "plant", "sheath breakaway / kinetic friction (static_to_kinetic_ratio)"),
+        Axis(SHEATH_VISCOUS, "plant", "viscous drag of the cable in the sheath, N·s/m (SheathParameters)"),
         Axis(TORQUE_CONSTANT_RATIO, "plant", "true / assumed motor torque constant (MotorParameters)"),
         Axis(MOTOR_COULOMB, "plant", "motor and gearbox Coulomb friction, Nm (MotorParameters)"),
         Axis(IMU_LATENCY, "plant", "age of the IMU sample when the controller uses it, s (ImuParameters)"),
@@ -70,6 +72,7 @@ AXES: dict[str, Axis] = {
 _PLANT_FIELDS: dict[str, tuple[str, str]] = {
     SHEATH_KINETIC: ("sheath", "kinetic_coefficient"),
     SHEATH_STATIC_RATIO: ("sheath", "static_to_kinetic_ratio"),
+    SHEATH_VISCOUS: ("sheath", "viscous_coefficient_ns_m"),
     TORQUE_CONSTANT_RATIO: ("motor", "torque_constant_ratio"),
     MOTOR_COULOMB: ("motor", "coulomb_friction_nm"),
     IMU_LATENCY: ("imu", "latency_s"),
