@@ -216,7 +216,6 @@ class NgimuClient(StartedInWith):
         host, port = self._server.server_address[:2]
         return str(host), int(port)
 
-
     # --- ElevationSensor -------------------------------------------------------------------------
     def read(self) -> ElevationSample | None:
         """The latest elevation sample, or None before calibration or the first message."""

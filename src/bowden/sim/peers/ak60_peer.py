@@ -131,7 +131,6 @@ class AK60Peer(StartedInWith):
         """Stop the thread (the bus stays open: its owner shuts it down)."""
         self._server.stop()
 
-
     # --- fault injection -------------------------------------------------------------------------
     def mute(self, muted: bool = True) -> None:
         """Stop (or resume) answering, as a motor that lost power or its bus connection."""

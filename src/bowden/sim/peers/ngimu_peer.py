@@ -117,7 +117,6 @@ class NgimuPeer(StartedInWith):
         self._streamer.stop()
         self._socket.close()
 
-
     def pause(self, paused: bool = True) -> None:
         """Stop (or resume) sending, as an IMU out of battery or out of Wi-Fi range."""
         if paused:
