@@ -2,7 +2,7 @@
 
 One run of the default suit and cohort (17 participants, 10 repetitions, seed 0), with the controller
 identified on the simulated bench, as `benchmarks/simulation.py --table` prints it. The paper's values
-are its Table `torque_tension_tracking_RMSE_combined`.
+come from `bowden.study.paper_values` (its Table `torque_tension_tracking_RMSE_combined`).
 """
 
 from __future__ import annotations
@@ -16,13 +16,10 @@ from bowden import contracts as c
 from bowden.identify import TransmissionIdentifier
 from bowden.sim import generate_cohort, run_bench, simulate_cohort
 from bowden.sim.results import TRUE_TENSION, phase_masks, rmse
+from bowden.study import paper_values
 
 SUPPORTED = (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50)
-PAPER_ENTIRE_RMSE_N = {  # V1, V2, V3
-    c.CONDITION_PRETENSION: (2.75, 3.58, 6.15),
-    c.CONDITION_SUPPORT_25: (4.09, 5.31, 6.74),
-    c.CONDITION_SUPPORT_50: (6.14, 6.46, 8.17),
-}
+PAPER_TENSION_RMSE_N = paper_values.tension_rmse_n()
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +57,8 @@ def test_lowering_error_exceeds_raising_error_everywhere(cells) -> None:
 
 def test_error_sizes_are_the_papers(cells) -> None:
     for cond in SUPPORTED:
-        for speed, paper in zip(c.SPEEDS, PAPER_ENTIRE_RMSE_N[cond], strict=True):
+        for speed in c.SPEEDS:
+            paper = float(PAPER_TENSION_RMSE_N.loc[cond, (speed, "entire")])
             assert 0.8 * paper < cells["entire"][(cond, speed)] < 1.25 * paper, (cond, speed)
     assert 2.0 < cells["entire"][(c.CONDITION_PRETENSION, "V1")] < 4.0
     for speed in c.SPEEDS:
