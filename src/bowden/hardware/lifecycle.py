@@ -7,19 +7,22 @@ and is used as ``with device: ...``. These two helpers hold that logic once.
 from __future__ import annotations
 
 import threading
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from types import TracebackType
 from typing import Self
 
 
-class StartedInWith:
+class StartedInWith(ABC):
     """``with obj:`` calls ``obj.start()`` on the way in and ``obj.close()`` on the way out."""
 
+    @abstractmethod
     def start(self) -> Self:
-        raise NotImplementedError
+        """Open the device or socket and start its thread; return ``self``."""
 
+    @abstractmethod
     def close(self) -> None:
-        raise NotImplementedError
+        """Stop the thread and release what ``start`` took."""
 
     def __enter__(self) -> Self:
         return self.start()
