@@ -7,6 +7,7 @@ is one edit and a typo is an import error rather than a silently empty column.
 
 from __future__ import annotations
 
+import re
 from typing import Final
 
 # --- Bench recording (input of identification), one row per sample -----------------------------
@@ -56,6 +57,22 @@ TRIAL_COLUMNS: Final = (
 LOOP_STATE_RUNNING: Final = 1  # assistance: the controller's torque goes to the motor
 LOOP_STATE_RAMPING_DOWN: Final = 2  # a watchdog or a stop request fired: torque ramps to zero
 LOOP_STATE_SAFE: Final = 3  # torque zero and motor mode exited
+
+# Trial metadata: the "backend" a trial ran on. Study stores written before these names existed
+# say "simulation" for simulated trials, so readers accept both.
+BACKEND_SIM: Final = "sim"
+BACKEND_CAN: Final = "can"
+SIMULATED_BACKENDS: Final = frozenset({BACKEND_SIM, "simulation"})
+
+# Participants are pseudonymous ids only (DESIGN.md): 1-4 capital letters then 1-4 digits, such as
+# P01 or S007. Digits are required and lower case refused, so a name can never be stored by mistake.
+PARTICIPANT_ID_PATTERN: Final = re.compile(r"[A-Z]{1,4}[0-9]{1,4}")
+
+
+def is_participant_id(text: object) -> bool:
+    """Whether ``text`` is a pseudonymous participant id (the whole string, nothing around it)."""
+    return isinstance(text, str) and PARTICIPANT_ID_PATTERN.fullmatch(text) is not None
+
 
 # --- Study design --------------------------------------------------------------------------------
 # Conditions in the paper's order; "no_suit" is always first, the others are randomised.
