@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from bowden.errors import ClusterError, ParameterError
+from bowden.errors import ClusterError, OutputFileError, ParameterError
 from bowden.sim.parameters import SuitParameters
 from bowden.sweep import (
     RESULT_COLUMNS,
@@ -83,6 +83,24 @@ def test_a_second_run_resumes_and_recomputes_only_what_is_missing(first_run, sma
     assert resumed.tasks_computed == 1 and resumed.tasks_skipped == 3 and resumed.models_identified == 1
     pd.testing.assert_frame_equal(resumed.results, run.results)
     assert not list(out.rglob("*.tmp"))  # atomic writes leave nothing behind
+
+
+def test_a_damaged_part_is_computed_again(first_run, small_spec, dask_client, tmp_path):
+    out, run = first_run
+    point = small_spec.points()[0]
+    participant = cohort(small_spec, 0)[1].participant_id
+    SweepDirectory(out).part_path(point.point_id, participant).write_bytes(b"PAR1 not a parquet file")
+    resumed = run_sweep(small_spec, out, dask_client)
+    assert resumed.tasks_computed == 1 and resumed.tasks_skipped == 3
+    pd.testing.assert_frame_equal(resumed.results, run.results)
+
+
+def test_an_output_path_that_is_a_file_is_refused(small_spec, dask_client, tmp_path):
+    taken = tmp_path / "results.csv"
+    taken.write_text("someone's data\n")
+    with pytest.raises(OutputFileError, match="is a file"):
+        run_sweep(small_spec, taken, dask_client)
+    assert taken.read_text() == "someone's data\n"
 
 
 def test_another_spec_or_simulator_is_not_mixed_in(first_run, small_spec, dask_client, tmp_path):

@@ -230,3 +230,10 @@ def test_with_axis_replaces_or_appends():
         spec.with_axis("speed", (1.0,))
     with pytest.raises(ParameterError, match="unknown sweep preset 'fast'"):
         preset("fast")
+
+
+def test_a_spec_file_that_is_not_utf8_is_a_clear_error(tmp_path):
+    spec = tmp_path / "spec.toml"
+    spec.write_bytes(b"\xff\xfe name = 'x'")
+    with pytest.raises(ParameterError, match="not UTF-8 text"):
+        SweepSpec.from_toml(spec)

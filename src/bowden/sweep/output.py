@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import shutil
 from collections.abc import Iterable
@@ -26,12 +27,16 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 import bowden.sim
 from bowden.errors import OutputFileError, ParameterError
 from bowden.model import CompensationModel
 from bowden.sweep.spec import SweepSpec
 from bowden.sweep.task import RESULT_COLUMNS
+
+_log = logging.getLogger(__name__)
 
 SPEC_FILE = "spec.json"
 RESULTS_FILE = "results.parquet"
@@ -58,6 +63,8 @@ class SweepDirectory:
 
     def prepare(self, spec: SweepSpec, *, force: bool = False) -> None:
         """Create the directory for ``spec``; refuse one holding another spec's or simulator's results."""
+        if self.path.exists() and not self.path.is_dir():
+            raise OutputFileError(f"the sweep directory {self.path} is a file; use another --out directory")
         record = {"spec": spec.to_dict(), "simulator_sha256": simulator_digest()}
         spec_file = self.path / SPEC_FILE
         if force:
@@ -100,7 +107,17 @@ class SweepDirectory:
         return self.path / "parts" / point_id / f"{participant}.parquet"
 
     def has_part(self, point_id: str, participant: str) -> bool:
-        return self.part_path(point_id, participant).exists()
+        """Whether this task's rows are stored and readable; a damaged part is removed, to be redone."""
+        path = self.part_path(point_id, participant)
+        if not path.exists():
+            return False
+        try:
+            pq.read_metadata(path)  # the footer only: cheap, and fails on a truncated or foreign file
+        except (OSError, pa.ArrowException):
+            _log.warning("sweep part %s is damaged; computing it again", path)
+            path.unlink(missing_ok=True)
+            return False
+        return True
 
     def write_part(self, point_id: str, participant: str, frame: pd.DataFrame) -> None:
         """Store one finished task's rows (atomic)."""
@@ -110,7 +127,15 @@ class SweepDirectory:
 
     def read_parts(self, keys: Iterable[tuple[str, str]]) -> pd.DataFrame:
         """All rows of the given ``(point_id, participant)`` parts, in that order."""
-        frames = [pd.read_parquet(self.part_path(point, participant)) for point, participant in keys]
+        frames = []
+        for point, participant in keys:
+            path = self.part_path(point, participant)
+            try:
+                frames.append(pd.read_parquet(path))
+            except (OSError, pa.ArrowException) as exc:
+                raise OutputFileError(
+                    f"cannot read the sweep part {path} ({exc}); delete it and run the sweep again to redo it"
+                ) from None
         if not frames:
             return pd.DataFrame(columns=list(RESULT_COLUMNS))
         return pd.concat(frames, ignore_index=True).loc[:, list(RESULT_COLUMNS)]

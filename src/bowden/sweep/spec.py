@@ -270,6 +270,8 @@ class SweepSpec:
             data = tomllib.loads(file.read_text(encoding="utf-8"))
         except OSError as exc:
             raise ParameterError(f"cannot read the sweep spec {file}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise ParameterError(f"sweep spec {file} is not UTF-8 text (TOML files are UTF-8)") from None
         except tomllib.TOMLDecodeError as exc:
             raise ParameterError(f"sweep spec {file} is not valid TOML: {exc}") from None
         return cls.from_mapping(data, source=str(file))
