@@ -1,7 +1,9 @@
 import math
+from pathlib import Path
 
 import pytest
 
+from bowden.cli import main
 from bowden.errors import ParameterError
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor
 from bowden.web.suits import SimulatedBackend, WallPacedClock
@@ -99,3 +101,15 @@ def test_a_context_backend_opens_per_trial_and_closes_after(tmp_path):
     opened.motor.disable()
     opened.close()
     assert events == [("open", "P31"), ("closed", False)]
+
+
+@pytest.mark.parametrize("time_scale", [math.nan, 0.0, -1.0, 1e9])
+def test_a_simulated_backend_with_an_unusable_time_scale_is_refused_at_startup(
+    time_scale: float, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(ParameterError, match="time_scale must be in"):
+        SimulatedBackend(time_scale=time_scale)
+    store = tmp_path / "s.sqlite"
+    assert main(["serve", "--time-scale", repr(time_scale), "--store", str(store)]) == 1
+    assert "time_scale must be in" in capsys.readouterr().err
+    assert not store.exists()

@@ -23,6 +23,7 @@ from typing import Protocol
 from bowden.errors import ConflictError, ParameterError
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
 from bowden.sim.arm import ParticipantArm
+from bowden.sim.parameters import check_seed
 from bowden.sim.participants import ExpectedAssistance, VirtualParticipant
 from bowden.sim.suit import SimulatedSuit
 from bowden.web.trial_setup import TrialSetup
@@ -133,6 +134,15 @@ class CommandLineBackend:
         )
 
 
+TIME_SCALE_RANGE = (0.05, 100.0)  # simulated s per wall s: slower than this is useless, faster not paced
+
+
+def check_time_scale(time_scale: float) -> None:
+    low, high = TIME_SCALE_RANGE
+    if isinstance(time_scale, bool) or not (math.isfinite(time_scale) and low <= time_scale <= high):
+        raise ParameterError(f"time_scale must be in [{low:g}, {high:g}], got {time_scale!r}")
+
+
 class WallPacedClock:
     """A simulated clock slowed to wall time.
 
@@ -158,8 +168,7 @@ class WallPacedClock:
         wall: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
-        if not (math.isfinite(time_scale) and 0.05 <= time_scale <= 100.0):
-            raise ParameterError(f"time_scale must be in [0.05, 100], got {time_scale!r}")
+        check_time_scale(time_scale)
         self.inner = inner
         self.time_scale = time_scale
         self._wall = wall
@@ -198,6 +207,10 @@ class SimulatedBackend:
     time_scale: float = 1.0
     seed: int = 0
     name: str = "sim"
+
+    def __post_init__(self) -> None:  # refused when the server starts, not at every trial
+        check_time_scale(self.time_scale)
+        check_seed(self.seed)
 
     def open(self, setup: TrialSetup) -> OpenSuit:
         reference = setup.reference
