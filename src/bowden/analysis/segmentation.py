@@ -37,6 +37,9 @@ _HIGH_FRACTION = 0.65
 # tiny: a minimum-jerk profile is so flat near its ends (x ∝ τ³) that a looser tolerance would move
 # the start of a movement by tens of milliseconds.
 _PLATEAU_TOLERANCE = 1e-9
+# Fewest samples a complete low → high → low cycle can have: low, high, low, and one more sample
+# that shows the descent has ended (a cycle still falling at the last sample is incomplete).
+MIN_CYCLE_SAMPLES = 4
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -150,9 +153,26 @@ def segment_repetitions(
 
 
 def find_cycles(time_s: ArrayLike, elevation: ArrayLike) -> list[Repetition]:
-    """Complete low → high → low cycles of an elevation trace (any unit), in time order."""
-    t = np.asarray(time_s, dtype=np.float64)
-    x = np.asarray(elevation, dtype=np.float64)
+    """Complete low → high → low cycles of an elevation trace (any unit), in time order.
+
+    Raises :class:`~bowden.errors.RecordingError` when the trace is empty or too short to hold a
+    cycle (fewer than :data:`MIN_CYCLE_SAMPLES` samples), when time and elevation differ in length,
+    when the elevation is not finite (naming the row), or when it does not move.
+    """
+    t = np.asarray(time_s, dtype=np.float64).reshape(-1)
+    x = np.asarray(elevation, dtype=np.float64).reshape(-1)
+    if t.size != x.size:
+        raise RecordingError(f"time has {t.size} samples but elevation has {x.size}")
+    if x.size < MIN_CYCLE_SAMPLES:
+        # An empty trial (a run stopped before its first cycle) must say so, not fail inside numpy.
+        what = "no samples" if x.size == 0 else f"only {x.size} sample{'s' if x.size > 1 else ''}"
+        raise RecordingError(
+            f"the trial has {what}: too short to hold a repetition "
+            f"(at least {MIN_CYCLE_SAMPLES} are needed)"
+        )
+    bad = np.flatnonzero(~np.isfinite(x))
+    if bad.size:
+        raise RecordingError(f"elevation is not finite at row {int(bad[0])}: cannot find repetitions")
     low, high = float(np.min(x)), float(np.max(x))
     span = high - low
     if not span > 0.0:
