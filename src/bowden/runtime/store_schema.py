@@ -21,12 +21,17 @@ Tables (``STRICT``: a wrong type is an error, not a silent conversion):
     things that happened during a trial, in loop time: ``trial_id``, ``time_s``, ``kind``
     (``start``, ``safe_stop``, ``fault``, ...), ``message``.
 
-The version is kept in ``PRAGMA user_version``; :func:`create_schema` refuses a newer file.
+The version is kept in ``PRAGMA user_version``. Before anything changes a file, :func:`check_store`
+makes sure it is a bowden store (or an empty file): a file from a newer bowden, an SQLite file of
+another program (tables bowden does not make) or a store of an older layout (a table lacking a column
+bowden reads) is refused with a :class:`~bowden.errors.StoreError` naming the file and the problem,
+and left byte for byte as it was (no WAL switch, no new table, no version stamp).
 """
 
 from __future__ import annotations
 
 import sqlite3
+from collections.abc import Mapping
 from typing import Final
 
 from bowden.contracts import TRIAL_COLUMNS, TRIAL_FAULT, TRIAL_STATE, TRIAL_TIME
@@ -84,14 +89,37 @@ INSERT_SAMPLE_SQL: Final = (
 )
 
 
+# Every table a bowden store may hold, with the columns bowden reads from it. The runtime makes the
+# first three; the study store (bowden.study.store) and the questionnaire forms (bowden.web) add the
+# others. They are listed here, below all three, so whichever opens a file first can tell a bowden
+# store from another program's file before changing anything. tests/runtime/test_store_schema.py
+# checks this list against the tables those modules create.
+STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
+    "trials": (
+        "id", "participant", "condition", "speed", "support", "started_utc", "ended_utc",
+        "stop_reason", "metadata",
+    ),
+    "samples": ("trial_id", *TRIAL_COLUMNS),
+    "events": ("trial_id", "time_s", "kind", "message"),
+    "participants": ("id", "sex", "height_m", "mass_kg", "metadata"),
+    "emg": ("trial_id", "muscle", "rate_hz", "start_time_s", "gain", "data"),
+    "questionnaires": ("participant", "condition", "questionnaire", "item", "score", "submitted_utc"),
+    "outcomes": ("participant", "condition", "speed", "repetition", "phase", "measure", "value"),
+    "artifacts": ("name", "content", "updated_utc"),
+}
+
+
 def configure_connection(connection: sqlite3.Connection, *, synchronous: str = "FULL") -> None:
     """WAL journal (crash-safe commits, readers alongside the writer) and the fsync policy.
 
+    Runs :func:`check_store` first, so a file that is not a bowden store is refused unchanged.
     ``synchronous=FULL`` fsyncs the log at every commit, so a commit also survives a power cut (the
     suit runs on a battery); ``NORMAL`` survives process crashes only.
     """
     if synchronous not in ("FULL", "NORMAL"):
         raise StoreError(f"synchronous must be FULL or NORMAL, got {synchronous!r}")
+    # Switching to WAL rewrites the file header: check first that the file is ours to change.
+    check_store(connection)
     mode = connection.execute("PRAGMA journal_mode=WAL").fetchone()[0]
     if str(mode).lower() != "wal":
         raise StoreError(f"the study store needs WAL journaling, the file system gave {mode!r}")
@@ -99,15 +127,69 @@ def configure_connection(connection: sqlite3.Connection, *, synchronous: str = "
     connection.execute("PRAGMA foreign_keys=ON")
 
 
-def create_schema(connection: sqlite3.Connection) -> None:
-    """Create the tables if missing and stamp the version; refuse files from a newer bowden."""
-    version = int(connection.execute("PRAGMA user_version").fetchone()[0])
+def check_store(connection: sqlite3.Connection) -> None:
+    """Refuse a file that is not a bowden store (or an empty file), without changing it.
+
+    A store is every file whose tables are all bowden's (:data:`STORE_TABLES`), each with at least the
+    columns bowden reads, and whose schema version is at most :data:`SCHEMA_VERSION`. A file without
+    tables (new) passes. Only reads are made, so a refused file is left exactly as it was.
+
+    Raises
+    ------
+    StoreError
+        Naming the file and what is wrong: not an SQLite database, a newer schema version, tables of
+        another program, or bowden tables lacking columns (an older layout).
+    """
+    name = _file_name(connection)
+    try:
+        version = int(connection.execute("PRAGMA user_version").fetchone()[0])
+        objects = connection.execute(
+            "SELECT name, type FROM sqlite_master WHERE type IN ('table', 'view') "
+            "AND name NOT LIKE 'sqlite\\_%' ESCAPE '\\' ORDER BY name"
+        ).fetchall()
+        columns = {
+            table: {str(row[1]) for row in connection.execute(f'PRAGMA table_info("{table}")')}
+            for table, kind in objects
+            if table in STORE_TABLES and kind == "table"
+        }
+    except sqlite3.Error as error:
+        raise StoreError(f"{name}: cannot be read as a bowden study store ({error})") from None
     if version > SCHEMA_VERSION:
         raise StoreError(
-            f"the store has schema version {version}, this bowden knows up to {SCHEMA_VERSION}: "
+            f"{name}: the store has schema version {version}, this bowden knows up to {SCHEMA_VERSION}: "
             "upgrade bowden"
         )
+    foreign = [f"{table!r}" for table, kind in objects if table not in STORE_TABLES or kind != "table"]
+    if foreign:
+        raise StoreError(
+            f"{name}: not a bowden study store: it holds {', '.join(foreign)}, which bowden does not "
+            f"make (bowden's tables: {', '.join(STORE_TABLES)}); the file was left unchanged"
+        )
+    for table, present in columns.items():
+        missing = [column for column in STORE_TABLES[table] if column not in present]
+        if missing:
+            raise StoreError(
+                f"{name}: table {table!r} lacks the column(s) {', '.join(missing)}: an older store "
+                "layout (or another program's table) that this bowden cannot read; the file was left "
+                "unchanged"
+            )
+
+
+def create_schema(connection: sqlite3.Connection) -> None:
+    """Create the tables if missing and stamp the version, after :func:`check_store` accepts the file."""
+    check_store(connection)
     with connection:
         for ddl in (TRIALS_DDL, SAMPLES_DDL, SAMPLES_INDEX_DDL, EVENTS_DDL):
             connection.execute(ddl)
         connection.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
+
+
+def _file_name(connection: sqlite3.Connection) -> str:
+    """The path of the connection's main database, for error messages."""
+    try:
+        for _seq, schema, path in connection.execute("PRAGMA database_list"):
+            if schema == "main":
+                return str(path) if path else "the in-memory store"
+    except sqlite3.Error:
+        pass
+    return "the study store"

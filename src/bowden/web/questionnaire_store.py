@@ -27,7 +27,7 @@ from typing import Final
 
 from bowden.contracts import CONDITIONS, QUESTIONNAIRES
 from bowden.errors import ConflictError, StoreError
-from bowden.runtime.store_schema import configure_connection
+from bowden.runtime.store_schema import configure_connection, create_schema
 from bowden.web.questionnaires import (
     BORG_HIGH,
     BORG_LOW,
@@ -66,19 +66,37 @@ class QuestionnaireStore:
     ----------
     path
         The SQLite study store (created if missing).
+
+    Raises
+    ------
+    StoreError
+        If the file cannot be opened or is not a bowden store of a version this bowden knows (checked
+        here, so ``bowden serve`` refuses such a store at start-up, before serving anything, with
+        the runtime's own check; the file is then left unchanged).
     """
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
-        with self._connect() as connection, connection:
-            connection.execute(QUESTIONNAIRES_DDL)
+        try:
+            with self._connect() as connection, connection:
+                create_schema(connection)  # the version stamp and the trial tables, as the recorder's
+                connection.execute(QUESTIONNAIRES_DDL)
+        except sqlite3.Error as error:
+            raise StoreError(f"cannot open the study store {self.path}: {error}") from None
 
     def _connect(self) -> _Connection:
         try:
             connection = sqlite3.connect(self.path, timeout=5.0)
-            configure_connection(connection)
         except sqlite3.Error as error:
             raise StoreError(f"cannot open the study store {self.path}: {error}") from None
+        try:
+            configure_connection(connection)
+        except sqlite3.Error as error:
+            connection.close()
+            raise StoreError(f"cannot open the study store {self.path}: {error}") from None
+        except BaseException:
+            connection.close()  # a refused file (StoreError) is not kept open
+            raise
         return _Connection(connection)
 
     def save(self, response: QuestionnaireResponse, *, replace: bool = False) -> int:
