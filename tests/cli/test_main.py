@@ -1,5 +1,7 @@
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -57,3 +59,32 @@ def test_every_subcommand_help_renders_cleanly(capsys):
         out = capsys.readouterr().out
         assert f"usage: bowden {name}" in out
         assert "%%" not in out and "%(" not in out, name
+
+
+def test_a_reader_that_goes_away_is_not_a_traceback():
+    # ``bowden version -v | head -1``: the pipe closes after the first line.
+    process = subprocess.Popen(
+        [sys.executable, "-m", "bowden", "version", "--verbose"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )
+    assert process.stdout is not None and process.stderr is not None
+    process.stdout.read(1)
+    process.stdout.close()
+    err = process.stderr.read().decode()
+    process.wait(timeout=60)
+    assert "Traceback" not in err and "BrokenPipeError" not in err
+
+
+def test_ctrl_c_while_starting_is_not_a_traceback():
+    # Sent while the subcommands are still being imported, or already in the loop: either way a
+    # one-line message (130) or the loop's safe stop (0), never a traceback.
+    process = subprocess.Popen(
+        [sys.executable, "-m", "bowden", "run", "--backend", "sim", "--duration", "5"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    time.sleep(0.3)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode in (0, 130), err
+    assert "Traceback" not in err
