@@ -21,14 +21,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Mapping
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from bowden.errors import ModelFileError, ParameterError
+from bowden._atomic_file import write_text_atomically
+from bowden.errors import ModelFileError, OutputFileError, ParameterError
 from bowden.model.compensation import CompensationLine, CompensationModel, LineFitStats, Provenance
 
 FORMAT = "bowden.compensation_model"
@@ -67,20 +66,40 @@ def model_to_dict(model: CompensationModel) -> dict[str, Any]:
 
 
 def save_model(model: CompensationModel, path: str | Path) -> None:
-    """Write ``model`` to ``path`` atomically (a crash never leaves half a file)."""
+    """Write ``model`` to ``path`` atomically (a crash never leaves half a file).
+
+    The file gets the usual permissions (``0o666`` less the umask). An existing file is replaced only
+    if it is a bowden model file itself, so a wrong path cannot destroy a recording.
+
+    Raises
+    ------
+    OutputFileError
+        ``path`` is a directory, holds something else, or cannot be written (names path and reason).
+    """
     path = Path(path)
     text = json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=directory)
+    _refuse_replacing_other_files(path)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        write_text_atomically(path, text, durable=True)
+    except OSError as error:
+        raise OutputFileError(f"cannot write the model to {path}: {error.strerror or error}") from None
+
+
+def _refuse_replacing_other_files(path: Path) -> None:
+    if path.is_dir():
+        raise OutputFileError(f"cannot write the model to {path}: it is a directory; give a file name")
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(4096)
+    except (FileNotFoundError, NotADirectoryError):
+        return
+    except OSError as error:
+        raise OutputFileError(f"cannot write the model to {path}: {error.strerror or error}") from None
+    if head.strip() and f'"{FORMAT}"'.encode() not in head:
+        raise OutputFileError(
+            f"refusing to replace {path} by the model: it is not a bowden model file "
+            f"(it begins {head[:16]!r}); choose another output path"
+        )
 
 
 class _Reader:
