@@ -8,13 +8,14 @@ from __future__ import annotations
 import base64
 import html
 import io
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
+
+from bowden._atomic_file import write_text_atomically
+from bowden.errors import OutputFileError
 
 _STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; max-width: 1100px;
@@ -90,15 +91,40 @@ class HtmlDocument:
         )
 
     def write(self, path: str | Path) -> Path:
-        """Write atomically: a crash never leaves a half-written report."""
+        """Write the document to ``path`` atomically: a crash never leaves a half-written report.
+
+        The file gets the usual permissions (``0o666`` less the umask). An existing file is replaced
+        only if it is an HTML document itself (an older report), so a wrong path cannot destroy a
+        study store or a recording.
+
+        Raises
+        ------
+        OutputFileError
+            ``path`` is a directory, holds something other than HTML, or cannot be written (names the
+            path and the reason).
+        """
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+        _refuse_replacing_other_files(path)
         try:
-            with os.fdopen(fd, "w", encoding="utf-8") as handle:
-                handle.write(self.render())
-            os.replace(tmp, path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
-        return path
+            path.parent.mkdir(parents=True, exist_ok=True)
+            return write_text_atomically(path, self.render())
+        except OSError as error:
+            raise OutputFileError(f"cannot write the report to {path}: {error.strerror or error}") from None
+
+
+def _refuse_replacing_other_files(path: Path) -> None:
+    if path.is_dir():
+        raise OutputFileError(f"cannot write the report to {path}: it is a directory; give a file name")
+    try:
+        with path.open("rb") as handle:
+            head = handle.read(64)
+    except (FileNotFoundError, NotADirectoryError):
+        return
+    except OSError as error:
+        raise OutputFileError(f"cannot write the report to {path}: {error.strerror or error}") from None
+    text = head.removeprefix(b"\xef\xbb\xbf").lstrip().lower()
+    if text and not text.startswith((b"<!doctype html", b"<html")):
+        raise OutputFileError(
+            f"refusing to replace {path} by the report: it is not an HTML file (it begins {head[:16]!r}); "
+            "choose another report path"
+        )
