@@ -24,7 +24,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Final, Self
 
-from bowden.contracts import CONDITIONS, SPEEDS, TRIAL_COLUMNS
+from bowden.contracts import CONDITIONS, SPEEDS, TRIAL_COLUMNS, is_participant_id
 from bowden.errors import ParameterError, StoreError
 from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection, create_schema
 
@@ -45,7 +45,7 @@ class TrialInfo:
     Parameters
     ----------
     participant
-        Pseudonymous participant id (never a name).
+        Pseudonymous participant id (never a name): :func:`bowden.contracts.is_participant_id`.
     condition
         One of ``bowden.contracts.CONDITIONS``.
     speed
@@ -63,8 +63,11 @@ class TrialInfo:
     metadata: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        if not self.participant.strip():
-            raise ParameterError("TrialInfo.participant must be a non-empty pseudonymous id")
+        if not is_participant_id(self.participant):
+            raise ParameterError(
+                f"TrialInfo.participant must be a pseudonymous id (1–4 capital letters then 1–4 digits, "
+                f"e.g. P07; never a name), got {self.participant!r}"
+            )
         if self.condition not in CONDITIONS:
             raise ParameterError(f"TrialInfo.condition must be one of {CONDITIONS}, got {self.condition!r}")
         if self.speed is not None and self.speed not in SPEEDS:

@@ -2,7 +2,8 @@
 
 One row per answered item, in the long format the analysis reads::
 
-    participant TEXT   pseudonymous id (P01), never a name (checked again by the database)
+    participant TEXT   pseudonymous id (P01), never a name (contracts.is_participant_id, checked
+                       again by the database)
     condition   TEXT   one of contracts.CONDITIONS
     questionnaire TEXT nordic | borg_rpe | fatigue
     item        TEXT   site name (nordic, fatigue) or "rpe"
@@ -37,14 +38,18 @@ from bowden.web.questionnaires import (
     QuestionnaireResponse,
 )
 
+# The participant CHECK is contracts.is_participant_id in SQL (only capitals and digits, no capital
+# after a digit, 1–4 capitals then 1–4 digits), so the database refuses what bowden refuses.
+_CAPITALS: Final = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
 _CONDITION_LIST: Final = ", ".join(f"'{c}'" for c in CONDITIONS)
 _QUESTIONNAIRE_LIST: Final = ", ".join(f"'{q}'" for q in QUESTIONNAIRES)
 
 QUESTIONNAIRES_DDL: Final = f"""
 CREATE TABLE IF NOT EXISTS questionnaires (
     participant TEXT NOT NULL
-        CHECK (length(participant) BETWEEN 2 AND 8 AND participant GLOB '[A-Z]*[0-9]'
-               AND participant NOT GLOB '*[^A-Z0-9]*'),
+        CHECK (participant NOT GLOB '*[^A-Z0-9]*' AND participant NOT GLOB '*[0-9]*[A-Z]*'
+               AND length(rtrim(participant, '0123456789')) BETWEEN 1 AND 4
+               AND length(ltrim(participant, '{_CAPITALS}')) BETWEEN 1 AND 4),
     condition TEXT NOT NULL CHECK (condition IN ({_CONDITION_LIST})),
     questionnaire TEXT NOT NULL CHECK (questionnaire IN ({_QUESTIONNAIRE_LIST})),
     item TEXT NOT NULL,

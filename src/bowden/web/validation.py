@@ -11,24 +11,22 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Collection
-from typing import Final
 
+from bowden.contracts import is_participant_id
 from bowden.errors import RequestError
-
-PARTICIPANT_ID_PATTERN: Final = re.compile(r"[A-Z]{1,4}[0-9]{1,4}")
-"""Pseudonymous participant ids: 1–4 capital letters then 1–4 digits (``P01``, ``S007``).
-
-Digits are required and lower-case letters refused, so a name ("Anna", "anna smith") can never be
-stored by mistake (DESIGN.md: participants are pseudonymous ids only).
-"""
 
 
 def participant_id(value: object, field: str = "participant") -> str:
-    """A pseudonymous participant id such as ``P01`` (surrounding spaces are dropped)."""
+    """A pseudonymous participant id such as ``P01`` (surrounding spaces are dropped).
+
+    The rule is :func:`bowden.contracts.is_participant_id`, the one the study store and the recorder
+    apply: 1–4 capital letters then 1–4 digits. Digits are required and lower-case letters refused,
+    so a name ("Anna", "anna smith") can never be stored by mistake.
+    """
     if not isinstance(value, str):
         raise RequestError(f"{field}: expected a pseudonymous id such as P01, got {type(value).__name__}")
     text = value.strip()
-    if PARTICIPANT_ID_PATTERN.fullmatch(text) is None:
+    if not is_participant_id(text):
         raise RequestError(
             f"{field}: {text[:20]!r} is not a pseudonymous id; use 1–4 capital letters and 1–4 digits "
             "such as P01 (never a name)"
