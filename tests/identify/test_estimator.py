@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from bowden import __version__
-from bowden.contracts import BENCH_MOTOR_TORQUE, BENCH_MOTOR_VELOCITY
+from bowden.contracts import BENCH_MOTOR_TORQUE, BENCH_MOTOR_VELOCITY, BENCH_TENSION
 from bowden.errors import FitError, ParameterError, RecordingError
 from bowden.identify import PreprocessSettings, TransmissionIdentifier, robustfit
 from bowden.model import CompensationModel
@@ -125,6 +125,23 @@ def test_implausible_slope_is_a_fit_error() -> None:
     settings = PreprocessSettings(min_torque_nm=-100.0)
     with pytest.raises(FitError, match=r"the raising line has slope -0\.04"):
         TransmissionIdentifier(preprocessing=settings).fit(frame)
+
+
+@pytest.mark.parametrize(
+    ("column", "factor", "hint"),
+    [
+        (BENCH_TENSION, 1 / 9.80665, "kilogram-force"),  # the load cell read in kgf
+        (BENCH_TENSION, 1 / 4.44822, "pound-force"),
+        (BENCH_MOTOR_TORQUE, 1 / 9.80665, "kgf·m"),
+        (BENCH_MOTOR_TORQUE, 3.0, "check the units"),  # no known unit: the generic hint
+    ],
+)
+def test_lines_a_pulley_cannot_give_are_a_unit_error(column: str, factor: float, hint: str) -> None:
+    # sqrt(m_raise·m_lower) is R/c whatever the friction (REFERENCE §1); beyond a factor 2 it is units.
+    frame = law_bench_frame()
+    frame[column] *= factor
+    with pytest.raises(FitError, match=hint):
+        TransmissionIdentifier(preprocessing=PreprocessSettings(min_torque_nm=0.0)).fit(frame)
 
 
 def test_torque_constant_error_breaks_the_single_k_check() -> None:

@@ -54,6 +54,17 @@ _PARAMETERS = (
 )
 
 
+# sqrt(m_raise·m_lower)/R beyond this factor (either way) cannot be friction or torque-constant error.
+MAX_SLOPE_SCALE = 2.0
+# Unit mix-ups that scale the slopes by a known factor, and what to say about them.
+_UNIT_FACTORS = (
+    (9.80665, "tension_n looks like kilogram-force or daN (multiply by 9.80665 or 10 for newtons)"),
+    (4.44822, "tension_n looks like pound-force (multiply by 4.44822 for newtons)"),
+    (1e3, "motor_torque_nm looks like mNm, or tension_n like kN"),
+    (1e-3, "tension_n looks like mN, or motor_torque_nm like kNm"),
+    (1 / 9.80665, "motor_torque_nm looks like kgf·m (multiply by 9.80665 for Nm)"),
+)
+
 class TransmissionIdentifier:
     """Identify the raising and lowering compensation lines from a bench recording.
 
@@ -172,6 +183,27 @@ class TransmissionIdentifier:
             )
         return fit
 
+    def _check_scale(self, raising_slope_m: float, lowering_slope_m: float) -> None:
+        """Refuse lines whose scale no transmission explains: wrong units, or a torque that did not move.
+
+        Under the single-bend law sqrt(m_raise·m_lower) = R/c (R the pulley radius, c the true over the
+        assumed torque constant; REFERENCE §1), whatever the friction. c is uncertain by ±15 %
+        (REFERENCE §4), so a ratio beyond 2 either way is a unit or recording error, not friction.
+        """
+        ratio = math.sqrt(raising_slope_m * lowering_slope_m) / self.pulley_radius_m
+        if 1.0 / MAX_SLOPE_SCALE <= ratio <= MAX_SLOPE_SCALE:
+            return
+        hint = next(
+            (text for factor, text in _UNIT_FACTORS if abs(ratio / factor - 1.0) < 0.1),
+            "check the units of motor_torque_nm (Nm) and tension_n (N), and that the motor torque "
+            "varies with the load",
+        )
+        raise FitError(
+            f"the lines' slopes ({1e3 * raising_slope_m:.4g} and {1e3 * lowering_slope_m:.4g} mm) are "
+            f"{ratio:.3g}× what a {1e3 * self.pulley_radius_m:g} mm pulley gives (sqrt of their product "
+            f"should be near the radius, within a factor {MAX_SLOPE_SCALE:g}): {hint}"
+        )
+
     def fit(self, recording: RecordingInput) -> Self:
         """Identify both lines from a bench recording (object, table, path or list of paths).
 
@@ -186,6 +218,7 @@ class TransmissionIdentifier:
         data = self._as_recording(recording)
         selection = bench_preprocess(data, self.preprocessing)
         fits = {direction: self._fit_direction(selection, direction) for direction in DIRECTIONS}
+        self._check_scale(fits[RAISING].slope, fits[LOWERING].slope)
         self.recording_ = data
         self.selection_ = selection
         self.raising_fit_ = fits[RAISING]
