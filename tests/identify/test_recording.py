@@ -94,8 +94,23 @@ def test_extra_column_is_named_with_its_position(tmp_path: Path) -> None:
     frame["temperature_c"] = 25.0
     message = read_error(tmp_path, frame)
     assert "unexpected column(s) 'temperature_c' (column 6)" in message
+    assert "--ignore-extra-columns" in message  # what a command-line user types
     recording = read_bench_recording(tmp_path / "bench.csv", allow_extra_columns=True)
     assert recording.n_samples == 200
+
+
+@pytest.mark.parametrize("convert", [
+    lambda t: pd.to_datetime(t, unit="s"), lambda t: pd.to_timedelta(t, unit="s"),
+])
+def test_dates_or_durations_as_time_are_named_once(tmp_path: Path, convert) -> None:
+    frame = good_frame()
+    frame[BENCH_TIME] = convert(frame[BENCH_TIME])
+    frame.to_parquet(tmp_path / "bench.parquet")
+    with pytest.raises(RecordingError) as info:
+        read_bench_recording(tmp_path / "bench.parquet")
+    message = str(info.value)
+    assert "column time_s holds" in message and "seconds since the start" in message
+    assert "1 problem" in message  # not also "milliseconds?" from its nanoseconds
 
 
 def test_non_numeric_value_names_column_row_and_line(tmp_path: Path) -> None:

@@ -114,7 +114,8 @@ def _check_columns(frame: pd.DataFrame, problems: _Problems, allow_extra_columns
         listed = ", ".join(f"'{c}' (column {i})" for i, c in extra)
         problems.add(
             f"unexpected column(s) {listed}; a bench recording has exactly "
-            f"{', '.join(BENCH_COLUMNS)} and optionally {BENCH_TRIAL} (or pass allow_extra_columns)"
+            f"{', '.join(BENCH_COLUMNS)} and optionally {BENCH_TRIAL} (to ignore the others: "
+            "allow_extra_columns=True, or --ignore-extra-columns on the command line)"
         )
     duplicated = sorted({c for c in present if present.count(c) > 1})
     for name in duplicated:
@@ -128,6 +129,15 @@ def _check_columns(frame: pd.DataFrame, problems: _Problems, allow_extra_columns
 
 def _numeric_column(frame: pd.DataFrame, name: str, problems: _Problems) -> NDArray[np.float64]:
     raw = frame[name]
+    if pd.api.types.is_datetime64_any_dtype(raw) or pd.api.types.is_timedelta64_dtype(raw):
+        # Their integer nanoseconds would pass as numbers and fail later as "milliseconds?".
+        problems.add(
+            f"column {name} holds {raw.dtype} values (dates or durations); a bench recording holds "
+            "plain numbers in SI units (for time_s: seconds since the start)"
+        )
+        # Go on with the seconds they stand for, so the other checks do not report the same problem.
+        elapsed = raw - raw.iloc[0] if pd.api.types.is_datetime64_any_dtype(raw) else raw
+        return np.asarray(elapsed.dt.total_seconds().to_numpy(dtype=np.float64, na_value=np.nan))
     values = pd.to_numeric(raw, errors="coerce")
     not_number = values.isna().to_numpy() & raw.notna().to_numpy()
     if np.any(not_number):
