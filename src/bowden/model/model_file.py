@@ -35,6 +35,13 @@ VERSION = 1
 
 _FIT_FIELDS = ("n", "r_squared_ols", "r_squared_robust", "robust_scale_nm", "intercept_se_nm", "slope_se_m")
 
+# The torque a line gives at zero tension is the transmission's own friction and drag. The suit's
+# AK60-6 peaks at 9 Nm (REFERENCE §4; rated 3 Nm): an intercept beyond that is not friction the motor
+# could overcome but a unit or sign error (e.g. mNm), and it would command the motor's full torque.
+MAX_INTERCEPT_NM = 9.0
+# R² is a fraction of variance in [0, 1]; rounding may put an exact fit a hair outside.
+_R_SQUARED_TOLERANCE = 1e-9
+
 
 def model_to_dict(model: CompensationModel) -> dict[str, Any]:
     """The JSON-ready dictionary of ``model`` (format version 1)."""
@@ -151,6 +158,8 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
     if data.get("format") != FORMAT:
         raise read.fail("format", f"must be {FORMAT!r}, got {data.get('format')!r}: not a bowden model file")
     version = read.get(data, "version")
+    if type(version) is not int:  # JSON true would equal 1, and 1.0 is not how bowden writes it
+        raise read.fail("version", f"must be the integer {VERSION}, got {version!r}")
     if version != VERSION:
         raise read.fail(
             "version",
@@ -160,11 +169,17 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
     def line(key: str) -> tuple[CompensationLine, LineFitStats | None]:
         section = read.mapping(data, key)
         prefix = f"{key}."
-        try:
-            result = CompensationLine(
-                intercept_nm=read.number(section, "intercept_nm", prefix),
-                slope_m=read.number(section, "slope_m", prefix),
+        intercept_nm = read.number(section, "intercept_nm", prefix)
+        if abs(intercept_nm) > MAX_INTERCEPT_NM:
+            raise read.fail(
+                prefix + "intercept_nm",
+                f"is {intercept_nm!r} Nm, beyond the motor's peak torque ({MAX_INTERCEPT_NM:g} Nm): the "
+                "torque at zero tension is friction the motor overcomes, so this is a unit or sign "
+                "error; re-identify the model",
             )
+        try:
+            slope_m = read.number(section, "slope_m", prefix)
+            result = CompensationLine(intercept_nm=intercept_nm, slope_m=slope_m)
         except ParameterError as error:
             raise read.fail(prefix + "slope_m", f"is invalid: {error}") from None
         fit_data = read.get(section, "fit", prefix)
@@ -173,19 +188,28 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
         if not isinstance(fit_data, Mapping):
             raise read.fail(prefix + "fit", "must be an object or null")
         values = {name: read.number(fit_data, name, prefix + "fit.") for name in _FIT_FIELDS}
-        if not float(values["n"]).is_integer():
-            raise read.fail(prefix + "fit.n", f"must be an integer, got {values['n']!r}")
-        return result, LineFitStats(
-            n=int(values["n"]),
-            r_squared_ols=values["r_squared_ols"],
-            r_squared_robust=values["r_squared_robust"],
-            robust_scale_nm=values["robust_scale_nm"],
-            intercept_se_nm=values["intercept_se_nm"],
-            slope_se_m=values["slope_se_m"],
-        )
+        _check_fit(read, values, prefix + "fit.")
+        try:
+            return result, LineFitStats(
+                n=int(values["n"]),
+                r_squared_ols=values["r_squared_ols"],
+                r_squared_robust=values["r_squared_robust"],
+                robust_scale_nm=values["robust_scale_nm"],
+                intercept_se_nm=values["intercept_se_nm"],
+                slope_se_m=values["slope_se_m"],
+            )
+        except ParameterError as error:
+            raise read.fail(prefix + "fit", f"is invalid: {error}") from None
 
     raising, raising_fit = line("raising")
     lowering, lowering_fit = line("lowering")
+    if not raising.slope_m > lowering.slope_m:
+        raise read.fail(
+            "raising.slope_m",
+            f"({raising.slope_m!r} m) must exceed lowering.slope_m ({lowering.slope_m!r} m): friction in "
+            "the sheath opposes the cable, so raising needs more motor torque per newton of arm tension "
+            "than lowering; the lines look swapped or wrongly split by direction",
+        )
     blend = read.mapping(data, "blend")
     provenance = None
     prov_data = read.get(data, "provenance")
@@ -217,6 +241,18 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
         )
     except ParameterError as error:
         raise ModelFileError(f"{source}: {error}") from None
+
+
+def _check_fit(read: _Reader, values: Mapping[str, float], prefix: str) -> None:
+    """Ranges of the fit statistics: a count, fractions of variance, non-negative spreads."""
+    if not (float(values["n"]).is_integer() and values["n"] >= 0):
+        raise read.fail(prefix + "n", f"must be a non-negative integer (a sample count), got {values['n']!r}")
+    for name in ("r_squared_ols", "r_squared_robust"):
+        if not -_R_SQUARED_TOLERANCE <= values[name] <= 1.0 + _R_SQUARED_TOLERANCE:
+            raise read.fail(prefix + name, f"must be in [0, 1] (a share of variance), got {values[name]!r}")
+    for name in ("robust_scale_nm", "intercept_se_nm", "slope_se_m"):
+        if values[name] < 0.0:
+            raise read.fail(prefix + name, f"must be >= 0 (a spread), got {values[name]!r}")
 
 
 def load_model(path: str | Path) -> CompensationModel:
