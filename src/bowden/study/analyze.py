@@ -1,16 +1,32 @@
 """``bowden analyze``: a study store → outcome table, statistics and the report.
 
-The same code serves a real study's store and the simulated one of ``bowden study``.
+The same code serves a real study's store and the simulated one of ``bowden study``. Two keys of
+each trial's metadata (the contract every writer follows: ``bowden run``, ``bowden serve`` and the
+study pipeline) steer it:
+
+``"repetitions"``
+    the number of raise-and-lower cycles the trial's reference held. Each trial is checked against
+    its own count; stores written by ``bowden run`` before this key existed keep it under
+    ``"reference"`` and are read there; without either, the paper's 10.
+``"backend"``
+    what the trial ran on: ``contracts.SIMULATED_BACKENDS`` are simulations, anything else (``"can"``,
+    or no backend recorded) is measured. The report is called simulated, measured, or — when a store
+    holds both — MIXED, and then its results (which pool both kinds) are labelled simulated.
+
+A trial that cannot be analysed (no samples, fewer or more repetitions than it should hold) is
+skipped; the report's notes and :attr:`AnalysisReport.skipped` name it and say why.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import logging
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Final, Literal
 
 from bowden.analysis import (
     AnalysisParameters,
@@ -18,27 +34,45 @@ from bowden.analysis import (
     StudyOutcomes,
     analyse_study,
     methods_text,
+    segment_repetitions,
 )
 from bowden.analysis.outcomes import TrialMetadata
-from bowden.contracts import REPETITIONS_PER_TRIAL
-from bowden.errors import ModelFileError, StoreError
+from bowden.contracts import REPETITIONS_PER_TRIAL, SIMULATED_BACKENDS
+from bowden.errors import ModelFileError, ParameterError, RecordingError, StoreError
 from bowden.identify import TransmissionIdentifier, plot_identification
 from bowden.model import CompensationModel
 from bowden.model.model_file import model_from_dict
+from bowden.study.html import HtmlDocument
 from bowden.study.progress import StageProgress
-from bowden.study.report import ReportInputs, write_report
+from bowden.study.report import ReportInputs, build_report
 from bowden.study.statistics import StudyStatistics, study_statistics
-from bowden.study.store import StudyStore
+from bowden.study.store import StoredTrial, StudyStore
+
+_log = logging.getLogger(__name__)
+
+# Keys of a trial's metadata that the analysis reads (see the module docstring).
+REPETITIONS_KEY: Final = "repetitions"
+BACKEND_KEY: Final = "backend"
+# Where `bowden run` kept the repetition count before REPETITIONS_KEY was agreed.
+_LEGACY_REFERENCE_KEY: Final = "reference"
+
+DataKind = Literal["measured", "simulated", "mixed"]
 
 
 @dataclass
 class AnalysisReport:
-    """What ``analyze_store`` produced."""
+    """What ``analyze_store`` produced.
+
+    ``n_trials`` counts the trials analysed; ``skipped`` has one line per completed trial left out
+    (which one and why); ``data_kind`` is what the report calls the analysed trials.
+    """
 
     report: Path
     outcomes: StudyOutcomes
     statistics: StudyStatistics
     n_trials: int
+    skipped: tuple[str, ...] = ()
+    data_kind: DataKind = "measured"
 
 
 def analyze_store(
@@ -54,48 +88,69 @@ def analyze_store(
 ) -> AnalysisReport:
     """Analyse every completed trial of a store, fit the statistics, write the report.
 
-    ``simulated`` labels the report; None reads it from the trials' metadata (backend).
+    ``simulated`` labels the report; None reads it from each trial's metadata (``"backend"``): all
+    simulated → simulated, none → measured, both → MIXED (see the module docstring).
     ``bench_path`` (a bench recording) adds the identification figure. ``repetitions`` is the number
-    of cycles a trial must hold; None takes it from the trials' metadata, else the paper's 10.
+    of cycles every trial must hold; None takes each trial's own from its metadata, else the paper's 10.
+    The first repetition of each trial is dropped (adaptation) unless no trial holds more than one.
     ``workers`` trials are analysed at a time (None: one per CPU core); results do not depend on it.
+
+    Raises
+    ------
+    StoreError
+        No store at ``store_path``, no completed trial in it, or none that can be analysed.
     """
     store_path = Path(store_path)
     if not store_path.exists():
         raise StoreError(f"no study store at {store_path}")
     progress = progress if progress is not None else StageProgress(enabled=False)
+    skipped: list[str] = []
+    kept: dict[int, dict[str, Any]] = {}  # trial id → metadata of the trials analysed
     with StudyStore(store_path) as store:
         trials = store.completed_trials()
         if not trials:
             raise StoreError(f"{store_path} holds no completed trial to analyse")
-        if simulated is None:
-            simulated = _is_simulated(store)
-        n_participants = len({t.participant for t in trials})
-        if repetitions is None:
-            repetitions = int(
-                store.trial_metadata(trials[0].trial_id).get("repetitions", REPETITIONS_PER_TRIAL)
-            )
-        # The paper drops each trial's first repetition (adaptation); a one-repetition trial keeps it,
-        # and the methods text says so.
-        segmentation = SegmentationParameters(
-            expected_repetitions=repetitions, drop_first=min(1, repetitions - 1)
-        )
+        metadata = {trial.trial_id: store.trial_metadata(trial.trial_id) for trial in trials}
+        counts = {trial_id: _expected(meta, repetitions) for trial_id, meta in metadata.items()}
+        # The paper drops each trial's first repetition (adaptation); a study whose trials hold one
+        # repetition each keeps it, and the methods text says so. One rule for every trial.
+        drop_first = 0 if all(n == 1 or isinstance(n, str) for n in counts.values()) else 1
+        segmentation = SegmentationParameters(expected_repetitions=None, drop_first=drop_first)
         parameters = AnalysisParameters(segmentation=segmentation)
 
         def items() -> Iterator[tuple[TrialMetadata, Any, Any]]:
             with progress.bar("analysing trials", len(trials)) as advance:
                 for done, (trial, samples, emg) in enumerate(store.iter_trials(), start=1):
-                    meta = TrialMetadata(
-                        participant=trial.participant, condition=trial.condition, speed=trial.speed
-                    )
-                    yield meta, samples, emg
+                    if trial.trial_id not in metadata:  # completed while we were reading
+                        metadata[trial.trial_id] = store.trial_metadata(trial.trial_id)
+                        counts[trial.trial_id] = _expected(metadata[trial.trial_id], repetitions)
+                    problem = _unusable(samples, counts[trial.trial_id], segmentation)
+                    if problem is not None:
+                        skipped.append(f"{_describe(trial)} skipped: {problem}")
+                        _log.warning("bowden analyze: %s", skipped[-1])
+                    else:
+                        kept[trial.trial_id] = metadata[trial.trial_id]
+                        yield (
+                            TrialMetadata(
+                                participant=trial.participant, condition=trial.condition, speed=trial.speed
+                            ),
+                            samples,
+                            emg,
+                        )
                     advance(done)
 
-        outcomes = analyse_study(items(), parameters, workers=workers or os.cpu_count() or 1)
+        outcomes = _analyse(items(), parameters, workers, store_path, kept, skipped)
+        if skipped:
+            # The report's notes say which trials are missing and why.
+            info = dataclasses.replace(outcomes.info, notes=(*skipped, *outcomes.info.notes))
+            outcomes = dataclasses.replace(outcomes, info=info)
         store.replace_outcomes(outcomes.outcomes)
         with progress.spinner("fitting the statistics"):
             statistics = study_statistics(outcomes.outcomes, store.questionnaires())
         model = _stored_model(store)
 
+    given: DataKind = "simulated" if simulated else "measured"
+    kind = data_kind(kept.values()) if simulated is None else given
     figure, text = None, ""
     if bench_path is not None:
         identifier = TransmissionIdentifier().fit(bench_path)
@@ -108,21 +163,142 @@ def analyze_store(
         statistics=statistics,
         methods=methods_text(info=outcomes.info),
         model=model,
-        simulated=simulated,
-        n_participants=n_participants,
-        n_trials=len(trials),
+        # Results that pool measured and simulated trials are not measured results.
+        simulated=kind != "measured",
+        n_participants=outcomes.info.n_participants,
+        n_trials=outcomes.info.n_trials,
         identification_figure=figure,
         identification_text=text,
         timings=dict(timings or {}),
     )
     with progress.spinner("writing the report"):
-        report = write_report(inputs, report_path)
-    return AnalysisReport(report=report, outcomes=outcomes, statistics=statistics, n_trials=len(trials))
+        document = build_report(inputs)
+        if kind == "mixed":
+            _label_mixed(document, kept)
+        report = document.write(report_path)
+    return AnalysisReport(
+        report=report,
+        outcomes=outcomes,
+        statistics=statistics,
+        n_trials=outcomes.info.n_trials,
+        skipped=tuple(skipped),
+        data_kind=kind,
+    )
 
 
-def _is_simulated(store: StudyStore) -> bool:
-    trials = store.completed_trials()
-    return bool(trials) and store.trial_metadata(trials[0].trial_id).get("backend") == "simulation"
+def expected_repetitions(metadata: Mapping[str, Any]) -> int | None:
+    """The repetitions a trial's reference held, from its metadata; None: any number (a free run).
+
+    Reads ``metadata["repetitions"]`` (``null`` there means the wearer followed no reference, as on
+    the real suit without a display), else ``metadata["reference"]["repetitions"]`` (``bowden run``
+    before the key was agreed), else the paper's 10 (``contracts.REPETITIONS_PER_TRIAL``).
+
+    Raises
+    ------
+    RecordingError
+        If the value is not a positive whole number.
+    """
+    if REPETITIONS_KEY in metadata:
+        value: object = metadata[REPETITIONS_KEY]
+        if value is None:
+            return None
+    else:
+        reference = metadata.get(_LEGACY_REFERENCE_KEY)
+        value = reference.get(REPETITIONS_KEY) if isinstance(reference, Mapping) else None
+        if value is None:
+            return REPETITIONS_PER_TRIAL
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise RecordingError(f"its metadata gives {value!r} repetitions, not a positive whole number")
+    return value
+
+
+def _expected(metadata: Mapping[str, Any], override: int | None) -> int | str | None:
+    """The trial's repetition count (``override`` if given), or why it cannot be known."""
+    if override is not None:
+        return override
+    try:
+        return expected_repetitions(metadata)
+    except RecordingError as error:
+        return str(error)
+
+
+def _unusable(samples: Any, count: int | str | None, segmentation: SegmentationParameters) -> str | None:
+    """Why a trial cannot be analysed (None if it can): bad count, no data, wrong number of cycles."""
+    if isinstance(count, str):
+        return count
+    # A trial of fewer repetitions than are dropped is first checked for what it holds, so that an
+    # empty trial is reported as empty.
+    drop = segmentation.drop_first if count is None else min(segmentation.drop_first, count - 1)
+    try:
+        segment_repetitions(
+            samples, dataclasses.replace(segmentation, expected_repetitions=count, drop_first=drop)
+        )
+    except RecordingError as error:
+        return str(error)
+    if count is not None and count <= segmentation.drop_first:
+        return (
+            f"it holds {count} repetition{'s' if count > 1 else ''} and, as the other trials hold more, "
+            f"the first {segmentation.drop_first} of each trial is dropped (adaptation): none would be left"
+        )
+    return None
+
+
+def _analyse(
+    items: Iterator[tuple[TrialMetadata, Any, Any]],
+    parameters: AnalysisParameters,
+    workers: int | None,
+    store_path: Path,
+    kept: Mapping[int, object],
+    skipped: list[str],
+) -> StudyOutcomes:
+    try:
+        return analyse_study(items, parameters, workers=workers or os.cpu_count() or 1)
+    except ParameterError:
+        if kept or not skipped:
+            raise
+        raise StoreError(
+            f"{store_path} holds no trial that can be analysed: " + "; ".join(skipped)
+        ) from None
+
+
+def _describe(trial: StoredTrial) -> str:
+    return f"trial {trial.trial_id} (participant {trial.participant}, {trial.condition}, {trial.speed})"
+
+
+def _is_simulated(metadata: Mapping[str, Any]) -> bool:
+    """Whether a trial ran on a simulated suit (its metadata's backend; older stores say "simulation")."""
+    return metadata.get(BACKEND_KEY) in SIMULATED_BACKENDS
+
+
+def data_kind(trials_metadata: Iterable[Mapping[str, Any]]) -> DataKind:
+    """What the trials are: all simulated, all measured (no backend recorded counts as measured), or mixed."""
+    flags = {_is_simulated(metadata) for metadata in trials_metadata}
+    if flags == {True}:
+        return "simulated"
+    if flags == {True, False}:
+        return "mixed"
+    return "measured"
+
+
+def _label_mixed(document: HtmlDocument, trials: Mapping[int, Mapping[str, Any]]) -> None:
+    """Title and first banner of a report whose results pool measured and simulated trials."""
+    simulated = sorted(i for i, meta in trials.items() if _is_simulated(meta))
+    measured = sorted(i for i in trials if i not in simulated)
+    document.title = (
+        f"bowden study report — MIXED: {len(measured)} measured and {len(simulated)} simulated trials"
+    )
+    banner = HtmlDocument(title="")
+    banner.banner(
+        f"Mixed data: this store holds measured trials (ids {_ids(measured)}) and simulated trials "
+        f"(ids {_ids(simulated)}). Every table, figure and test below pools both kinds, so none of it "
+        "is a measured result; the captions call it simulated. Analyse the measured trials in a store "
+        "of their own to report them."
+    )
+    document.parts[:0] = banner.parts
+
+
+def _ids(ids: list[int]) -> str:
+    return ", ".join(str(i) for i in ids)
 
 
 def _stored_model(store: StudyStore) -> CompensationModel | None:
