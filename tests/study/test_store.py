@@ -124,8 +124,10 @@ def test_participants_questionnaires_outcomes_artifacts_and_export(tmp_path):
         "participants.csv",
         "trials.csv",
         "samples.csv",
+        "events.csv",
         "questionnaires.csv",
         "outcomes.csv",
+        "artifacts.csv",
     }
     exported = pd.read_csv(tmp_path / "export" / "samples.csv")
     assert len(exported) == 500 and exported["participant"].eq("P01").all()

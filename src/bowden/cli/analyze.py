@@ -5,8 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bowden.errors import StoreError
+from bowden.cli._outputs import check_output_directory, check_output_file, refuse_overwriting_inputs
+from bowden.errors import ParameterError, StoreError
 from bowden.study.analyze import analyze_store
+from bowden.study.export import export_paths
 from bowden.study.progress import StageProgress
 
 
@@ -19,7 +21,18 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("study", type=Path, help="study directory or study.db file")
     parser.add_argument("--report", type=Path, help="report path (default: report.html beside the store)")
     parser.add_argument("--bench", type=Path, help="bench recording, to include the identification figure")
-    parser.add_argument("--export", type=Path, help="also export every table to this directory")
+    parser.add_argument(
+        "--export",
+        type=Path,
+        metavar="DIR",
+        help="also export the tables to DIR, one file each: participants, trials, samples, events, "
+        "questionnaires, outcomes, artifacts (the raw sEMG only with --export-emg)",
+    )
+    parser.add_argument(
+        "--export-emg",
+        action="store_true",
+        help="with --export, also export the raw sEMG (emg table, one row per EMG sample: large)",
+    )
     parser.add_argument("--format", choices=("parquet", "csv"), default="parquet", help="export format")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=run)
@@ -29,16 +42,41 @@ def run(args: argparse.Namespace) -> int:
     store = args.study / "study.db" if args.study.is_dir() else args.study
     if not store.exists():
         raise StoreError(f"no study store at {store} (expected a study directory or a study.db file)")
+    if args.export_emg and args.export is None:
+        raise ParameterError("--export-emg needs --export DIR")
     report = args.report if args.report is not None else store.with_name("report.html")
     bench = args.bench
     if bench is None and (store.parent / "bench.parquet").exists():
         bench = store.parent / "bench.parquet"
+    # Every output is checked before the analysis runs: a bad path costs neither an input nor the time.
+    inputs = _inputs(store, bench)
+    refuse_overwriting_inputs("--report", report, inputs)
+    check_output_file("--report", report, create_parents=True)
+    if args.export is not None:
+        refuse_overwriting_inputs("--export", args.export, inputs)
+        check_output_directory("--export", args.export)
+        written = {**inputs, report: "the --report file"}
+        for path in export_paths(args.export, file_format=args.format, include_emg=args.export_emg):
+            refuse_overwriting_inputs("--export", path, written)
     result = analyze_store(store, report, bench_path=bench, progress=StageProgress(enabled=not args.quiet))
     if args.export is not None:
         from bowden.study.store import StudyStore
 
         with StudyStore(store) as opened:
-            files = opened.export(args.export, file_format=args.format)
+            files = opened.export(args.export, file_format=args.format, include_emg=args.export_emg)
         print(f"exported {len(files)} tables to {args.export}")
     print(f"analysed {result.n_trials} trials; report {result.report.resolve()}")
     return 0
+
+
+def _inputs(store: Path, bench: Path | None) -> dict[Path, str]:
+    """The files the analysis reads (SQLite keeps a store's recent commits beside it)."""
+    inputs = {
+        store: "the study store",
+        store.with_name(store.name + "-wal"): "the study store's write-ahead log",
+        store.with_name(store.name + "-shm"): "the study store's shared-memory index",
+        store.with_name(store.name + "-journal"): "the study store's rollback journal",
+    }
+    if bench is not None:
+        inputs[bench] = "the bench recording"
+    return inputs

@@ -42,6 +42,7 @@ from bowden.errors import StoreError
 from bowden.model import Subject
 from bowden.runtime.recorder import TrialInfo, utc_now_iso
 from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection, create_schema
+from bowden.study.export import export_store
 
 # One definition of the questionnaire table, shared with the browser forms that write it.
 from bowden.web.questionnaire_store import QUESTIONNAIRES_DDL
@@ -373,29 +374,12 @@ class StudyStore:
         return None if row is None else str(row[0])
 
     # --- export ----------------------------------------------------------------------------------
-    def export(self, directory: str | Path, *, file_format: str = "parquet") -> list[Path]:
-        """Write every table (samples with their trial's labels) for R, SPSS and MATLAB users."""
-        if file_format not in ("parquet", "csv"):
-            raise StoreError(f"export format must be 'parquet' or 'csv', got {file_format!r}")
-        out = Path(directory)
-        out.mkdir(parents=True, exist_ok=True)
-        tables = {
-            "participants": self.participants(),
-            "trials": pd.read_sql_query("SELECT * FROM trials ORDER BY id", self._db),
-            "samples": pd.read_sql_query(
-                "SELECT t.participant, t.condition, t.speed, s.* FROM samples s JOIN trials t "
-                "ON t.id = s.trial_id ORDER BY s.trial_id, s.time_s",
-                self._db,
-            ),
-            "questionnaires": self.questionnaires(),
-            "outcomes": self.outcomes(),
-        }
-        written = []
-        for name, frame in tables.items():
-            path = out / f"{name}.{file_format}"
-            if file_format == "parquet":
-                frame.to_parquet(path, index=False)
-            else:
-                frame.to_csv(path, index=False)
-            written.append(path)
-        return written
+    def read_sql(self, query: str, params: tuple[Any, ...] = ()) -> pd.DataFrame:
+        """The rows of a read-only SQL query as a DataFrame (for exports and ad-hoc analyses)."""
+        return pd.read_sql_query(query, self._db, params=params)
+
+    def export(
+        self, directory: str | Path, *, file_format: str = "parquet", include_emg: bool = False
+    ) -> list[Path]:
+        """Write the tables for R, SPSS and MATLAB users (:func:`bowden.study.export.export_store`)."""
+        return export_store(self, directory, file_format=file_format, include_emg=include_emg)
