@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import argparse
+import json
 import sqlite3
 from pathlib import Path
 
 import pytest
 
 from bowden.cli import main
-from bowden.contracts import TRIAL_COLUMNS
-from bowden.model import CompensationModel
+from bowden.cli.run import _reference, _trial_info
+from bowden.contracts import BACKEND_CAN, BACKEND_SIM, TRIAL_COLUMNS
+from bowden.model import CompensationModel, Subject
+from bowden.study.store import StudyStore
+from bowden.web.trial_setup import TrialSetup
 
 
 def test_run_sim_records_a_trial(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -17,17 +22,24 @@ def test_run_sim_records_a_trial(tmp_path: Path, capsys: pytest.CaptureFixture[s
     model = tmp_path / "model.json"
     CompensationModel.from_friction(k=0.12).save(model)
     code = main(["run", "--backend", "sim", "--model", str(model), "--support", "0.25", "--duration", "0.6",
-                 "--rate", "250", "--record", str(store), "--participant", "P03", "--speed", "V2"])
+                 "--rate", "250", "--record", str(store), "--participant", "P03", "--speed", "V2",
+                 "--lead-in", "0", "--height", "1.62", "--mass", "55", "--sex", "male", "--hand-load", "1"])
     out = capsys.readouterr().out
     assert code == 0, out
     assert "stopped: duration 0.6 s reached" in out
     assert "motor mode exited" in out and "deadline misses" in out
     with sqlite3.connect(store) as connection:
         trial = connection.execute(
-            "SELECT participant, condition, speed, support, stop_reason, ended_utc FROM trials"
+            "SELECT participant, condition, speed, support, stop_reason, ended_utc, metadata FROM trials"
         ).fetchone()
         assert trial[:5] == ("P03", "support_25", "V2", 0.25, "duration 0.6 s reached")
         assert trial[5] is not None
+        # The wearer, as the study pipeline records participants, and in the trial's metadata
+        # under the keys `bowden serve` writes.
+        assert connection.execute("SELECT id, sex, height_m, mass_kg FROM participants").fetchall() == [
+            ("P03", "male", 1.62, 55.0)
+        ]
+        metadata = json.loads(trial[6])
         query = f"SELECT {', '.join(TRIAL_COLUMNS)} FROM samples ORDER BY time_s"
         rows = connection.execute(query).fetchall()
         events = connection.execute("SELECT kind, message FROM events").fetchall()
@@ -38,6 +50,14 @@ def test_run_sim_records_a_trial(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert max(columns["commanded_torque_nm"]) > 0.0
     assert any(value is not None for value in columns["tension_n"])  # the load cell was recorded
     assert events == [("safe_stop", "NONE: duration 0.6 s reached")]
+    assert {k: metadata[k] for k in ("height_m", "mass_kg", "sex", "hand_load_kg")} == {
+        "height_m": 1.62, "mass_kg": 55.0, "sex": "male", "hand_load_kg": 1.0
+    }
+    # The shared names (bowden.contracts) and the agreed repetition key: 0.6 s holds no whole V2
+    # cycle, so the reference is the one cycle that the duration cuts.
+    assert metadata["backend"] == BACKEND_SIM and metadata["source"] == "bowden run"
+    assert metadata["repetitions"] == metadata["reference"]["repetitions"] == 1
+    assert (metadata["speed"], metadata["support"], metadata["lead_in_s"]) == ("V2", 0.25, 0.0)
 
 
 def test_can_backend_needs_a_model(capsys: pytest.CaptureFixture[str]) -> None:
@@ -61,3 +81,119 @@ def test_cli_imu_port_default_is_the_ngimu_default() -> None:
     from bowden.hardware.ngimu import DEFAULT_HOST_PORT
 
     assert DEFAULT_IMU_PORT == DEFAULT_HOST_PORT == 8000
+
+
+def _trials(store: Path) -> list[tuple[object, ...]]:
+    if not store.exists():
+        return []
+    with sqlite3.connect(store) as connection:
+        return connection.execute("SELECT id, condition, support, stop_reason FROM trials").fetchall()
+
+
+@pytest.mark.parametrize(("condition", "support", "message"), [
+    ("no_suit", "0.5", "--condition no_suit contradicts --support 0.5: no_suit means no --support"),
+    ("support_50", "pretension", "--condition support_50 contradicts --support pretension: "
+                                 "support_50 means --support 0.5"),
+    ("support_25", "0.5", "support_25 means --support 0.25"),
+    ("pretension", "0.25", "pretension means --support pretension"),
+])
+def test_a_condition_that_contradicts_the_support_is_refused(
+    tmp_path: Path, condition: str, support: str, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    store = tmp_path / "study.db"
+    code = main(["run", "--backend", "sim", "--duration", "0.3", "--condition", condition,
+                 "--support", support, "--record", str(store)])
+    assert code == 1
+    assert message in capsys.readouterr().err
+    assert _trials(store) == []
+
+
+@pytest.mark.parametrize(("argument", "message"), [
+    (["--height", "0"], "--height: height_m must be a stature"),
+    (["--mass", "500"], "--mass: mass_kg must be between"),
+    (["--hand-load", "-1"], "--hand-load: hand_load_kg must be between"),
+    (["--duration", "-1"], "duration_s"),
+])
+def test_a_bad_wearer_or_limit_leaves_no_trial_and_opens_no_device(
+    tmp_path: Path, argument: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    store = tmp_path / "study.db"
+    with StudyStore(store):  # an existing, empty store
+        pass
+    assert main(["run", "--backend", "sim", "--speed", "V3", "--record", str(store), *argument]) == 1
+    err = capsys.readouterr().err
+    assert message in err
+    assert "bowden run: " not in err  # the line printed once the suit is open
+    assert _trials(store) == []
+
+
+@pytest.mark.parametrize("where", ["directory", "proc"])
+def test_an_unusable_store_is_found_before_any_device(
+    tmp_path: Path, where: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    record = tmp_path if where == "directory" else Path("/proc/bowden-test/study.db")
+    assert main(["run", "--backend", "sim", "--duration", "0.3", "--record", str(record)]) == 1
+    err = capsys.readouterr().err
+    assert f"cannot open the study store {record}" in err
+    assert "bowden run: " not in err
+
+
+def test_a_participant_stored_with_other_anthropometrics_is_not_overwritten(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    store = tmp_path / "study.db"
+    with StudyStore(store) as opened:
+        opened.add_participant("P07", Subject(height_m=1.58, mass_kg=52.0, sex="female"))
+    # The defaults (1.70 m, 63 kg) are not P07's.
+    assert main(["run", "--backend", "sim", "--duration", "0.3", "--participant", "P07",
+                 "--record", str(store)]) == 1
+    err = capsys.readouterr().err
+    assert "participant P07 is in" in err and "female, 1.58 m, 52 kg" in err and "1.7 m, 63 kg" in err
+    assert "bowden run: " not in err
+    assert _trials(store) == []
+    with StudyStore(store) as opened:
+        assert opened.subject("P07") == Subject(height_m=1.58, mass_kg=52.0, sex="female")
+
+
+def test_the_no_suit_condition_runs_at_zero_torque(tmp_path: Path) -> None:
+    store = tmp_path / "study.db"
+    assert main(["run", "--backend", "sim", "--duration", "0.3", "--rate", "250", "--condition", "no_suit",
+                 "--record", str(store)]) == 0
+    assert _trials(store) == [(1, "no_suit", None, "duration 0.3 s reached")]
+    with sqlite3.connect(store) as connection:
+        torques = connection.execute("SELECT commanded_torque_nm FROM samples").fetchall()
+        (metadata,) = connection.execute("SELECT metadata FROM trials").fetchone()
+    assert torques and {t for (t,) in torques} == {0.0}
+    assert json.loads(metadata)["support"] is None
+
+
+def test_a_run_is_analysed_against_its_own_repetitions_and_called_simulated(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Two V3 cycles (5/3 s each) after 0.2 s of rest; the analysis used to expect the paper's 10
+    # and to call a `bowden run --backend sim` trial measured.
+    store, report = tmp_path / "study.db", tmp_path / "report.html"
+    assert main(["run", "--backend", "sim", "--speed", "V3", "--lead-in", "0.2", "--duration", "3.6",
+                 "--rate", "200", "--record", str(store)]) == 0
+    assert main(["analyze", str(store), "--report", str(report), "--quiet"]) == 0
+    assert "analysed 1 trials" in capsys.readouterr().out
+    html = report.read_text(encoding="utf-8")
+    assert "<h1>bowden study report — SIMULATED cohort</h1>" in html
+    with StudyStore(store) as opened:
+        assert sorted(set(opened.outcomes()["repetition"])) == [2]  # the first is dropped
+
+
+def test_the_real_suit_without_a_display_records_no_repetition_count() -> None:
+    # Nobody follows the reference on the real suit unless --serve shows it: the trial holds the
+    # cycles the wearer made, and the analysis takes them all (metadata "repetitions": null).
+    args = argparse.Namespace(backend="can", serve=False, rate=500.0, model=Path("model.json"),
+                              speed="V2", duration=30.0, lead_in=2.0, hand_load=0.5)
+    reference = _reference(args)
+    setup = TrialSetup(participant="P01", condition="support_50", speed="V2", support=0.5,
+                       repetitions=reference.repetitions, lead_in_s=2.0,
+                       subject=Subject(height_m=1.7, mass_kg=63.0, sex="female"))
+    metadata = _trial_info(args, setup, reference).metadata
+    assert metadata["backend"] == BACKEND_CAN and metadata["repetitions"] is None
+    assert "reference" not in metadata
+    shown = _trial_info(argparse.Namespace(**{**vars(args), "serve": True}), setup, reference).metadata
+    assert shown["repetitions"] == reference.repetitions == 11

@@ -6,9 +6,11 @@ optionally, the load cell on an I²C bus (``--i2c-bus``). ``--backend sim`` runs
 against the simulated suit behind simulated devices that speak the same wire protocols (virtual CAN,
 OSC over loopback UDP, a fake I²C bus), in real time. The run prints a status line every second and,
 at the end, why it stopped and how well the loop kept time. ``--record study.db`` stores every cycle
-in the study store (crash-safe). SIGINT (Ctrl-C) and SIGTERM stop the suit safely. ``--serve`` also
-serves the participant display, the operator console (live plots, loop health, a stop button that
-puts the suit in its safe state) and the questionnaires while the run lasts.
+in the study store (crash-safe), with the wearer's anthropometrics (participants table and trial
+metadata). Every argument, the wearer and the store are checked before any device is opened. SIGINT
+(Ctrl-C) and SIGTERM stop the suit safely. ``--serve`` also serves the participant display, the
+operator console (live plots, loop health, a stop button that puts the suit in its safe state) and
+the questionnaires while the run lasts.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final, Literal
 
 from bowden import __version__
 from bowden.cli._suit import (
@@ -36,19 +38,22 @@ from bowden.cli._suit import (
     safety_config,
 )
 from bowden.contracts import (
-    CONDITION_PRETENSION,
-    CONDITION_SUPPORT_25,
+    BACKEND_CAN,
+    BACKEND_SIM,
+    CONDITION_SUPPORT,
     CONDITION_SUPPORT_50,
     CONDITIONS,
     SPEEDS,
 )
 from bowden.control import build_controller
-from bowden.errors import BowdenError, ParameterError
+from bowden.errors import BowdenError, ParameterError, StoreError
 from bowden.model import CompensationModel, Subject
+from bowden.model.anthropometry import arm_model
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row, TrialInfo
+from bowden.runtime.loop import StepController
 from bowden.runtime.signals import stop_on_signals
 from bowden.web.reference import TrialReference
-from bowden.web.trial_setup import TrialSetup, study_reference
+from bowden.web.trial_setup import NoAssistance, TrialSetup, study_reference
 from bowden.web.validation import participant_id
 
 if TYPE_CHECKING:
@@ -62,41 +67,64 @@ DRAIN_S = 2.0  # at the end, how long the browsers get to receive the last messa
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
-        "run", help="run the controller on the suit (real over CAN, or simulated)",
+        "run",
+        help="run the controller on the suit (real over CAN, or simulated)",
         description=__doc__.split("\n\n")[1] if __doc__ else None,
     )
     parser.add_argument("--backend", choices=("sim", "can"), required=True)
-    parser.add_argument("--model", type=Path,
-                        help="model.json (required for --backend can; sim default: the ideal model)")
-    parser.add_argument("--support", default="0.5",
-                        help="support fraction 0-1, or 'pretension' (default 0.5)")
+    parser.add_argument(
+        "--model", type=Path, help="model.json (required for --backend can; sim default: the ideal model)"
+    )
+    parser.add_argument(
+        "--support", help="support fraction 0-1, or 'pretension' (default: the --condition's, else 0.5)"
+    )
     parser.add_argument("--duration", type=float, default=30.0, help="run length in s (default 30)")
     parser.add_argument("--rate", type=float, default=500.0, help="control rate in Hz (default 500)")
     parser.add_argument("--record", type=Path, help="study store (SQLite) to record every cycle into")
     parser.add_argument("--participant", default="P00", help="pseudonymous participant id (default P00)")
-    parser.add_argument("--condition", choices=CONDITIONS, help="condition label (default from --support)")
-    parser.add_argument("--speed", choices=SPEEDS, default="V1",
-                        help="speed of the reference (the sim arm follows it; recorded)")
-    parser.add_argument("--lead-in", type=float, default=2.0,
-                        help="rest before the reference starts moving, s (default 2)")
+    parser.add_argument(
+        "--condition",
+        choices=CONDITIONS,
+        help="study condition (default from --support; must agree with it: no_suit runs "
+        "the motor at zero torque)",
+    )
+    parser.add_argument(
+        "--speed",
+        choices=SPEEDS,
+        default="V1",
+        help="speed of the reference (the sim arm follows it; recorded)",
+    )
+    parser.add_argument(
+        "--lead-in", type=float, default=2.0, help="rest before the reference starts moving, s (default 2)"
+    )
     parser.add_argument("--height", type=float, default=1.70, help="wearer stature in m (default 1.70)")
     parser.add_argument("--mass", type=float, default=63.0, help="wearer body mass in kg (default 63)")
     parser.add_argument("--sex", choices=("female", "male"), default="female")
     parser.add_argument("--hand-load", type=float, default=0.5, help="load in the hand in kg (default 0.5)")
     web = parser.add_argument_group("browser (--serve, needs the web extra)")
-    web.add_argument("--serve", action="store_true",
-                     help="also serve the participant display, operator console and questionnaires "
-                          "while the run lasts (needs --record)")
-    web.add_argument("--host", default="127.0.0.1",
-                     help="with --serve: address to listen on (default 127.0.0.1: this machine only)")
-    web.add_argument("--port", type=int, default=8765,
-                     help="with --serve: port (default 8765; 0 picks a free one)")
+    web.add_argument(
+        "--serve",
+        action="store_true",
+        help="also serve the participant display, operator console and questionnaires "
+        "while the run lasts (needs --record)",
+    )
+    web.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="with --serve: address to listen on (default 127.0.0.1: this machine only)",
+    )
+    web.add_argument(
+        "--port", type=int, default=8765, help="with --serve: port (default 8765; 0 picks a free one)"
+    )
     add_safety_arguments(parser)
     add_can_arguments(parser)
     parser.set_defaults(handler=run)
 
 
-def _support(text: str) -> float | str:
+Support = float | Literal["pretension"] | None  # None: no suit (zero torque)
+
+
+def _support(text: str) -> float | Literal["pretension"]:
     if text == "pretension":
         return "pretension"
     try:
@@ -108,13 +136,35 @@ def _support(text: str) -> float | str:
     return value
 
 
-def _condition(support: float | str, given: str | None) -> str:
-    if given is not None:
-        return given
-    named = {"pretension": CONDITION_PRETENSION, 0.25: CONDITION_SUPPORT_25, 0.5: CONDITION_SUPPORT_50}
-    if support in named:
-        return named[support]
-    raise ParameterError(f"no study condition for support {support}: give --condition")
+def _support_of(condition: str) -> Support:
+    value = CONDITION_SUPPORT[condition]
+    return "pretension" if isinstance(value, str) else value
+
+
+def _support_and_condition(support_text: str | None, given: str | None) -> tuple[Support, str | None]:
+    """The run's support and condition, each from the other when absent (``contracts.CONDITION_SUPPORT``).
+
+    Neither given: 50 % support. A condition that contradicts the support is refused, so that no
+    trial is ever stored under a condition it did not run in. A support no condition has (0.3) gives
+    no condition: fine for a free run, refused by :func:`run` when the trial is recorded.
+    """
+    if support_text is None:
+        return (_support_of(given) if given is not None else 0.5), given or CONDITION_SUPPORT_50
+    support = _support(support_text)
+    named = [condition for condition, value in CONDITION_SUPPORT.items() if value == support]
+    if given is None:
+        return support, named[0] if named else None
+    if given not in named:
+        expected = _support_of(given)
+        wanted = (
+            "no --support (no suit: the motor stays at zero torque)"
+            if expected is None
+            else f"--support {expected}"
+        )
+        raise ParameterError(
+            f"--condition {given} contradicts --support {support_text}: {given} means {wanted}"
+        )
+    return support, given
 
 
 def _reference(args: argparse.Namespace) -> TrialReference:
@@ -152,8 +202,11 @@ class _Status:
         while not self._stop.wait(1.0):
             row = self.latest
             if row is not None:
-                print(f"t {row[0]:6.1f} s  elevation {math.degrees(row[2]):6.1f}°  desired {row[4]:5.1f} N  "
-                      f"torque {row[6]:5.2f} Nm  load cell {row[9]:6.1f} N", file=sys.stderr)
+                print(
+                    f"t {row[0]:6.1f} s  elevation {math.degrees(row[2]):6.1f}°  desired {row[4]:5.1f} N  "
+                    f"torque {row[6]:5.2f} Nm  load cell {row[9]:6.1f} N",
+                    file=sys.stderr,
+                )
 
     def __enter__(self) -> _Status:
         self._thread.start()
@@ -174,8 +227,15 @@ def _serving(args: argparse.Namespace, model: CompensationModel) -> Iterator[Ser
         raise BowdenError(
             f"bowden run --serve needs the web extra ({error.name} is missing): pip install 'bowden[web]'"
         ) from None
-    config = ServeConfig(store_path=args.record, model=model, backend=CommandLineBackend(args.backend),
-                         host=args.host, port=args.port, rate_hz=args.rate, safety=safety_config(args))
+    config = ServeConfig(
+        store_path=args.record,
+        model=model,
+        backend=CommandLineBackend(args.backend),
+        host=args.host,
+        port=args.port,
+        rate_hz=args.rate,
+        safety=safety_config(args),
+    )
     with ServerThread(config) as server:
         for line in server.announcement(title="bowden run --serve"):
             print(line, flush=True)
@@ -188,13 +248,88 @@ def _serving(args: argparse.Namespace, model: CompensationModel) -> Iterator[Ser
                 time.sleep(0.02)
 
 
-def _setup(args: argparse.Namespace, support: float | str, reference: TrialReference) -> TrialSetup:
-    """The run as the browsers see it (the console's trial fields)."""
+_WEARER_FLAGS: Final = {
+    "height_m": "--height",
+    "mass_kg": "--mass",
+    "sex": "--sex",
+    "hand_load_kg": "--hand-load",
+}
+
+
+def _wearer(args: argparse.Namespace) -> Subject:
+    """The wearer's anthropometrics, checked with the hand load (errors name the flag)."""
+    try:
+        subject = Subject(height_m=args.height, mass_kg=args.mass, sex=args.sex)
+        arm_model(subject, args.hand_load)
+    except ParameterError as error:
+        flag = next((f for field, f in _WEARER_FLAGS.items() if str(error).startswith(field)), "wearer")
+        raise ParameterError(f"{flag}: {error}") from None
+    return subject
+
+
+def _controller(
+    model: CompensationModel, support: Support, subject: Subject, hand_load_kg: float
+) -> StepController:
+    """The condition's controller: none (zero torque) without the suit, else the sensorless one."""
+    if support is None:
+        return NoAssistance()
+    return build_controller(model=model, support=support, subject=subject, hand_load_kg=hand_load_kg)
+
+
+def _record_participant(path: Path, participant: str, subject: Subject) -> None:
+    """Add the wearer to the store's participants table, or check that it holds the same values.
+
+    Opening the store here also proves the ``--record`` path usable before any device is opened.
+    A participant stored with other anthropometrics is refused rather than overwritten: the
+    defaults of --height/--mass/--sex must never replace what a study recorded.
+    """
+    from bowden.study.store import StudyStore  # cli wires study and runtime together
+
+    try:
+        opened = StudyStore(path, synchronous="FULL")
+    except OSError as error:  # the store's folder cannot be made (e.g. under /proc)
+        raise StoreError(f"cannot open the study store {path}: {error}") from None
+    with opened as store:
+        stored = store.participants()
+        row = stored[stored["id"] == participant]
+        if row.empty:
+            store.add_participant(participant, subject)
+            return
+        known = Subject(
+            height_m=float(row["height_m"].iloc[0]),
+            mass_kg=float(row["mass_kg"].iloc[0]),
+            sex=row["sex"].iloc[0],
+        )
+        if not (
+            known.sex == subject.sex
+            and math.isclose(known.height_m, subject.height_m, rel_tol=1e-9)
+            and math.isclose(known.mass_kg, subject.mass_kg, rel_tol=1e-9)
+        ):
+            raise ParameterError(
+                f"participant {participant} is in {path} as {known.sex}, {known.height_m:g} m, "
+                f"{known.mass_kg:g} kg, but this run says {subject.sex}, {subject.height_m:g} m, "
+                f"{subject.mass_kg:g} kg: pass --sex/--height/--mass as stored, or another --participant"
+            )
+
+
+def _setup(
+    args: argparse.Namespace,
+    participant: str,
+    condition: str,
+    support: Support,
+    reference: TrialReference,
+    subject: Subject,
+) -> TrialSetup:
+    """The run as the browsers see it (the console's trial fields, also the trial's metadata)."""
     return TrialSetup(
-        participant=args.participant, condition=_condition(support, args.condition), speed=args.speed,
-        support=support if isinstance(support, float) else "pretension",
-        repetitions=reference.repetitions, lead_in_s=reference.start_s,
-        subject=Subject(height_m=args.height, mass_kg=args.mass, sex=args.sex), hand_load_kg=args.hand_load,
+        participant=participant,
+        condition=condition,
+        speed=args.speed,
+        support=support,
+        repetitions=reference.repetitions,
+        lead_in_s=reference.start_s,
+        subject=subject,
+        hand_load_kg=args.hand_load,
     )
 
 
@@ -203,43 +338,74 @@ def run_trial(
     backend: Backend,
     recorder: Recorder | None,
     *,
-    model: CompensationModel,
+    controller: StepController,
     reference: TrialReference,
+    setup: TrialSetup | None = None,
     server: ServerThread | None = None,
 ) -> LoopReport:
-    """Build the controller and run one trial on ``backend`` (SIGINT/SIGTERM stop it safely).
+    """Run one trial of ``controller`` on ``backend`` (SIGINT/SIGTERM stop it safely).
 
-    With ``server``, the trial is also the server's current trial: its rows go to the browsers
-    through a non-blocking tap, and the console's stop button asks this loop for its safe stop.
+    With ``server`` (and the trial's ``setup``), the trial is also the server's current trial: its
+    rows go to the browsers through a non-blocking tap, and the console's stop button asks this
+    loop for its safe stop.
     """
-    support = _support(args.support)
-    controller = build_controller(
-        model=model, support=support,  # type: ignore[arg-type]  # "pretension" checked by _support
-        subject=Subject(height_m=args.height, mass_kg=args.mass, sex=args.sex), hand_load_kg=args.hand_load,
-    )
     # The real suit follows no reference of its own; one is recorded when it is shown (--serve).
     shown = reference.elevation_rad if server is not None else None
     loop = ControlLoop(
-        controller=controller, motor=backend.motor, elevation_sensor=backend.imu, clock=backend.clock,
+        controller=controller,
+        motor=backend.motor,
+        elevation_sensor=backend.imu,
+        clock=backend.clock,
         config=LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args)),
         tension_sensor=backend.load_cell,
         reference_elevation=backend.reference_elevation or shown,
     )
     sinks: list[Callable[[Row], None]] = [recorder.record] if recorder is not None else []
-    if server is not None and recorder is not None:
+    if server is not None and recorder is not None and setup is not None:
         from bowden.web.suits import OpenSuit
 
-        suit = OpenSuit(motor=backend.motor, elevation_sensor=backend.imu, clock=backend.clock,
-                        tension_sensor=backend.load_cell, description=backend.describe)
-        sinks.append(server.web.manager.attach(_setup(args, support, reference), suit, loop, recorder))
+        suit = OpenSuit(
+            motor=backend.motor,
+            elevation_sensor=backend.imu,
+            clock=backend.clock,
+            tension_sensor=backend.load_cell,
+            description=backend.describe,
+        )
+        sinks.append(server.web.manager.attach(setup, suit, loop, recorder))
     with _Status(sinks) as status, stop_on_signals(loop.request_stop):
         loop.record = status
         return loop.run()
 
 
+def _trial_info(args: argparse.Namespace, setup: TrialSetup, reference: TrialReference) -> TrialInfo:
+    """The trial's row in the store; its metadata follows the keys ``bowden serve`` writes."""
+    # The simulated arm follows the reference and --serve shows it; otherwise (the real suit, no
+    # display) nobody follows it and the trial holds whatever number of cycles the wearer made.
+    followed = args.backend == BACKEND_SIM or args.serve
+    metadata: dict[str, Any] = {
+        "source": "bowden run --serve" if args.serve else "bowden run",
+        "backend": BACKEND_SIM if args.backend == BACKEND_SIM else BACKEND_CAN,
+        "rate_hz": args.rate,
+        "bowden_version": __version__,
+        "model": str(args.model) if args.model else "ideal (simulation)",
+        **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},
+    }
+    if followed:
+        metadata["reference"] = reference.to_json()
+    else:
+        metadata["repetitions"] = None  # any number: the analysis takes the cycles it finds
+    return TrialInfo(
+        participant=setup.participant,
+        condition=setup.condition,
+        speed=args.speed,
+        support=setup.recorded_support,
+        metadata=metadata,
+    )
+
+
 def run(args: argparse.Namespace) -> int:
-    support = _support(args.support)
-    participant_id(args.participant, "--participant")
+    support, condition = _support_and_condition(args.support, args.condition)
+    participant = participant_id(args.participant, "--participant")
     options = None
     if args.backend == "can":
         if args.model is None:
@@ -248,35 +414,47 @@ def run(args: argparse.Namespace) -> int:
         require_hardware_extra("bowden run", options)
     if args.serve and args.record is None:
         raise ParameterError("--serve needs --record study.db (the trial and the questionnaires go there)")
-    # Everything that can be wrong with the arguments is found before any device is touched.
+    if args.record is not None and condition is None:
+        raise ParameterError(f"no study condition for support {support}: give --condition")
+    # Everything that can be wrong is found before any device is touched (on the real suit,
+    # opening it enters motor mode): the limits, the reference, the model, the wearer, the
+    # controller, and the store, which must open and take the participant.
     LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args))
     reference = _reference(args)
     model = _model(args)
-    trial = None
+    subject = _wearer(args)
+    controller = _controller(model, support, subject, args.hand_load)
+    setup = trial = None
+    if condition is not None:
+        setup = _setup(args, participant, condition, support, reference, subject)
     if args.record is not None:
-        metadata: dict[str, Any] = {"backend": args.backend, "rate_hz": args.rate, "bowden": __version__,
-                                    "model": str(args.model) if args.model else "ideal (simulation)",
-                                    "reference": reference.to_json()}
-        if args.serve:
-            metadata["source"] = "bowden run --serve"
-        trial = TrialInfo(participant=args.participant, condition=_condition(support, args.condition),
-                          speed=args.speed, support=support if isinstance(support, float) else None,
-                          metadata=metadata)
+        assert setup is not None  # a recorded trial has a condition (checked above)
+        trial = _trial_info(args, setup, reference)
+        _record_participant(args.record, participant, subject)
     with ExitStack() as stack:
         server = stack.enter_context(_serving(args, model)) if args.serve else None
-        opener = (open_sim_backend(reference=reference) if options is None else open_can_backend(options))
-        backend = stack.enter_context(opener)
-        print(f"bowden run: {backend.describe}", file=sys.stderr)
         recorder = Recorder(args.record, trial).start() if trial is not None else None
         report: LoopReport | None = None
         error = "the run did not finish"
         try:
-            report = run_trial(args, backend, recorder, model=model, reference=reference, server=server)
+            opener = open_sim_backend(reference=reference) if options is None else open_can_backend(options)
+            backend = stack.enter_context(opener)
+            print(f"bowden run: {backend.describe}", file=sys.stderr)
+            report = run_trial(
+                args,
+                backend,
+                recorder,
+                controller=controller,
+                reference=reference,
+                setup=setup,
+                server=server,
+            )
             error = ""
             if recorder is not None:
                 fault = report.fault.name if report.fault else "NONE"
-                recorder.event(report.stop_time_s, "safe_stop" if report.clean else "fault",
-                               f"{fault}: {report.reason}")
+                recorder.event(
+                    report.stop_time_s, "safe_stop" if report.clean else "fault", f"{fault}: {report.reason}"
+                )
         except BowdenError as exc:
             error = str(exc)
             raise
@@ -292,6 +470,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"loop timing: {report.timing.describe()}; motor timeouts {report.motor_timeouts}")
     if recorder is not None:
         gap_ms = 1e3 * recorder.stats.max_commit_gap_s
-        print(f"recorded {recorder.stats.committed_rows} cycles into {args.record} "
-              f"(trial {recorder.trial_id}, longest gap between commits {gap_ms:.0f} ms)")
+        print(
+            f"recorded {recorder.stats.committed_rows} cycles into {args.record} "
+            f"(trial {recorder.trial_id}, longest gap between commits {gap_ms:.0f} ms)"
+        )
     return 0 if report.clean else 3
