@@ -98,7 +98,8 @@ def test_an_unwritable_output_is_one_line_naming_path_and_reason_before_any_work
     path = tmp_path / target
     assert run_analyze(study, "--report", tmp_path / "report.html", flag, path) == 1
     err = capsys.readouterr().err
-    assert err.startswith(f"bowden: error: cannot write {flag} {path}: ") and reason in err
+    what = {"--report": "the report (--report)", "--export": "the export (--export)"}[flag]
+    assert err.startswith(f"bowden: error: cannot write {what} to {path}: ") and reason in err
     assert "Traceback" not in err and err.count("\n") == 1
     assert not (tmp_path / "report.html").exists()  # the report is not written when the export cannot be
     assert store_files(study) == before
@@ -111,7 +112,10 @@ def test_a_read_only_folder_is_refused(
     if not Path("/proc/self").is_dir():
         pytest.skip("needs Linux /proc")
     assert run_analyze(study, "--report", "/proc/report.html") == 1
-    assert "cannot write --report /proc/report.html: /proc takes no new files" in capsys.readouterr().err
+    assert (
+        "cannot write the report (--report) to /proc/report.html: /proc takes no new files"
+        in capsys.readouterr().err
+    )
 
 
 def test_export_emg_needs_export(study: Path, capsys: pytest.CaptureFixture[str]) -> None:

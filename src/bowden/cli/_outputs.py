@@ -33,28 +33,29 @@ def refuse_overwriting_inputs(flag: str, output: Path, inputs: Mapping[Path, str
             )
 
 
-def check_output_file(flag: str, path: Path, *, create_parents: bool) -> None:
+def check_output_file(what: str, path: Path, *, create_parents: bool) -> None:
     """Raise ``OutputFileError`` unless a file can be written at ``path``.
 
-    ``create_parents`` says whether the writer makes missing folders (then the nearest existing one
-    must take new entries) or needs the folder to exist already.
+    ``what`` names the output in the message (``"the report (--report)"``). ``create_parents`` says
+    whether the writer makes missing folders (then the nearest existing one must take new entries) or
+    needs the folder to exist already.
     """
     if path.is_dir():
-        raise OutputFileError(f"cannot write {flag} {path}: it is a directory; give a file name")
+        raise OutputFileError(f"cannot write {what} to {path}: it is a directory; give a file name")
     if not create_parents and not path.parent.is_dir():
         reason = "is not a directory" if path.parent.exists() else "does not exist"
-        raise OutputFileError(f"cannot write {flag} {path}: the folder {path.parent} {reason}")
-    _probe_folder(flag, path, path.parent)
+        raise OutputFileError(f"cannot write {what} to {path}: the folder {path.parent} {reason}")
+    _probe_folder(what, path, path.parent)
 
 
-def check_output_directory(flag: str, path: Path) -> None:
+def check_output_directory(what: str, path: Path) -> None:
     """Raise ``OutputFileError`` unless ``path`` is (or can be made) a directory that takes files."""
     if path.exists() and not path.is_dir():
-        raise OutputFileError(f"cannot write {flag} {path}: it exists and is not a directory")
-    _probe_folder(flag, path, path)
+        raise OutputFileError(f"cannot write {what} to {path}: it exists and is not a directory")
+    _probe_folder(what, path, path)
 
 
-def _probe_folder(flag: str, path: Path, folder: Path) -> None:
+def _probe_folder(what: str, path: Path, folder: Path) -> None:
     """Create and delete a file in ``folder`` (or its nearest existing ancestor).
 
     Permission bits do not tell: root passes ``os.access`` on a read-only file system, and pseudo file
@@ -64,13 +65,13 @@ def _probe_folder(flag: str, path: Path, folder: Path) -> None:
     while not existing.exists() and existing != existing.parent:
         existing = existing.parent
     if not existing.is_dir():
-        raise OutputFileError(f"cannot write {flag} {path}: {existing} is not a directory")
+        raise OutputFileError(f"cannot write {what} to {path}: {existing} is not a directory")
     try:
         fd, probe = tempfile.mkstemp(prefix=".bowden-write-check-", dir=existing)
     except OSError as error:
         reason = error.strerror or str(error)
         raise OutputFileError(
-            f"cannot write {flag} {path}: {existing} takes no new files ({reason})"
+            f"cannot write {what} to {path}: {existing} takes no new files ({reason})"
         ) from None
     os.close(fd)
     os.unlink(probe)

@@ -51,10 +51,10 @@ def run(args: argparse.Namespace) -> int:
     # Every output is checked before the analysis runs: a bad path costs neither an input nor the time.
     inputs = _inputs(store, bench)
     refuse_overwriting_inputs("--report", report, inputs)
-    check_output_file("--report", report, create_parents=True)
+    check_output_file("the report (--report)", report, create_parents=True)
     if args.export is not None:
         refuse_overwriting_inputs("--export", args.export, inputs)
-        check_output_directory("--export", args.export)
+        check_output_directory("the export (--export)", args.export)
         written = {**inputs, report: "the --report file"}
         for path in export_paths(args.export, file_format=args.format, include_emg=args.export_emg):
             refuse_overwriting_inputs("--export", path, written)

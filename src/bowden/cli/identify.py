@@ -13,6 +13,7 @@ import math
 import sys
 from pathlib import Path
 
+from bowden.cli._outputs import check_output_file, refuse_overwriting_inputs
 from bowden.errors import OutputFileError
 from bowden.identify.estimator import TransmissionIdentifier
 from bowden.identify.figure import save_identification_figure
@@ -67,6 +68,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
+    _check_outputs(args.output, args.figure, args.bench)
     settings = PreprocessSettings(
         cutoff_hz=args.cutoff_hz,
         min_speed_rad_s=math.radians(args.min_speed_deg_s),
@@ -85,10 +87,7 @@ def run(args: argparse.Namespace) -> int:
         identifier.fit(read_bench_recording(args.bench, limits=identifier.limits, allow_extra_columns=True))
     else:
         identifier.fit(args.bench)
-    try:
-        identifier.model_.save(args.output)
-    except OSError as error:
-        raise OutputFileError(f"cannot write the model to {args.output}: {error.strerror or error}") from None
+    identifier.model_.save(args.output)
     print(identifier.summary_.format())
     print(f"Model written to {args.output}")
     if args.figure is not None:
@@ -98,3 +97,22 @@ def run(args: argparse.Namespace) -> int:
     if identifier.summary_.warnings:
         print(f"bowden identify: {len(identifier.summary_.warnings)} warning(s), see above", file=sys.stderr)
     return 0
+
+
+def _check_outputs(model: Path, figure: Path | None, benches: list[Path]) -> None:
+    """Refuse outputs that name an input or cannot be written, before the fit (no half result)."""
+    inputs = {bench: "a bench recording to identify from" for bench in benches}
+    refuse_overwriting_inputs("-o", model, inputs)
+    check_output_file("the model (-o)", model, create_parents=False)
+    if figure is None:
+        return
+    refuse_overwriting_inputs("--figure", figure, {**inputs, model: "the model file (-o)"})
+    check_output_file("the figure (--figure)", figure, create_parents=False)
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    kinds = FigureCanvasBase.get_supported_filetypes()
+    if figure.suffix and figure.suffix[1:].lower() not in kinds:
+        raise OutputFileError(
+            f"cannot write the figure (--figure) to {figure}: matplotlib does not write "
+            f"{figure.suffix!r} files (use one of {', '.join('.' + kind for kind in sorted(kinds))})"
+        )
