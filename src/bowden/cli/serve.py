@@ -25,6 +25,7 @@ from bowden.cli._suit import (
     require_hardware_extra,
     safety_config,
 )
+from bowden.contracts import BACKEND_CAN
 from bowden.errors import BowdenError, ParameterError
 
 if TYPE_CHECKING:
@@ -82,7 +83,7 @@ def can_backend(options: CanSuitOptions) -> SuitBackend:
             yield OpenSuit(motor=backend.motor, elevation_sensor=backend.imu, clock=backend.clock,
                            tension_sensor=backend.load_cell, description=backend.describe)
 
-    return ContextBackend("can", open_suit)
+    return ContextBackend(BACKEND_CAN, open_suit)
 
 
 def serve_config(args: argparse.Namespace) -> ServeConfig:

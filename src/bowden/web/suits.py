@@ -20,6 +20,7 @@ from contextlib import AbstractContextManager, ExitStack
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from bowden.contracts import BACKEND_SIM
 from bowden.errors import ConflictError, ParameterError
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
 from bowden.sim.arm import ParticipantArm
@@ -80,7 +81,8 @@ class ContextBackend:
     Parameters
     ----------
     name
-        Short name ("can", "sim-wire").
+        Short name, one of ``contracts.BACKEND_*`` (the analysis reads it to tell simulated from
+        measured trials).
     opener
         Called with the trial's setup; returns the context manager.
     """
@@ -206,7 +208,7 @@ class SimulatedBackend:
 
     time_scale: float = 1.0
     seed: int = 0
-    name: str = "sim"
+    name: str = BACKEND_SIM
 
     def __post_init__(self) -> None:  # refused when the server starts, not at every trial
         check_time_scale(self.time_scale)
