@@ -68,9 +68,10 @@ def test_unfinished_trials_are_discarded(tmp_path):
     path = tmp_path / "study.db"
     with StudyStore(path) as store:
         store.write_trial(INFO, samples())
+        # A trial of the study pipeline a crash left open (others are kept: test_pipeline_directory).
         store._db.execute(
-            "INSERT INTO trials (participant, condition, speed, started_utc) "
-            "VALUES ('P02', 'no_suit', 'V1', 'x')"
+            "INSERT INTO trials (participant, condition, speed, started_utc, metadata) "
+            """VALUES ('P02', 'no_suit', 'V1', 'x', '{"backend": "sim", "recorded_by": "bowden study"}')"""
         )
         store._db.commit()
         assert len(store.completed_trials()) == 1

@@ -10,7 +10,10 @@ Stages, each writing into the study directory:
    questionnaires). A trial already in the store is skipped, so an interrupted run resumes;
 5. **analysis**, **statistics** and **report** — as ``bowden analyze`` does for a real study.
 
-``--force`` starts again from an empty directory's worth of results.
+``--force`` starts again from an empty directory's worth of results. A directory whose results the
+run cannot vouch for is refused before anything is written: results without ``settings.json`` or of
+other settings, and — even with ``--force`` — a store holding trials the pipeline did not record (a
+recording from the suit is data, never to be deleted or mixed with a virtual cohort).
 """
 
 from __future__ import annotations
@@ -21,10 +24,12 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 from bowden import __version__
 from bowden import contracts as c
-from bowden.errors import ParameterError
+from bowden._atomic_file import write_text_atomically
+from bowden.errors import OutputFileError, ParameterError, StoreError
 from bowden.identify import TransmissionIdentifier
 from bowden.model import CompensationModel
 from bowden.runtime.recorder import TrialInfo
@@ -35,6 +40,7 @@ from bowden.sim.participants import VirtualParticipant, generate_cohort
 from bowden.sim.questionnaires import questionnaire_answers
 from bowden.sim.results import TrialSimulation
 from bowden.study.analyze import AnalysisReport, analyze_store
+from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE, read_trial_origins
 from bowden.study.progress import StageProgress
 from bowden.study.store import StudyStore
 
@@ -109,28 +115,30 @@ def run_study(
     force: bool = False,
     progress: StageProgress | None = None,
 ) -> StudyResult:
-    """Run (or resume) the simulated study in ``directory`` and write its report."""
-    out = Path(directory)
-    out.mkdir(parents=True, exist_ok=True)
+    """Run (or resume) the simulated study in ``directory`` and write its report.
+
+    Raises
+    ------
+    OutputFileError
+        ``directory`` is a file or cannot be created or written.
+    StoreError
+        Its ``study.db`` holds trials the pipeline did not record, or is not a study store; it holds
+        results but no ``settings.json``; its ``settings.json`` is damaged (without ``force``).
+    ParameterError
+        It holds a run with other settings (without ``force``).
+    """
+    out = _study_directory(directory)
     progress = progress if progress is not None else StageProgress(enabled=False)
     timer = _Timer()
     settings_file = out / "settings.json"
+    _check_directory_is_ours(out, settings, force=force)
     if force:
-        for name in (
-            "bench.parquet",
-            "model.json",
-            "study.db",
-            "study.db-wal",
-            "study.db-shm",
-            "report.html",
-        ):
+        for name in _RESULT_FILES:
             (out / name).unlink(missing_ok=True)
-    elif settings_file.exists() and json.loads(settings_file.read_text()) != asdict(settings):
-        raise ParameterError(
-            f"{out} holds a study run with other settings ({settings_file}); "
-            "use another --out directory or --force to start again"
-        )
-    settings_file.write_text(json.dumps(asdict(settings), indent=2) + "\n")
+    try:
+        write_text_atomically(settings_file, json.dumps(asdict(settings), indent=2) + "\n")
+    except OSError as error:
+        raise OutputFileError(f"cannot write {settings_file}: {error.strerror or error}") from None
 
     with timer.stage("bench"):
         bench_path = _bench_stage(settings, out, progress)
@@ -176,6 +184,79 @@ def run_study(
         stage_seconds=timer.seconds,
         analysis=analysis,
     )
+
+
+# What a run leaves in its directory besides settings.json (--force deletes these).
+_RESULT_FILES = ("bench.parquet", "model.json", "study.db", "study.db-wal", "study.db-shm", "report.html")
+
+
+def _study_directory(directory: str | Path) -> Path:
+    out = Path(directory)
+    if out.exists() and not out.is_dir():
+        raise OutputFileError(f"--out {out} is a file, not a directory: give a directory for the study")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise OutputFileError(f"cannot create the study directory {out}: {error.strerror or error}") from None
+    return out
+
+
+def _check_directory_is_ours(out: Path, settings: StudySettings, *, force: bool) -> None:
+    """Refuse a directory whose results this run cannot vouch for, before anything is written.
+
+    A store holding trials the pipeline did not record is refused even with ``force``: those are
+    recordings, and ``force`` would delete them. Results without a settings.json cannot be checked
+    against ``settings``; results of other settings would mix two studies.
+    """
+    store = out / "study.db"
+    origins = read_trial_origins(store)
+    if origins.foreign:
+        shown = "; ".join(origins.foreign[:3]) + ("; ..." if len(origins.foreign) > 3 else "")
+        raise StoreError(
+            f"{store} holds {len(origins.foreign)} trial(s) that bowden study did not record ({shown}): "
+            "bowden study never deletes or adds to another recording's store; use another --out directory"
+        )
+    if force:
+        return
+    settings_file = out / "settings.json"
+    stored = _read_settings(settings_file)
+    if stored is None:
+        results = [name for name in ("bench.parquet", "model.json") if (out / name).exists()]
+        if origins.n_trials:
+            results.insert(0, f"study.db with {origins.n_trials} trial(s)")
+        if results:
+            raise StoreError(
+                f"{out} holds {', '.join(results)} but no settings.json, so they cannot be checked against "
+                "these settings: use another --out directory, or --force to start again"
+            )
+    elif stored != asdict(settings):
+        raise ParameterError(
+            f"{out} holds a study run with other settings ({settings_file}); "
+            "use another --out directory or --force to start again"
+        )
+
+
+def _read_settings(path: Path) -> dict[str, Any] | None:
+    """The settings a previous run stored, None if there is no such file."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError) as error:
+        raise StoreError(f"cannot read {path}: {error}; use --force to start again") from None
+    try:
+        stored = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise StoreError(
+            f"{path} is damaged (not JSON: line {error.lineno}, column {error.colno}: {error.msg}); "
+            "use --force to start again or another --out directory"
+        ) from None
+    if not isinstance(stored, dict):
+        raise StoreError(
+            f"{path} is damaged (a JSON {type(stored).__name__}, not the settings object); "
+            "use --force to start again or another --out directory"
+        )
+    return stored
 
 
 def _bench_stage(settings: StudySettings, out: Path, progress: StageProgress) -> Path:
@@ -244,7 +325,8 @@ def _store_trial(store: StudyStore, trial: TrialSimulation, settings: StudySetti
         speed=trial.speed,
         support=support if isinstance(support, float) else None,
         metadata={
-            "backend": "simulation",
+            "backend": c.BACKEND_SIM,
+            RECORDED_BY_KEY: STUDY_PIPELINE,
             "bowden_version": __version__,
             "seed": trial.seed,
             "repetitions": trial.repetitions,

@@ -43,6 +43,7 @@ from bowden.model import Subject
 from bowden.runtime.recorder import TrialInfo, utc_now_iso
 from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection, create_schema
 from bowden.study.export import export_store
+from bowden.study.ownership import made_by_study_pipeline, metadata_object
 
 # One definition of the questionnaire table, shared with the browser forms that write it.
 from bowden.web.questionnaire_store import QUESTIONNAIRES_DDL
@@ -266,9 +267,15 @@ class StudyStore:
         return metadata
 
     def discard_unfinished_trials(self) -> int:
-        """Delete trials a crash left open (with their samples and EMG); return how many."""
+        """Delete the study pipeline's trials a crash left open (with their samples, EMG and events).
+
+        Only trials ``bowden study`` recorded (:func:`bowden.study.ownership.made_by_study_pipeline`)
+        are deleted: an unfinished trial recorded on the suit keeps every sample committed before the
+        crash, and those are data. Returns how many trials were deleted.
+        """
         with self._db:
-            ids = [r[0] for r in self._db.execute("SELECT id FROM trials WHERE ended_utc IS NULL")]
+            rows = self._db.execute("SELECT id, metadata FROM trials WHERE ended_utc IS NULL").fetchall()
+            ids = [row[0] for row in rows if made_by_study_pipeline(metadata_object(row[1]))]
             for trial_id in ids:
                 for table in ("samples", "emg", "events"):
                     self._db.execute(f"DELETE FROM {table} WHERE trial_id = ?", (trial_id,))
