@@ -118,6 +118,18 @@ def test_a_read_only_folder_is_refused(
     )
 
 
+def test_a_report_path_holding_another_file_is_refused_before_the_analysis(
+    study: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    notes = tmp_path / "notes.txt"
+    notes.write_text("the participant's remarks")
+    before = store_files(study)
+    assert run_analyze(study, "--report", notes) == 1
+    assert f"refusing to replace {notes} by the report: it is not an HTML file" in capsys.readouterr().err
+    assert notes.read_text() == "the participant's remarks"
+    assert store_files(study) == before  # not analysed: no outcomes written into the store
+
+
 def test_export_emg_needs_export(study: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert run_analyze(study, "--export-emg") == 1
     assert "--export-emg needs --export DIR" in capsys.readouterr().err

@@ -9,6 +9,7 @@ from bowden.cli._outputs import check_output_directory, check_output_file, refus
 from bowden.errors import ParameterError, StoreError
 from bowden.study.analyze import analyze_store
 from bowden.study.export import export_paths
+from bowden.study.html import check_report_path
 from bowden.study.progress import StageProgress
 
 
@@ -52,6 +53,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = _inputs(store, bench)
     refuse_overwriting_inputs("--report", report, inputs)
     check_output_file("the report (--report)", report, create_parents=True)
+    check_report_path(report)
     if args.export is not None:
         refuse_overwriting_inputs("--export", args.export, inputs)
         check_output_directory("the export (--export)", args.export)

@@ -104,7 +104,7 @@ class HtmlDocument:
             path and the reason).
         """
         path = Path(path)
-        _refuse_replacing_other_files(path)
+        check_report_path(path)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
             return write_text_atomically(path, self.render())
@@ -112,7 +112,12 @@ class HtmlDocument:
             raise OutputFileError(f"cannot write the report to {path}: {error.strerror or error}") from None
 
 
-def _refuse_replacing_other_files(path: Path) -> None:
+def check_report_path(path: Path) -> None:
+    """Raise ``OutputFileError`` if ``path`` is a directory or a file other than an HTML document.
+
+    :meth:`HtmlDocument.write` checks this itself; callers about to spend minutes on a report check
+    it first.
+    """
     if path.is_dir():
         raise OutputFileError(f"cannot write the report to {path}: it is a directory; give a file name")
     try:
