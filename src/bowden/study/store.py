@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 import sqlite3
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -37,7 +36,19 @@ from typing import Any, Final, Self
 import numpy as np
 import pandas as pd
 
-from bowden.contracts import CONDITIONS, MUSCLES, TRIAL_COLUMNS, TRIAL_TIME
+from bowden.contracts import (
+    BORG_RPE_ITEM,
+    CONDITIONS,
+    FATIGUE_SITES,
+    MUSCLES,
+    NORDIC_SITES,
+    QUESTIONNAIRE_BORG_RPE,
+    QUESTIONNAIRE_FATIGUE,
+    QUESTIONNAIRE_NORDIC,
+    TRIAL_COLUMNS,
+    TRIAL_TIME,
+    is_participant_id,
+)
 from bowden.errors import StoreError
 from bowden.model import Subject
 from bowden.runtime.recorder import TrialInfo, utc_now_iso
@@ -47,8 +58,14 @@ from bowden.study.ownership import made_by_study_pipeline, metadata_object
 
 # One definition of the questionnaire table, shared with the browser forms that write it.
 from bowden.web.questionnaire_store import QUESTIONNAIRES_DDL
+from bowden.web.questionnaires import BORG_HIGH, BORG_LOW, LIKERT_HIGH, LIKERT_LOW
 
-PARTICIPANT_ID_PATTERN: Final = re.compile(r"^[A-Za-z]{0,4}[0-9]{1,4}$")
+# The items and score range of each questionnaire (what the browser forms and the simulation write).
+_QUESTIONNAIRE_ITEMS: Final = {
+    QUESTIONNAIRE_NORDIC: (NORDIC_SITES, LIKERT_LOW, LIKERT_HIGH),
+    QUESTIONNAIRE_BORG_RPE: ((BORG_RPE_ITEM,), BORG_LOW, BORG_HIGH),
+    QUESTIONNAIRE_FATIGUE: (FATIGUE_SITES, LIKERT_LOW, LIKERT_HIGH),
+}
 
 _STUDY_DDL: Final = (
     """
@@ -94,13 +111,48 @@ CREATE TABLE IF NOT EXISTS artifacts (
 
 
 def check_participant_id(participant: str) -> str:
-    """Accept pseudonymous ids such as ``P07`` or ``S112``; refuse anything that could be a name."""
-    if not isinstance(participant, str) or not PARTICIPANT_ID_PATTERN.match(participant):
+    """Accept pseudonymous ids such as ``P07`` or ``S112``; refuse anything that could be a name.
+
+    The one rule of :func:`bowden.contracts.is_participant_id` (the whole text: 1–4 capital letters,
+    then 1–4 digits), checked on every write. Reads do not check, so stores written under an older,
+    looser rule stay readable.
+    """
+    if not is_participant_id(participant):
         raise StoreError(
-            f"participant id {participant!r} is not pseudonymous: use up to four letters and a number "
-            "(e.g. P07); never store names"
+            f"participant id {participant!r} is not pseudonymous: use 1–4 capital letters then 1–4 "
+            "digits (e.g. P07); never store names"
         )
     return participant
+
+
+def _questionnaire_answer(
+    label: object, participant: object, condition: object, questionnaire: object, item: object, score: object
+) -> tuple[str, str, str, str, int]:
+    """One checked answer row; a problem is a :class:`StoreError` naming the row (index label)."""
+    where = f"questionnaire answers, row {label!r}"
+    if not is_participant_id(participant):
+        raise StoreError(
+            f"{where}: participant {participant!r} is not a pseudonymous id (1–4 capital letters then "
+            "1–4 digits, e.g. P07; never a name)"
+        )
+    if condition not in CONDITIONS:
+        raise StoreError(f"{where}: unknown condition {condition!r} (known: {', '.join(CONDITIONS)})")
+    if questionnaire not in _QUESTIONNAIRE_ITEMS:
+        raise StoreError(
+            f"{where}: unknown questionnaire {questionnaire!r} (known: {', '.join(_QUESTIONNAIRE_ITEMS)})"
+        )
+    items, low, high = _QUESTIONNAIRE_ITEMS[str(questionnaire)]
+    if item not in items:
+        raise StoreError(f"{where}: {questionnaire} has no item {item!r} (items: {', '.join(items)})")
+    if isinstance(score, bool | np.bool_) or not isinstance(score, int | float | np.integer | np.floating):
+        raise StoreError(f"{where}: score {score!r} of {questionnaire}.{item} is not a number")
+    if not math.isfinite(score):
+        raise StoreError(f"{where}: score of {questionnaire}.{item} is missing ({score!r})")
+    if not float(score).is_integer() or not low <= score <= high:
+        raise StoreError(
+            f"{where}: score {score!r} of {questionnaire}.{item} must be a whole number from {low} to {high}"
+        )
+    return str(participant), str(condition), str(questionnaire), str(item), int(score)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -321,27 +373,39 @@ class StudyStore:
 
     # --- questionnaires --------------------------------------------------------------------------
     def write_questionnaires(self, answers: pd.DataFrame) -> None:
-        """Store answers: columns participant, condition, questionnaire, item, score (replaces repeats)."""
+        """Store answers: columns participant, condition, questionnaire, item, score (replaces repeats).
+
+        Every row is checked before anything is written (all rows are stored or none).
+
+        Raises
+        ------
+        StoreError
+            Naming the row and the problem: a missing column, a participant id that is not
+            pseudonymous, an unknown condition, questionnaire or item, a score that is missing (NaN),
+            not a whole number or outside the questionnaire's range; or the file cannot be written.
+        """
         needed = ("participant", "condition", "questionnaire", "item", "score")
         missing = [name for name in needed if name not in answers.columns]
         if missing:
             raise StoreError(f"questionnaire answers lack the column(s) {missing}")
         now = utc_now_iso()
         rows = []
-        for participant, condition, questionnaire, item, score in answers.loc[:, list(needed)].itertuples(
-            index=False, name=None
+        for label, (participant, condition, questionnaire, item, score) in zip(
+            answers.index, answers.loc[:, list(needed)].itertuples(index=False, name=None), strict=True
         ):
-            check_participant_id(participant)
-            if condition not in CONDITIONS:
-                raise StoreError(f"unknown condition {condition!r} in questionnaire answers")
-            rows.append((participant, condition, questionnaire, item, int(score), now))
-        with self._db:
-            self._db.executemany(
-                "INSERT OR REPLACE INTO questionnaires "
-                "(participant, condition, questionnaire, item, score, submitted_utc) "
-                "VALUES (?, ?, ?, ?, ?, ?)",
-                rows,
+            rows.append(
+                (*_questionnaire_answer(label, participant, condition, questionnaire, item, score), now)
             )
+        try:
+            with self._db:
+                self._db.executemany(
+                    "INSERT OR REPLACE INTO questionnaires "
+                    "(participant, condition, questionnaire, item, score, submitted_utc) "
+                    "VALUES (?, ?, ?, ?, ?, ?)",
+                    rows,
+                )
+        except sqlite3.Error as error:
+            raise StoreError(f"cannot write the questionnaire answers into {self.path}: {error}") from None
 
     def questionnaires(self) -> pd.DataFrame:
         return pd.read_sql_query(
