@@ -203,12 +203,12 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
 
     raising, raising_fit = line("raising")
     lowering, lowering_fit = line("lowering")
-    if not raising.slope_m > lowering.slope_m:
+    if raising.slope_m < lowering.slope_m:  # equal: a frictionless transmission (from_friction(k=0))
         raise read.fail(
             "raising.slope_m",
-            f"({raising.slope_m!r} m) must exceed lowering.slope_m ({lowering.slope_m!r} m): friction in "
-            "the sheath opposes the cable, so raising needs more motor torque per newton of arm tension "
-            "than lowering; the lines look swapped or wrongly split by direction",
+            f"({raising.slope_m!r} m) must not be below lowering.slope_m ({lowering.slope_m!r} m): "
+            "friction in the sheath opposes the cable, so raising needs more motor torque per newton of "
+            "arm tension than lowering; the lines look swapped or wrongly split by direction",
         )
     blend = read.mapping(data, "blend")
     provenance = None
