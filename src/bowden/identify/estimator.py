@@ -39,6 +39,7 @@ from bowden.identify.recording import (
 from bowden.identify.robustfit import BISQUARE_TUNE, RobustFit, robustfit
 from bowden.identify.summary import IdentificationSummary, SummaryThresholds, identification_summary
 from bowden.model import CompensationLine, CompensationModel, LineFitStats, Provenance
+from bowden.model.model_file import MAX_INTERCEPT_NM
 
 RecordingInput = BenchRecording | pd.DataFrame | str | Path | Sequence[str | Path]
 
@@ -64,6 +65,22 @@ _UNIT_FACTORS = (
     (1e-3, "tension_n looks like mN, or motor_torque_nm like kNm"),
     (1 / 9.80665, "motor_torque_nm looks like kgf·m (multiply by 9.80665 for Nm)"),
 )
+
+
+def _check_loadable(raising: RobustFit, lowering: RobustFit) -> None:
+    """Refuse lines that ``model.json`` could not hold (:func:`bowden.model.model_file.load_model`)."""
+    if raising.slope < lowering.slope:
+        raise FitError(
+            f"the raising line's slope ({1e3 * raising.slope:.4g} mm) is below the lowering line's "
+            f"({1e3 * lowering.slope:.4g} mm), which friction cannot do: the directions are swapped; "
+            "check the sign of motor_velocity_rad_s (> 0 while the cable is reeled in)"
+        )
+    for name, fit in ((RAISING, raising), (LOWERING, lowering)):
+        if abs(fit.intercept) > MAX_INTERCEPT_NM:
+            raise FitError(
+                f"the {name} line's intercept is {fit.intercept:.4g} Nm, beyond the motor's peak torque "
+                f"({MAX_INTERCEPT_NM:g} Nm): no friction does that; check the units of motor_torque_nm"
+            )
 
 class TransmissionIdentifier:
     """Identify the raising and lowering compensation lines from a bench recording.
@@ -219,6 +236,7 @@ class TransmissionIdentifier:
         selection = bench_preprocess(data, self.preprocessing)
         fits = {direction: self._fit_direction(selection, direction) for direction in DIRECTIONS}
         self._check_scale(fits[RAISING].slope, fits[LOWERING].slope)
+        _check_loadable(fits[RAISING], fits[LOWERING])
         self.recording_ = data
         self.selection_ = selection
         self.raising_fit_ = fits[RAISING]
