@@ -32,7 +32,7 @@ def run_once(rate_hz: float, duration_s: float, store: Path, safety: SafetyConfi
         model=CompensationModel.from_friction(k=SuitParameters().sheath.kinetic_coefficient),
         support=0.5, subject=Subject(height_m=1.70, mass_kg=63.0, sex="female"),
     )
-    trial = TrialInfo(participant="BENCH", condition="support_50", speed="V1", support=0.5,
+    trial = TrialInfo(participant="B01", condition="support_50", speed="V1", support=0.5,
                       metadata={"benchmark": "loop", "rate_hz": rate_hz})
     with open_sim_backend(speed="V1") as backend, Recorder(store, trial) as recorder:
         loop = ControlLoop(
