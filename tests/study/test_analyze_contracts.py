@@ -122,7 +122,7 @@ def test_bowden_analyze_analyses_the_good_trial_beside_an_empty_one(
     with caplog.at_level(logging.WARNING, logger="bowden.study.analyze"):
         code = main(["analyze", str(store), "--report", str(tmp_path / "r.html"), "--quiet"])
     assert code == 0, capsys.readouterr().err
-    assert "analysed 1 trials" in capsys.readouterr().out
+    assert "analysed 1 trials, skipped 1 (see the report's notes)" in capsys.readouterr().out
     assert any("trial 2 (participant P01, support_50, V3) skipped: the trial has no samples" in r.getMessage()
                for r in caplog.records)
 

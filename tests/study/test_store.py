@@ -132,3 +132,10 @@ def test_participants_questionnaires_outcomes_artifacts_and_export(tmp_path):
     }
     exported = pd.read_csv(tmp_path / "export" / "samples.csv")
     assert len(exported) == 500 and exported["participant"].eq("P01").all()
+
+
+def test_a_store_whose_folder_cannot_be_made_is_a_store_error(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    with pytest.raises(StoreError, match="cannot open the study store"):
+        StudyStore(blocker / "study.db")

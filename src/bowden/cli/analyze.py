@@ -67,7 +67,8 @@ def run(args: argparse.Namespace) -> int:
         with StudyStore(store) as opened:
             files = opened.export(args.export, file_format=args.format, include_emg=args.export_emg)
         print(f"exported {len(files)} tables to {args.export}")
-    print(f"analysed {result.n_trials} trials; report {result.report.resolve()}")
+    skipped = f", skipped {len(result.skipped)} (see the report's notes)" if result.skipped else ""
+    print(f"analysed {result.n_trials} trials{skipped}; report {result.report.resolve()}")
     return 0
 
 

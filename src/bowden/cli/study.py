@@ -25,7 +25,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--out", type=Path, default=Path("bowden-study"), help="study directory")
     parser.add_argument("--quick-bench", action="store_true", help="a reduced identification protocol")
     parser.add_argument("--no-emg", action="store_true", help="do not keep raw sEMG in the store")
-    parser.add_argument("--force", action="store_true", help="redo every stage from scratch")
+    parser.add_argument(
+        "--force", action="store_true",
+        help="redo every stage from scratch (a store holding trials this command did not record, such "
+        "as live recordings, is refused even then)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=run)
 

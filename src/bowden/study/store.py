@@ -185,6 +185,8 @@ class StudyStore:
                     self._db.execute(ddl)
         except sqlite3.Error as error:
             raise StoreError(f"cannot open the study store {self.path}: {error}") from None
+        except OSError as error:  # its folder cannot be made (under a file, /proc, no permission)
+            raise StoreError(f"cannot open the study store {self.path}: {error.strerror or error}") from None
 
     def close(self) -> None:
         self._db.close()
