@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from bowden.cli import build_parser, main
+from bowden.cli._run_plan import run_reference
 from bowden.cli._suit import CanSuitOptions
-from bowden.cli.run import _reference
 from bowden.cli.serve import serve_config
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
@@ -96,7 +96,7 @@ def test_serve_can_needs_a_model_and_run_serve_needs_a_store(tmp_path: Path,
 def test_the_run_reference_holds_the_whole_cycles_that_fit(
     speed: str, duration_s: float, lead_in_s: float, repetitions: int
 ) -> None:
-    reference = _reference(argparse.Namespace(speed=speed, duration=duration_s, lead_in=lead_in_s))
+    reference = run_reference(argparse.Namespace(speed=speed, duration=duration_s, lead_in=lead_in_s))
     assert reference.repetitions == repetitions and reference.start_s == lead_in_s
     assert math.degrees(reference.cycle.low_rad) == pytest.approx(20.0)
     assert math.degrees(reference.cycle.high_rad) == pytest.approx(100.0)
@@ -106,7 +106,7 @@ def test_the_run_reference_holds_the_whole_cycles_that_fit(
 
 def test_the_lead_in_is_checked() -> None:
     with pytest.raises(ParameterError, match="--lead-in"):
-        _reference(argparse.Namespace(speed="V1", duration=30.0, lead_in=-1.0))
+        run_reference(argparse.Namespace(speed="V1", duration=30.0, lead_in=-1.0))
 
 
 def test_the_simulated_arm_follows_the_run_reference_from_the_loop_start(tmp_path: Path) -> None:

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from bowden.cli import main
-from bowden.cli.run import _reference, _trial_info
+from bowden.cli._run_plan import run_reference, trial_info
 from bowden.contracts import BACKEND_CAN, BACKEND_SIM, TRIAL_COLUMNS
 from bowden.model import CompensationModel, Subject
 from bowden.study.store import StudyStore
@@ -188,12 +188,12 @@ def test_the_real_suit_without_a_display_records_no_repetition_count() -> None:
     # cycles the wearer made, and the analysis takes them all (metadata "repetitions": null).
     args = argparse.Namespace(backend="can", serve=False, rate=500.0, model=Path("model.json"),
                               speed="V2", duration=30.0, lead_in=2.0, hand_load=0.5)
-    reference = _reference(args)
+    reference = run_reference(args)
     setup = TrialSetup(participant="P01", condition="support_50", speed="V2", support=0.5,
                        repetitions=reference.repetitions, lead_in_s=2.0,
                        subject=Subject(height_m=1.7, mass_kg=63.0, sex="female"))
-    metadata = _trial_info(args, setup, reference).metadata
+    metadata = trial_info(args, setup, reference).metadata
     assert metadata["backend"] == BACKEND_CAN and metadata["repetitions"] is None
     assert "reference" not in metadata
-    shown = _trial_info(argparse.Namespace(**{**vars(args), "serve": True}), setup, reference).metadata
+    shown = trial_info(argparse.Namespace(**{**vars(args), "serve": True}), setup, reference).metadata
     assert shown["repetitions"] == reference.repetitions == 11

@@ -23,9 +23,18 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Final, Literal
+from typing import TYPE_CHECKING
 
-from bowden import __version__
+from bowden.cli._run_plan import (
+    controller_for,
+    record_participant,
+    run_model,
+    run_reference,
+    support_and_condition,
+    trial_info,
+    trial_setup_of,
+    wearer,
+)
 from bowden.cli._suit import (
     DEFAULT_IMU_PORT,
     Backend,
@@ -37,23 +46,14 @@ from bowden.cli._suit import (
     require_hardware_extra,
     safety_config,
 )
-from bowden.contracts import (
-    BACKEND_CAN,
-    BACKEND_SIM,
-    CONDITION_SUPPORT,
-    CONDITION_SUPPORT_50,
-    CONDITIONS,
-    SPEEDS,
-)
-from bowden.control import build_controller
-from bowden.errors import BowdenError, ParameterError, StoreError
-from bowden.model import CompensationModel, Subject
-from bowden.model.anthropometry import arm_model
-from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row, TrialInfo
+from bowden.contracts import CONDITIONS, SPEEDS
+from bowden.errors import BowdenError, ParameterError
+from bowden.model import CompensationModel
+from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row
 from bowden.runtime.loop import StepController
 from bowden.runtime.signals import stop_on_signals
 from bowden.web.reference import TrialReference
-from bowden.web.trial_setup import NoAssistance, TrialSetup, study_reference
+from bowden.web.trial_setup import TrialSetup
 from bowden.web.validation import participant_id
 
 if TYPE_CHECKING:
@@ -61,7 +61,6 @@ if TYPE_CHECKING:
 
 __all__ = ["DEFAULT_IMU_PORT", "Backend", "open_can_backend", "open_sim_backend", "register", "run"]
 
-MAX_LEAD_IN_S = 10.0
 DRAIN_S = 2.0  # at the end, how long the browsers get to receive the last messages
 
 
@@ -119,69 +118,6 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     add_safety_arguments(parser)
     add_can_arguments(parser)
     parser.set_defaults(handler=run)
-
-
-Support = float | Literal["pretension"] | None  # None: no suit (zero torque)
-
-
-def _support(text: str) -> float | Literal["pretension"]:
-    if text == "pretension":
-        return "pretension"
-    try:
-        value = float(text)
-    except ValueError:
-        raise ParameterError(f"--support must be a fraction 0-1 or 'pretension', got {text!r}") from None
-    if not 0.0 <= value <= 1.0:
-        raise ParameterError(f"--support must be within 0-1, got {value}")
-    return value
-
-
-def _support_of(condition: str) -> Support:
-    value = CONDITION_SUPPORT[condition]
-    return "pretension" if isinstance(value, str) else value
-
-
-def _support_and_condition(support_text: str | None, given: str | None) -> tuple[Support, str | None]:
-    """The run's support and condition, each from the other when absent (``contracts.CONDITION_SUPPORT``).
-
-    Neither given: 50 % support. A condition that contradicts the support is refused, so that no
-    trial is ever stored under a condition it did not run in. A support no condition has (0.3) gives
-    no condition: fine for a free run, refused by :func:`run` when the trial is recorded.
-    """
-    if support_text is None:
-        return (_support_of(given) if given is not None else 0.5), given or CONDITION_SUPPORT_50
-    support = _support(support_text)
-    named = [condition for condition, value in CONDITION_SUPPORT.items() if value == support]
-    if given is None:
-        return support, named[0] if named else None
-    if given not in named:
-        expected = _support_of(given)
-        wanted = (
-            "no --support (no suit: the motor stays at zero torque)"
-            if expected is None
-            else f"--support {expected}"
-        )
-        raise ParameterError(
-            f"--condition {given} contradicts --support {support_text}: {given} means {wanted}"
-        )
-    return support, given
-
-
-def _reference(args: argparse.Namespace) -> TrialReference:
-    """The run's reference: ``--lead-in`` of rest, then the whole cycles at ``--speed`` that fit."""
-    if not (math.isfinite(args.lead_in) and 0.0 <= args.lead_in <= MAX_LEAD_IN_S):
-        raise ParameterError(f"--lead-in must be within 0-{MAX_LEAD_IN_S:g} s, got {args.lead_in}")
-    period = study_reference(args.speed, lead_in_s=0.0, repetitions=1).cycle.period_s
-    repetitions = max(1, min(100, math.floor((args.duration - args.lead_in) / period + 1e-9)))
-    return study_reference(args.speed, lead_in_s=args.lead_in, repetitions=repetitions)
-
-
-def _model(args: argparse.Namespace) -> CompensationModel:
-    if args.model is not None:
-        return CompensationModel.load(args.model)
-    from bowden.sim.parameters import SuitParameters
-
-    return CompensationModel.from_friction(k=SuitParameters().sheath.kinetic_coefficient)
 
 
 class _Status:
@@ -248,91 +184,6 @@ def _serving(args: argparse.Namespace, model: CompensationModel) -> Iterator[Ser
                 time.sleep(0.02)
 
 
-_WEARER_FLAGS: Final = {
-    "height_m": "--height",
-    "mass_kg": "--mass",
-    "sex": "--sex",
-    "hand_load_kg": "--hand-load",
-}
-
-
-def _wearer(args: argparse.Namespace) -> Subject:
-    """The wearer's anthropometrics, checked with the hand load (errors name the flag)."""
-    try:
-        subject = Subject(height_m=args.height, mass_kg=args.mass, sex=args.sex)
-        arm_model(subject, args.hand_load)
-    except ParameterError as error:
-        flag = next((f for field, f in _WEARER_FLAGS.items() if str(error).startswith(field)), "wearer")
-        raise ParameterError(f"{flag}: {error}") from None
-    return subject
-
-
-def _controller(
-    model: CompensationModel, support: Support, subject: Subject, hand_load_kg: float
-) -> StepController:
-    """The condition's controller: none (zero torque) without the suit, else the sensorless one."""
-    if support is None:
-        return NoAssistance()
-    return build_controller(model=model, support=support, subject=subject, hand_load_kg=hand_load_kg)
-
-
-def _record_participant(path: Path, participant: str, subject: Subject) -> None:
-    """Add the wearer to the store's participants table, or check that it holds the same values.
-
-    Opening the store here also proves the ``--record`` path usable before any device is opened.
-    A participant stored with other anthropometrics is refused rather than overwritten: the
-    defaults of --height/--mass/--sex must never replace what a study recorded.
-    """
-    from bowden.study.store import StudyStore  # cli wires study and runtime together
-
-    try:
-        opened = StudyStore(path, synchronous="FULL")
-    except OSError as error:  # the store's folder cannot be made (e.g. under /proc)
-        raise StoreError(f"cannot open the study store {path}: {error}") from None
-    with opened as store:
-        stored = store.participants()
-        row = stored[stored["id"] == participant]
-        if row.empty:
-            store.add_participant(participant, subject)
-            return
-        known = Subject(
-            height_m=float(row["height_m"].iloc[0]),
-            mass_kg=float(row["mass_kg"].iloc[0]),
-            sex=row["sex"].iloc[0],
-        )
-        if not (
-            known.sex == subject.sex
-            and math.isclose(known.height_m, subject.height_m, rel_tol=1e-9)
-            and math.isclose(known.mass_kg, subject.mass_kg, rel_tol=1e-9)
-        ):
-            raise ParameterError(
-                f"participant {participant} is in {path} as {known.sex}, {known.height_m:g} m, "
-                f"{known.mass_kg:g} kg, but this run says {subject.sex}, {subject.height_m:g} m, "
-                f"{subject.mass_kg:g} kg: pass --sex/--height/--mass as stored, or another --participant"
-            )
-
-
-def _setup(
-    args: argparse.Namespace,
-    participant: str,
-    condition: str,
-    support: Support,
-    reference: TrialReference,
-    subject: Subject,
-) -> TrialSetup:
-    """The run as the browsers see it (the console's trial fields, also the trial's metadata)."""
-    return TrialSetup(
-        participant=participant,
-        condition=condition,
-        speed=args.speed,
-        support=support,
-        repetitions=reference.repetitions,
-        lead_in_s=reference.start_s,
-        subject=subject,
-        hand_load_kg=args.hand_load,
-    )
-
-
 def run_trial(
     args: argparse.Namespace,
     backend: Backend,
@@ -377,34 +228,8 @@ def run_trial(
         return loop.run()
 
 
-def _trial_info(args: argparse.Namespace, setup: TrialSetup, reference: TrialReference) -> TrialInfo:
-    """The trial's row in the store; its metadata follows the keys ``bowden serve`` writes."""
-    # The simulated arm follows the reference and --serve shows it; otherwise (the real suit, no
-    # display) nobody follows it and the trial holds whatever number of cycles the wearer made.
-    followed = args.backend == BACKEND_SIM or args.serve
-    metadata: dict[str, Any] = {
-        "source": "bowden run --serve" if args.serve else "bowden run",
-        "backend": BACKEND_SIM if args.backend == BACKEND_SIM else BACKEND_CAN,
-        "rate_hz": args.rate,
-        "bowden_version": __version__,
-        "model": str(args.model) if args.model else "ideal (simulation)",
-        **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},
-    }
-    if followed:
-        metadata["reference"] = reference.to_json()
-    else:
-        metadata["repetitions"] = None  # any number: the analysis takes the cycles it finds
-    return TrialInfo(
-        participant=setup.participant,
-        condition=setup.condition,
-        speed=args.speed,
-        support=setup.recorded_support,
-        metadata=metadata,
-    )
-
-
 def run(args: argparse.Namespace) -> int:
-    support, condition = _support_and_condition(args.support, args.condition)
+    support, condition = support_and_condition(args.support, args.condition)
     participant = participant_id(args.participant, "--participant")
     options = None
     if args.backend == "can":
@@ -420,17 +245,17 @@ def run(args: argparse.Namespace) -> int:
     # opening it enters motor mode): the limits, the reference, the model, the wearer, the
     # controller, and the store, which must open and take the participant.
     LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args))
-    reference = _reference(args)
-    model = _model(args)
-    subject = _wearer(args)
-    controller = _controller(model, support, subject, args.hand_load)
+    reference = run_reference(args)
+    model = run_model(args)
+    subject = wearer(args)
+    controller = controller_for(model, support, subject, args.hand_load)
     setup = trial = None
     if condition is not None:
-        setup = _setup(args, participant, condition, support, reference, subject)
+        setup = trial_setup_of(args, participant, condition, support, reference, subject)
     if args.record is not None:
         assert setup is not None  # a recorded trial has a condition (checked above)
-        trial = _trial_info(args, setup, reference)
-        _record_participant(args.record, participant, subject)
+        trial = trial_info(args, setup, reference)
+        record_participant(args.record, participant, subject)
     with ExitStack() as stack:
         server = stack.enter_context(_serving(args, model)) if args.serve else None
         recorder = Recorder(args.record, trial).start() if trial is not None else None

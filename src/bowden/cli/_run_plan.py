@@ -1,0 +1,198 @@
+"""What ``bowden run`` will do, worked out from its arguments before any device is opened.
+
+The support and the study condition (each implied by the other, never contradicting it), the
+reference the arm follows, the compensation model, the wearer, the controller, the participant row in
+the store and the trial's metadata. Each either returns a checked value or raises a
+:class:`~bowden.errors.BowdenError` naming the flag, so a bad argument never reaches the suit.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any, Final, Literal
+
+from bowden import __version__
+from bowden.contracts import BACKEND_CAN, BACKEND_SIM, CONDITION_SUPPORT, CONDITION_SUPPORT_50
+from bowden.control import build_controller
+from bowden.errors import ParameterError
+from bowden.model import CompensationModel, Subject
+from bowden.model.anthropometry import arm_model
+from bowden.runtime import TrialInfo
+from bowden.runtime.loop import StepController
+from bowden.web.reference import TrialReference
+from bowden.web.trial_setup import NoAssistance, TrialSetup, study_reference
+
+MAX_LEAD_IN_S = 10.0
+
+Support = float | Literal["pretension"] | None  # None: no suit (zero torque)
+
+
+def parse_support(text: str) -> float | Literal["pretension"]:
+    """``--support``: a fraction 0-1 of the gravity torque, or ``pretension``."""
+    if text == "pretension":
+        return "pretension"
+    try:
+        value = float(text)
+    except ValueError:
+        raise ParameterError(f"--support must be a fraction 0-1 or 'pretension', got {text!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise ParameterError(f"--support must be within 0-1, got {value}")
+    return value
+
+
+def support_of(condition: str) -> Support:
+    """The support a study condition stands for (``contracts.CONDITION_SUPPORT``)."""
+    value = CONDITION_SUPPORT[condition]
+    return "pretension" if isinstance(value, str) else value
+
+
+def support_and_condition(support_text: str | None, given: str | None) -> tuple[Support, str | None]:
+    """The run's support and condition, each from the other when absent (``contracts.CONDITION_SUPPORT``).
+
+    Neither given: 50 % support. A condition that contradicts the support is refused, so that no
+    trial is ever stored under a condition it did not run in. A support no condition has (0.3) gives
+    no condition: fine for a free run, refused by :func:`bowden.cli.run.run` when the trial is recorded.
+    """
+    if support_text is None:
+        return (support_of(given) if given is not None else 0.5), given or CONDITION_SUPPORT_50
+    support = parse_support(support_text)
+    named = [condition for condition, value in CONDITION_SUPPORT.items() if value == support]
+    if given is None:
+        return support, named[0] if named else None
+    if given not in named:
+        expected = support_of(given)
+        wanted = (
+            "no --support (no suit: the motor stays at zero torque)"
+            if expected is None
+            else f"--support {expected}"
+        )
+        raise ParameterError(
+            f"--condition {given} contradicts --support {support_text}: {given} means {wanted}"
+        )
+    return support, given
+
+
+def run_reference(args: argparse.Namespace) -> TrialReference:
+    """The run's reference: ``--lead-in`` of rest, then the whole cycles at ``--speed`` that fit."""
+    if not (math.isfinite(args.lead_in) and 0.0 <= args.lead_in <= MAX_LEAD_IN_S):
+        raise ParameterError(f"--lead-in must be within 0-{MAX_LEAD_IN_S:g} s, got {args.lead_in}")
+    period = study_reference(args.speed, lead_in_s=0.0, repetitions=1).cycle.period_s
+    repetitions = max(1, min(100, math.floor((args.duration - args.lead_in) / period + 1e-9)))
+    return study_reference(args.speed, lead_in_s=args.lead_in, repetitions=repetitions)
+
+
+def run_model(args: argparse.Namespace) -> CompensationModel:
+    if args.model is not None:
+        return CompensationModel.load(args.model)
+    from bowden.sim.parameters import SuitParameters
+
+    return CompensationModel.from_friction(k=SuitParameters().sheath.kinetic_coefficient)
+
+
+_WEARER_FLAGS: Final = {
+    "height_m": "--height",
+    "mass_kg": "--mass",
+    "sex": "--sex",
+    "hand_load_kg": "--hand-load",
+}
+
+
+def wearer(args: argparse.Namespace) -> Subject:
+    """The wearer's anthropometrics, checked with the hand load (errors name the flag)."""
+    try:
+        subject = Subject(height_m=args.height, mass_kg=args.mass, sex=args.sex)
+        arm_model(subject, args.hand_load)
+    except ParameterError as error:
+        flag = next((f for field, f in _WEARER_FLAGS.items() if str(error).startswith(field)), "wearer")
+        raise ParameterError(f"{flag}: {error}") from None
+    return subject
+
+
+def controller_for(
+    model: CompensationModel, support: Support, subject: Subject, hand_load_kg: float
+) -> StepController:
+    """The condition's controller: none (zero torque) without the suit, else the sensorless one."""
+    if support is None:
+        return NoAssistance()
+    return build_controller(model=model, support=support, subject=subject, hand_load_kg=hand_load_kg)
+
+
+def record_participant(path: Path, participant: str, subject: Subject) -> None:
+    """Add the wearer to the store's participants table, or check that it holds the same values.
+
+    Opening the store here also proves the ``--record`` path usable before any device is opened.
+    A participant stored with other anthropometrics is refused rather than overwritten: the
+    defaults of --height/--mass/--sex must never replace what a study recorded.
+    """
+    from bowden.study.store import StudyStore  # cli wires study and runtime together
+
+    with StudyStore(path, synchronous="FULL") as store:
+        stored = store.participants()
+        row = stored[stored["id"] == participant]
+        if row.empty:
+            store.add_participant(participant, subject)
+            return
+        known = Subject(
+            height_m=float(row["height_m"].iloc[0]),
+            mass_kg=float(row["mass_kg"].iloc[0]),
+            sex=row["sex"].iloc[0],
+        )
+        if not (
+            known.sex == subject.sex
+            and math.isclose(known.height_m, subject.height_m, rel_tol=1e-9)
+            and math.isclose(known.mass_kg, subject.mass_kg, rel_tol=1e-9)
+        ):
+            raise ParameterError(
+                f"participant {participant} is in {path} as {known.sex}, {known.height_m:g} m, "
+                f"{known.mass_kg:g} kg, but this run says {subject.sex}, {subject.height_m:g} m, "
+                f"{subject.mass_kg:g} kg: pass --sex/--height/--mass as stored, or another --participant"
+            )
+
+
+def trial_setup_of(
+    args: argparse.Namespace,
+    participant: str,
+    condition: str,
+    support: Support,
+    reference: TrialReference,
+    subject: Subject,
+) -> TrialSetup:
+    """The run as the browsers see it (the console's trial fields, also the trial's metadata)."""
+    return TrialSetup(
+        participant=participant,
+        condition=condition,
+        speed=args.speed,
+        support=support,
+        repetitions=reference.repetitions,
+        lead_in_s=reference.start_s,
+        subject=subject,
+        hand_load_kg=args.hand_load,
+    )
+
+
+def trial_info(args: argparse.Namespace, setup: TrialSetup, reference: TrialReference) -> TrialInfo:
+    """The trial's row in the store; its metadata follows the keys ``bowden serve`` writes."""
+    # The simulated arm follows the reference and --serve shows it; otherwise (the real suit, no
+    # display) nobody follows it and the trial holds whatever number of cycles the wearer made.
+    followed = args.backend == BACKEND_SIM or args.serve
+    metadata: dict[str, Any] = {
+        "source": "bowden run --serve" if args.serve else "bowden run",
+        "backend": BACKEND_SIM if args.backend == BACKEND_SIM else BACKEND_CAN,
+        "rate_hz": args.rate,
+        "bowden_version": __version__,
+        "model": str(args.model) if args.model else "ideal (simulation)",
+        **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},
+    }
+    if followed:
+        metadata["reference"] = reference.to_json()
+    else:
+        metadata["repetitions"] = None  # any number: the analysis takes the cycles it finds
+    return TrialInfo(
+        participant=setup.participant,
+        condition=setup.condition,
+        speed=args.speed,
+        support=setup.recorded_support,
+        metadata=metadata,
+    )
