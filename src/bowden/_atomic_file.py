@@ -13,6 +13,8 @@ import os
 import secrets
 from pathlib import Path
 
+from bowden.errors import OutputFileError
+
 _ATTEMPTS = 100
 
 
@@ -45,3 +47,21 @@ def write_text_atomically(path: str | Path, text: str, *, durable: bool = False)
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+def existing_head(path: Path, size: int, what: str) -> bytes | None:
+    """The first ``size`` bytes of the file ``what`` is about to replace, None when there is none.
+
+    Callers refuse to replace a file whose head is not one of theirs, so that an output path can
+    never overwrite a recording. Raises ``OutputFileError`` (naming ``what``) for a directory or an
+    unreadable file.
+    """
+    if path.is_dir():
+        raise OutputFileError(f"cannot write {what} to {path}: it is a directory; give a file name")
+    try:
+        with path.open("rb") as handle:
+            return handle.read(size)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as error:
+        raise OutputFileError(f"cannot write {what} to {path}: {error.strerror or error}") from None

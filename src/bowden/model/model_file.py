@@ -26,7 +26,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from bowden._atomic_file import write_text_atomically
+from bowden._atomic_file import existing_head, write_text_atomically
 from bowden.errors import ModelFileError, OutputFileError, ParameterError
 from bowden.model.compensation import CompensationLine, CompensationModel, LineFitStats, Provenance
 
@@ -93,16 +93,8 @@ def save_model(model: CompensationModel, path: str | Path) -> None:
 
 
 def _refuse_replacing_other_files(path: Path) -> None:
-    if path.is_dir():
-        raise OutputFileError(f"cannot write the model to {path}: it is a directory; give a file name")
-    try:
-        with path.open("rb") as handle:
-            head = handle.read(4096)
-    except (FileNotFoundError, NotADirectoryError):
-        return
-    except OSError as error:
-        raise OutputFileError(f"cannot write the model to {path}: {error.strerror or error}") from None
-    if head.strip() and f'"{FORMAT}"'.encode() not in head:
+    head = existing_head(path, 4096, "the model")
+    if head is not None and head.strip() and f'"{FORMAT}"'.encode() not in head:
         raise OutputFileError(
             f"refusing to replace {path} by the model: it is not a bowden model file "
             f"(it begins {head[:16]!r}); choose another output path"

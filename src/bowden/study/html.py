@@ -14,7 +14,7 @@ from typing import Any
 
 import pandas as pd
 
-from bowden._atomic_file import write_text_atomically
+from bowden._atomic_file import existing_head, write_text_atomically
 from bowden.errors import OutputFileError
 
 _STYLE = """
@@ -118,15 +118,9 @@ def check_report_path(path: Path) -> None:
     :meth:`HtmlDocument.write` checks this itself; callers about to spend minutes on a report check
     it first.
     """
-    if path.is_dir():
-        raise OutputFileError(f"cannot write the report to {path}: it is a directory; give a file name")
-    try:
-        with path.open("rb") as handle:
-            head = handle.read(64)
-    except (FileNotFoundError, NotADirectoryError):
+    head = existing_head(path, 64, "the report")
+    if head is None:
         return
-    except OSError as error:
-        raise OutputFileError(f"cannot write the report to {path}: {error.strerror or error}") from None
     text = head.removeprefix(b"\xef\xbb\xbf").lstrip().lower()
     if text and not text.startswith((b"<!doctype html", b"<html")):
         raise OutputFileError(
