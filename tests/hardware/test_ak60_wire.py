@@ -124,6 +124,23 @@ def test_enable_times_out_without_a_motor(can_buses: tuple[can.BusABC, can.BusAB
     assert not motor.enabled
 
 
+def test_enter_motor_mode_is_sent_again_when_a_frame_is_lost(motor: AK60Motor, peer: AK60Peer,
+                                                             caplog: pytest.LogCaptureFixture) -> None:
+    peer.ignore_next(FAST.enter_attempts - 1)  # lost on the bus: every attempt but the last
+    state = motor.enable()
+    assert motor.enabled and peer.in_motor_mode and state.error_code == 0
+    assert [frame.kind for frame in peer.received] == [ENTER]  # the lost ones never arrived
+    assert sum("sending it again" in r.getMessage() for r in caplog.records) == FAST.enter_attempts - 1
+    motor.disable()
+
+
+def test_enable_gives_up_after_its_attempts(motor: AK60Motor, peer: AK60Peer) -> None:
+    peer.ignore_next(FAST.enter_attempts)
+    with pytest.raises(DeviceTimeoutError, match="enter motor mode"):
+        motor.enable()
+    assert not motor.enabled and not peer.in_motor_mode
+
+
 @pytest.mark.parametrize("code", [c for c in MotorErrorCode if c != MotorErrorCode.NONE])
 def test_each_motor_error_code_surfaces_in_the_state(motor: AK60Motor, peer: AK60Peer,
                                                       code: MotorErrorCode) -> None:

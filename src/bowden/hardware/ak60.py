@@ -64,6 +64,10 @@ class AK60Config:
         How long a command waits for its reply. A bus round trip is ≈ 0.25 ms.
     special_reply_timeout_s
         How long enter/exit motor mode wait for the motor's state frame.
+    enter_attempts
+        Enter motor mode is sent up to this many times before the motor counts as silent: a frame
+        lost on the bus, or a reply late because the host was busy, must not abort a session
+        (entering motor mode twice is harmless).
     zero_settle_s, zero_timeout_s
         After "set zero" the motor is silent ~0.5–1.5 s: wait ``zero_settle_s``, then poll until it
         answers or ``zero_timeout_s`` has passed since the request.
@@ -91,6 +95,7 @@ class AK60Config:
     reply_arbitration_id: int | None = None
     send_attempts: int = 3
     send_retry_s: float = 0.0002
+    enter_attempts: int = 3
 
     def __post_init__(self) -> None:
         if not 0 < self.motor_id <= MAX_STANDARD_ID:
@@ -111,6 +116,8 @@ class AK60Config:
             raise ParameterError(f"AK60Config.kd ({self.kd}) exceeds limits.kd_max ({self.limits.kd_max})")
         if self.send_attempts < 1:
             raise ParameterError(f"AK60Config.send_attempts must be >= 1, got {self.send_attempts}")
+        if self.enter_attempts < 1:
+            raise ParameterError(f"AK60Config.enter_attempts must be >= 1, got {self.enter_attempts}")
         if self.reply_arbitration_id is not None and not 0 <= self.reply_arbitration_id <= MAX_STANDARD_ID:
             raise ParameterError(
                 f"AK60Config.reply_arbitration_id must be a standard id, got {self.reply_arbitration_id}"
@@ -167,8 +174,18 @@ class AK60Motor:
 
     def enable(self) -> MotorState:
         """Enter motor mode and return the state frame the motor answers with."""
-        self._send(ENTER_MOTOR_MODE)
-        state = self._await_state(self.config.special_reply_timeout_s, "enter motor mode")
+        attempt = 1
+        while True:
+            self._send(ENTER_MOTOR_MODE)
+            try:
+                state = self._await_state(self.config.special_reply_timeout_s, "enter motor mode")
+                break
+            except DeviceTimeoutError:
+                if attempt == self.config.enter_attempts:
+                    raise
+                _log.warning("AK60 id %d: no reply to enter motor mode (attempt %d of %d); sending it again",
+                             self.config.motor_id, attempt, self.config.enter_attempts)
+                attempt += 1
         self._enabled = True
         return state
 

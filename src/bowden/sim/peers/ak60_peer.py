@@ -110,6 +110,7 @@ class AK60Peer(StartedInWith):
         self._zero_rad = 0.0
         self._silent_until = -math.inf
         self._muted = threading.Event()
+        self._ignore_left = 0
         self._error_code = 0
         self._temperature_override: float | None = None
         self._last_state: MotorState | None = None
@@ -139,6 +140,12 @@ class AK60Peer(StartedInWith):
         else:
             self._muted.clear()
 
+    def ignore_next(self, count: int) -> None:
+        """Let the next ``count`` frames to this motor go unanswered, as frames lost on the bus."""
+        if count < 0:
+            raise ParameterError(f"count must be >= 0, got {count}")
+        self._ignore_left = count
+
     def inject_error(self, code: int) -> None:
         """Report ``code`` in byte 7 of every reply from now on (0 clears it)."""
         if not 0 <= code <= 0xFF:
@@ -164,6 +171,9 @@ class AK60Peer(StartedInWith):
             self._handle(bytes(message.data))
 
     def _handle(self, data: bytes) -> None:
+        if self._ignore_left > 0:
+            self._ignore_left -= 1
+            return
         now = self._time_source()
         if self._muted.is_set() or now < self._silent_until:
             return
