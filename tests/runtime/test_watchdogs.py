@@ -1,10 +1,14 @@
-"""Fault injection over the wire: one test per watchdog, each ending in the safe state in time.
+"""Fault injection over the wire: one test per fault, each ending in the safe state, measured on the bus.
 
-The loop runs on the real clock against the simulated suit through its peers (AK60 on virtual CAN,
-NGIMU over UDP, ADS1115 on the fake I²C bus). A fault is injected from the recorder tap once the
-loop has run 0.15 s; the test then checks, on the loop's own timeline: the right watchdog fired, for
-the logged reason, not before the fault existed; the torque followed the ramp and reached zero within
-100 ms; motor mode was exited (the exit frame is on the bus after the last command).
+The loop runs on the real clock with its default watchdogs against the simulated suit through its
+peers (AK60 on virtual CAN, NGIMU over UDP, ADS1115 on the fake I²C bus). A fault is injected from
+the recorder tap once the loop has run 0.15 s; the test then checks: the right watchdog fired, for the
+logged reason, not before the fault existed; the torque followed the ramp to zero; motor mode was
+exited (the exit frame is the driver's last frame). Latencies are taken from the CAN frames a sniffer
+saw (zero-torque command, exit frame) against the wall time of the injection. Their budget (80 ms to
+zero torque, 100 ms to the exit frame) is asserted only up to what the host itself added — the loop's
+measured lateness and stalls — so that a busy machine cannot fail the test while a loop that is slow by
+its own fault still does. ``benchmarks/faults.py`` prints the latencies themselves.
 """
 
 from __future__ import annotations
@@ -12,15 +16,36 @@ from __future__ import annotations
 import logging
 import os
 import signal
+import sqlite3
+import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import TYPE_CHECKING
 
+import can
 import pytest
 
 from bowden.control import Controller, Fault
-from bowden.hardware.ak60_codec import EXIT_MOTOR_MODE, MotorErrorCode
-from bowden.runtime import ControlLoop, LoopConfig, LoopReport, LoopState, Row, SafetyConfig, stop_on_signals
+from bowden.hardware.ak60_codec import (
+    DEFAULT_FIRMWARE,
+    ENTER_MOTOR_MODE,
+    EXIT_MOTOR_MODE,
+    FIRMWARE_LIMITS,
+    MotorErrorCode,
+    unpack_command,
+)
+from bowden.runtime import (
+    ControlLoop,
+    LoopConfig,
+    LoopReport,
+    LoopState,
+    Recorder,
+    Row,
+    SafetyConfig,
+    TrialInfo,
+    stop_on_signals,
+)
 from bowden.runtime.clock import MonotonicClock
 
 if TYPE_CHECKING:
@@ -28,12 +53,11 @@ if TYPE_CHECKING:
 
 RATE_HZ = 500.0
 INJECT_AT_S = 0.15
-# The watchdogs not under test get lenient limits so that a busy shared machine (a thread starved for
-# tens of ms) cannot fire them first; each test tightens the one it exercises to its default.
-SAFETY = SafetyConfig(ramp_down_s=0.05, max_temperature_c=80.0, max_tension_n=120.0,
-                      imu_max_age_s=0.3, motor_max_silence_s=0.3)
-STRICT_IMU = replace(SAFETY, imu_max_age_s=0.05)
-STRICT_MOTOR = replace(SAFETY, motor_max_silence_s=0.02)
+DEFAULTS = SafetyConfig(max_tension_n=120.0)
+ZERO_BUDGET_S = 0.080
+EXIT_BUDGET_S = 0.100
+LIMITS = FIRMWARE_LIMITS[DEFAULT_FIRMWARE]
+TORQUE_LSB_NM = 2.0 * LIMITS.torque_nm / 4095.0
 
 
 class Tap:
@@ -43,27 +67,44 @@ class Tap:
         self.rows: list[Row] = []
         self.inject = inject
         self.injected_at_s: float | None = None
+        self.injected_wall_s = float("nan")
 
     def __call__(self, row: Row) -> None:
         self.rows.append(row)
         if self.injected_at_s is None and row[0] >= INJECT_AT_S:
             self.injected_at_s = row[0]
+            self.injected_wall_s = time.time()  # the sniffer's frames carry time.time() stamps
             self.inject()
 
 
-def run(rig: Rig, controller: Controller, inject: Callable[[], None],
-        safety: SafetyConfig = SAFETY) -> tuple[LoopReport, Tap]:
-    tap = Tap(inject)
-    loop = ControlLoop(
+def make_loop(rig: Rig, controller: Controller, tap: Tap, safety: SafetyConfig = DEFAULTS,
+              **extra: object) -> ControlLoop:
+    return ControlLoop(
         controller=controller, motor=rig.motor, elevation_sensor=rig.imu, clock=MonotonicClock(),
         config=LoopConfig(rate_hz=RATE_HZ, duration_s=3.0, safety=safety),
-        tension_sensor=rig.load_cell, record=tap,
+        tension_sensor=rig.load_cell, record=tap, **extra,  # type: ignore[arg-type]
     )
-    return loop.run(), tap
+
+
+def run(rig: Rig, controller: Controller, inject: Callable[[], None],
+        safety: SafetyConfig = DEFAULTS) -> tuple[LoopReport, Tap]:
+    tap = Tap(inject)
+    return make_loop(rig, controller, tap, safety).run(), tap
+
+
+@dataclass
+class BusTimes:
+    zero_s: float  # first zero-torque command after the injection, s after it
+    exit_s: float  # the exit frame, s after the injection
+
+
+def host_delay_s(report: LoopReport) -> float:
+    """What the host added to a stop: the loop's worst wake-up lateness and its worst stall."""
+    return report.timing.worst_lateness_s + report.worst_host_stall_s
 
 
 def check_safe_stop(rig: Rig, report: LoopReport, tap: Tap, fault: Fault, reason: str,
-                    caplog: pytest.LogCaptureFixture) -> None:
+                    caplog: pytest.LogCaptureFixture, *, measured: bool = True) -> None:
     assert report.fault == fault, report.reason
     assert reason in report.reason
     assert any(reason in record.getMessage() for record in caplog.records), "reason not logged"
@@ -71,45 +112,73 @@ def check_safe_stop(rig: Rig, report: LoopReport, tap: Tap, fault: Fault, reason
     # Nothing fired before the fault was injected.
     assert report.stop_time_s >= tap.injected_at_s
     assert all(row[10] == LoopState.RUNNING for row in tap.rows if row[0] < report.stop_time_s)
-    # The ramp: from the last assisted torque to zero, never above the linear envelope, zero in time.
+    # The ramp: from the last assisted torque to zero, never above the linear envelope.
     ramp = [row for row in tap.rows if row[10] == LoopState.RAMPING_DOWN]
     assert ramp and ramp[0][0] == report.stop_time_s
     start_torque = ramp[0][6]
+    ramp_s = DEFAULTS.ramp_down_s
     for row in ramp:
         elapsed = row[0] - report.stop_time_s
-        envelope = start_torque * max(0.0, 1.0 - elapsed / SAFETY.ramp_down_s)
+        envelope = start_torque * max(0.0, 1.0 - elapsed / ramp_s)
         assert 0.0 <= row[6] <= envelope + 1e-12
         assert row[11] & int(fault) == int(fault)  # the fault is in every ramp row's flags
     assert ramp[-1][6] == 0.0
-    assert report.zero_torque_time_s - report.stop_time_s <= 0.1
+    assert report.zero_torque_time_s - report.stop_time_s <= ramp_s + 1.0 / RATE_HZ + host_delay_s(report)
     # Motor mode exited: the last frame the driver put on the bus is the exit frame.
     frames = [frame for frame in rig.frames() if frame.arbitration_id == rig.motor.config.motor_id]
     assert bytes(frames[-1].data) == EXIT_MOTOR_MODE
     assert report.motor_disabled and not rig.motor.enabled
+    if measured:
+        times = bus_times_from(frames, tap)
+        slack = host_delay_s(report)
+        assert times.zero_s <= ZERO_BUDGET_S + slack, (times, report.describe_health())
+        assert times.exit_s <= EXIT_BUDGET_S + slack, (times, report.describe_health())
 
 
-def test_imu_stale(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
+def bus_times_from(frames: list[can.Message], tap: Tap) -> BusTimes:
+    zero = exit_ = float("inf")
+    for frame in frames:
+        if frame.timestamp < tap.injected_wall_s:
+            continue
+        data = bytes(frame.data)
+        if data == EXIT_MOTOR_MODE:
+            exit_ = min(exit_, frame.timestamp - tap.injected_wall_s)
+        elif data != ENTER_MOTOR_MODE and abs(unpack_command(data, LIMITS).torque_nm) <= TORQUE_LSB_NM:
+            zero = min(zero, frame.timestamp - tap.injected_wall_s)
+    return BusTimes(zero, exit_)
+
+
+def test_imu_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
-    report, tap = run(rig, controller, rig.imu_peer.pause, STRICT_IMU)
+    report, tap = run(rig, controller, rig.imu_peer.pause)
     check_safe_stop(rig, report, tap, Fault.IMU_STALE, "IMU: newest sample", caplog)
-    # The IMU stopped at injection; the watchdog waits for the 50 ms age limit (less one IMU period).
-    assert report.stop_time_s - tap.injected_at_s >= STRICT_IMU.imu_max_age_s - 1.0 / 400.0
+    # The IMU stopped at injection; the watchdog waited for the age limit (less one IMU period).
+    assert report.stop_time_s - tap.injected_at_s >= DEFAULTS.imu_max_age_s - 1.0 / 400.0
     assert not rig.motor_peer.in_motor_mode
 
 
-def test_motor_reply_missing(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
-    caplog.set_level(logging.INFO)
-    report, tap = run(rig, controller, rig.motor_peer.mute, STRICT_MOTOR)
-    check_safe_stop(rig, report, tap, Fault.MOTOR_NO_REPLY, "motor: no valid reply", caplog)
-    assert report.stop_time_s - tap.injected_at_s >= STRICT_MOTOR.motor_max_silence_s - 1.0 / RATE_HZ
-    assert report.motor_timeouts > 0
-
-
-def test_non_finite_input(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
+def test_imu_nan(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
     report, tap = run(rig, controller, rig.imu_peer.send_nan)
     check_safe_stop(rig, report, tap, Fault.NONFINITE_INPUT, "non-finite input", caplog)
     assert not rig.motor_peer.in_motor_mode
+
+
+def test_motor_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO)
+    report, tap = run(rig, controller, rig.motor_peer.mute)
+    check_safe_stop(rig, report, tap, Fault.MOTOR_NO_REPLY, "motor: no valid reply", caplog)
+    assert report.stop_time_s - tap.injected_at_s >= DEFAULTS.motor_max_silence_s - 1.0 / RATE_HZ
+    assert report.motor_timeouts >= DEFAULTS.motor_min_unanswered
+    # The loop kept its rate while the motor was silent: nothing waits for a reply.
+    assert report.timing.skipped_cycles <= 1 + int(host_delay_s(report) * RATE_HZ)
+
+
+def test_bad_replies(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
+    caplog.set_level(logging.INFO)
+    report, tap = run(rig, controller, lambda: rig.motor_peer.garble_replies(True))
+    check_safe_stop(rig, report, tap, Fault.MOTOR_NO_REPLY, "(malformed frames)", caplog)
+    assert rig.motor.counters.malformed >= DEFAULTS.motor_min_unanswered
 
 
 @pytest.mark.parametrize("code", [MotorErrorCode.OVER_CURRENT, MotorErrorCode.ENCODER])
@@ -135,21 +204,126 @@ def test_tension_limit(rig: Rig, controller: Controller, caplog: pytest.LogCaptu
     assert not rig.motor_peer.in_motor_mode
 
 
-def test_sigterm_stops_within_one_cycle(rig: Rig, controller: Controller,
-                                        caplog: pytest.LogCaptureFixture) -> None:
+def test_load_cell_lost_stops(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
-    tap = Tap(lambda: os.kill(os.getpid(), signal.SIGTERM))
-    loop = ControlLoop(
-        controller=controller, motor=rig.motor, elevation_sensor=rig.imu, clock=MonotonicClock(),
-        config=LoopConfig(rate_hz=RATE_HZ, duration_s=3.0, safety=SAFETY), record=tap,
-    )
+    report, tap = run(rig, controller, lambda: rig.adc.fail_next(10**9))
+    check_safe_stop(rig, report, tap, Fault.LOAD_CELL_LOST, "the tension limit is blind", caplog)
+    assert "load cell: no reading for" in report.reason or "I²C errors" in report.reason
+
+
+def test_load_cell_lost_then_overload_never_goes_unnoticed(rig: Rig, controller: Controller,
+                                                          caplog: pytest.LogCaptureFixture) -> None:
+    """The measured failure: a lost load cell followed by 260 N. Either policy makes it visible."""
+    caplog.set_level(logging.INFO)
+
+    def lose_then_overload() -> None:
+        rig.adc.fail_next(10**9)
+        rig.adc.override_tension_n(260.0)
+
+    report, tap = run(rig, controller, lose_then_overload, replace(DEFAULTS, on_load_cell_lost="continue"))
+    # Degraded, explicitly: every row after the loss carries the flag, the summary says it.
+    assert report.fault == Fault.NONE and "duration" in report.reason
+    lost = [row for row in tap.rows if row[11] & int(Fault.LOAD_CELL_LOST)]
+    assert lost and lost[0][0] >= INJECT_AT_S
+    assert all(row[11] & int(Fault.LOAD_CELL_LOST) for row in tap.rows if row[0] >= lost[0][0])
+    assert any("load cell lost" in text for text in report.degraded)
+    assert "load cell lost" in report.describe_health()
+    assert any("load cell lost" in record.getMessage() for record in caplog.records)
+
+
+def test_recorder_backlog_stops(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture,
+                                tmp_path: Path) -> None:
+    """A writer that cannot write (another program holds the store locked) reaches the loop."""
+    caplog.set_level(logging.INFO)
+    store = tmp_path / "study.db"
+    trial = TrialInfo(participant="P01", condition="support_50", speed="V1", support=0.5)
+    recorder = Recorder(store, trial, max_backlog_rows=40).start()
+    blocker = sqlite3.connect(store, timeout=10.0)
+    try:
+        tap = Tap(lambda: blocker.execute("BEGIN EXCLUSIVE"))
+        sinks = [tap, recorder.record]
+        loop = make_loop(rig, controller, tap, recorder_failure=lambda: recorder.failure,
+                         on_event=recorder.event)
+        loop.record = lambda row: [sink(row) for sink in sinks]  # type: ignore[func-returns-value]
+        report = loop.run()
+        check_safe_stop(rig, report, tap, Fault.RECORDER_FAILED, "rows waiting to be written", caplog)
+    finally:
+        blocker.rollback()
+        blocker.close()
+    recorder.close(stop_reason=report.reason)  # the lock is gone: the backlog is written after all
+    with sqlite3.connect(store) as check:
+        rows = check.execute("SELECT COUNT(*) FROM samples").fetchone()[0]
+        reason = check.execute("SELECT stop_reason FROM trials").fetchone()[0]
+    assert rows == len(tap.rows)  # nothing the loop handed over was lost
+    assert "recording failed" in reason
+
+
+class FlakyBus(can.BusABC):  # type: ignore[misc]
+    """The driver's end of the bus, whose transmissions fail (errno 105) while ``broken`` is set.
+
+    ``broken`` clears itself after ``heal_after`` failed sends (a bus-off recovered by restart-ms),
+    or never when None.
+    """
+
+    def __init__(self, inner: can.BusABC, heal_after: int | None) -> None:
+        super().__init__(channel=inner.channel_info)
+        self.inner = inner
+        self.heal_after = heal_after
+        self.broken = False
+        self.failed = 0
+
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        if self.broken:
+            self.failed += 1
+            if self.heal_after is not None and self.failed >= self.heal_after:
+                self.broken = False
+            raise can.CanOperationError("No buffer space available", error_code=105)
+        self.inner.send(msg, timeout)
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        return self.inner.recv(timeout), False
+
+    def shutdown(self) -> None:
+        super().shutdown()
+
+
+@pytest.mark.parametrize("heal_after", [8, None])
+def test_transmit_failure(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture,
+                          heal_after: int | None) -> None:
+    caplog.set_level(logging.INFO)
+    from bowden.hardware.ak60 import AK60Motor
+
+    flaky = FlakyBus(rig.motor._bus, heal_after)
+    rig.motor = AK60Motor(flaky, rig.motor.config)
+
+    def breaks() -> None:
+        flaky.broken = True
+
+    report, tap = run(rig, controller, breaks)
+    assert report.fault == Fault.TRANSMIT_FAILED, report.reason
+    assert "transmit failed 3 times in a row" in report.reason and "No buffer space" in report.reason
+    assert report.transmit_failures >= DEFAULTS.max_transmit_failures
+    if heal_after is not None:  # the bus came back: the ramp and the exit went out
+        check_safe_stop(rig, report, tap, Fault.TRANSMIT_FAILED, "transmit failed", caplog)
+    else:  # nothing can reach the motor: said, not raised; leaving the driver does not raise either
+        assert not report.motor_disabled
+        rig.motor.__exit__(None, None, None)
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT])
+def test_signals_stop_within_one_cycle(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture,
+                                       signum: signal.Signals) -> None:
+    caplog.set_level(logging.INFO)
+    tap = Tap(lambda: os.kill(os.getpid(), signum))
+    loop = make_loop(rig, controller, tap)
+    previous = signal.getsignal(signum)
     with stop_on_signals(loop.request_stop):
         report = loop.run()
-    check_safe_stop(rig, report, tap, Fault.STOP_REQUESTED, "signal SIGTERM", caplog)
+    check_safe_stop(rig, report, tap, Fault.STOP_REQUESTED, f"signal {signum.name}", caplog)
     # The signal arrived during the injection cycle; the very next cycle began the ramp.
     times = [row[0] for row in tap.rows]
     assert times.index(report.stop_time_s) == times.index(tap.injected_at_s) + 1
-    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # handler restored
+    assert signal.getsignal(signum) is previous  # handler restored
 
 
 def test_duration_ends_cleanly(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
@@ -157,7 +331,7 @@ def test_duration_ends_cleanly(rig: Rig, controller: Controller, caplog: pytest.
     tap = Tap(lambda: None)
     loop = ControlLoop(
         controller=controller, motor=rig.motor, elevation_sensor=rig.imu, clock=MonotonicClock(),
-        config=LoopConfig(rate_hz=RATE_HZ, duration_s=0.3, safety=SAFETY), tension_sensor=rig.load_cell,
+        config=LoopConfig(rate_hz=RATE_HZ, duration_s=0.3, safety=DEFAULTS), tension_sensor=rig.load_cell,
         record=tap,
     )
     report = loop.run()

@@ -25,6 +25,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config
 from bowden.cli._run_plan import (
     controller_for,
     record_participant,
@@ -40,14 +41,12 @@ from bowden.cli._suit import (
     Backend,
     CanSuitOptions,
     add_can_arguments,
-    add_safety_arguments,
     open_can_backend,
     open_sim_backend,
     require_hardware_extra,
-    safety_config,
 )
 from bowden.contracts import CONDITIONS, SPEEDS
-from bowden.errors import BowdenError, ParameterError
+from bowden.errors import BowdenError, ParameterError, StoreError
 from bowden.model import CompensationModel
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row
 from bowden.runtime.loop import StepController
@@ -223,6 +222,10 @@ def run_trial(
             description=backend.describe,
         )
         sinks.append(server.web.manager.attach(setup, suit, loop, recorder))
+    if recorder is not None:
+        loop.recorder_failure = lambda: recorder.failure
+        loop.on_event = recorder.event
+    loop.realtime = realtime_config(args)
     with _Status(sinks) as status, stop_on_signals(loop.request_stop):
         loop.record = status
         return loop.run()
@@ -261,6 +264,7 @@ def run(args: argparse.Namespace) -> int:
         recorder = Recorder(args.record, trial).start() if trial is not None else None
         report: LoopReport | None = None
         error = "the run did not finish"
+        recording_error = ""
         try:
             opener = open_sim_backend(reference=reference) if options is None else open_can_backend(options)
             backend = stack.enter_context(opener)
@@ -285,18 +289,28 @@ def run(args: argparse.Namespace) -> int:
             raise
         finally:
             if recorder is not None:
-                recorder.close(stop_reason=report.reason if report is not None else f"error: {error}")
+                try:
+                    recorder.close(stop_reason=report.reason if report is not None else f"error: {error}")
+                except StoreError as exc:
+                    if report is None:
+                        raise
+                    recording_error = str(exc)  # said in the summary below; the stop stays the exit code
             if server is not None:
                 server.web.manager.detach(report, error or None)
     print(f"stopped: {report.reason} ({report.fault.name if report.fault else 'no fault'})")
     ramp_ms = 1e3 * (report.zero_torque_time_s - report.stop_time_s)
     exited = "exited" if report.motor_disabled else "NOT confirmed exited"
     print(f"safe state: torque zero {ramp_ms:.0f} ms after the stop, motor mode {exited}")
-    print(f"loop timing: {report.timing.describe()}; motor timeouts {report.motor_timeouts}")
+    print(f"loop timing: {report.timing.describe()}")
+    print(f"health: {report.describe_health()}")
+    if report.realtime:
+        print(f"real-time settings: {report.realtime}")
     if recorder is not None:
         gap_ms = 1e3 * recorder.stats.max_commit_gap_s
         print(
             f"recorded {recorder.stats.committed_rows} cycles into {args.record} "
             f"(trial {recorder.trial_id}, longest gap between commits {gap_ms:.0f} ms)"
         )
+        if recording_error:
+            print(f"recording: {recording_error}")
     return 0 if report.clean else 3

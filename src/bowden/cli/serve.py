@@ -17,13 +17,12 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from bowden.cli._loop_options import add_safety_arguments, safety_config
 from bowden.cli._suit import (
     CanSuitOptions,
     add_can_arguments,
-    add_safety_arguments,
     open_can_backend,
     require_hardware_extra,
-    safety_config,
 )
 from bowden.contracts import BACKEND_CAN
 from bowden.errors import BowdenError, ParameterError

@@ -25,6 +25,9 @@ class Fault(IntFlag):
     TENSION_LIMIT = 1 << 12
     STOP_REQUESTED = 1 << 13
     TRANSMIT_FAILED = 1 << 14
+    HOST_STALL = 1 << 15  # the loop itself was not scheduled for longer than the tolerated bound
+    LOAD_CELL_LOST = 1 << 16  # the load cell stopped delivering: the tension limit cannot be watched
+    RECORDER_FAILED = 1 << 17  # the trial recording cannot keep up or cannot write
 
 
 class Limit(IntFlag):

@@ -196,7 +196,7 @@ class ADS1115LoadCell(StartedInWith):
         self.counters = ADS1115Counters()
         self._latest: TensionSample | None = None
         self._latest_volts = math.nan
-        self.failure: str | None = None
+        self.failure: str | None = None  # set by the reader when it gives up; the loop reads it
         self._poller = StoppableThread(self._poll, "ads1115")
 
     def start(self) -> Self:

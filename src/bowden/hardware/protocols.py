@@ -76,8 +76,13 @@ class Motor(Protocol):
         """Make the current position the zero of ``position_rad``."""
         ...
 
-    def command_torque(self, torque_nm: float) -> MotorState:
-        """Send a torque command (spool side, Nm) and return the reply to it."""
+    def command_torque(self, torque_nm: float) -> MotorState | None:
+        """Send a torque command (spool side, Nm) without waiting for its reply.
+
+        Returns the newest state that arrived since the previous call (on a bus, the reply to the
+        previous cycle's command serves this cycle), or None when no valid reply arrived since then.
+        A simulated motor that answers at once returns the state after this command.
+        """
         ...
 
     def __enter__(self) -> Self: ...
@@ -110,7 +115,14 @@ class ElevationSensor(Protocol):
 
 @runtime_checkable
 class TensionSensor(Protocol):
-    """The load cell. ``read`` never blocks: it returns the latest sample."""
+    """The load cell. ``read`` never blocks: it returns the latest sample.
+
+    ``failure`` is None while the sensor works, else why it was lost (its reader gave up); the loop
+    reads it every cycle, so it must be a plain attribute or a cheap property.
+    """
+
+    @property
+    def failure(self) -> str | None: ...
 
     def read(self) -> TensionSample | None:
         """The most recent sample, or None before the first one arrived."""

@@ -4,17 +4,23 @@ Each cycle, on absolute deadlines ``t₀ + k/rate`` of the injected clock (no dr
 not delay the next deadline; when the loop falls behind by whole periods it skips to the next
 deadline and counts the skipped cycles as misses):
 
-1. read the latest elevation sample (never blocks) and the latest tension sample, if any;
-2. run the watchdogs — IMU older than ``imu_max_age_s``, no valid motor reply for
-   ``motor_max_silence_s``, non-finite inputs, a motor error code, over-temperature, tension above
-   the limit, a transmit failure, a stop request (SIGINT/SIGTERM) or the end of the run;
+1. note how long the loop itself was not scheduled (a *host stall*: the time since the previous
+   cycle began, beyond one period); read the latest elevation sample and the latest tension sample
+   (never blocks);
+2. run the watchdogs — each judges the *device*, not the host: the motor is silent when replies are
+   missing to commands actually sent (a count and the age of the oldest unanswered send), a sample's
+   age counts from when the loop could have read it (a stall of this process does not age the
+   sensors), and a host stall is its own condition, tolerated up to ``host_stall_max_s``. Then
+   non-finite inputs, a motor error code, over-temperature, tension above the limit, a lost load
+   cell, a failed recorder, repeated transmit failures, a stop request (SIGINT/SIGTERM) or the end;
 3. while running, ``controller.step(...)`` gives the torque; once a watchdog fired, the torque ramps
    to zero over ``ramp_down_s`` and then motor mode is exited (:mod:`bowden.runtime.safety`);
-4. send the torque, keep the reply for the next cycle, hand one row to the recorder (non-blocking).
+4. send the torque without waiting (the motor's newest reply serves the next cycle), hand one row to
+   the recorder (non-blocking).
 
 The same loop drives the real suit (AK60 over CAN, NGIMU over UDP, ``MonotonicClock``), the
-simulated suit through its wire peers, or the simulated suit directly with its own clock (fast).
-The body is plain Python on floats; logging happens only when the state changes.
+simulated suit in its own process through the same drivers, or the simulated suit directly with its
+own clock (fast). The body is plain Python on floats; logging happens only when the state changes.
 """
 
 from __future__ import annotations
@@ -22,19 +28,15 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from contextlib import ExitStack
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 from bowden.control import Command, Fault
-from bowden.errors import (
-    DeviceTimeoutError,
-    HardwareError,
-    MalformedFrameError,
-    ParameterError,
-    TransmitError,
-)
+from bowden.errors import DeviceTimeoutError, HardwareError, ParameterError, TransmitError
 from bowden.hardware.ak60_codec import MotorErrorCode
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, MotorState, TensionSensor
+from bowden.runtime.realtime import RealtimeConfig, realtime
 from bowden.runtime.safety import LoopState, SafetyConfig, ramp_torque_nm
 from bowden.runtime.timing import LoopTiming, TimingSummary
 
@@ -83,6 +85,10 @@ class LoopConfig:
             raise ParameterError(f"LoopConfig.duration_s must be positive, got {self.duration_s!r}")
 
 
+STALL_NOTICE_S = 0.01
+"""A gap between cycles this much longer than the period counts (and is recorded) as a host stall."""
+
+
 @dataclass(frozen=True)
 class LoopReport:
     """How a run ended (times in s since the loop started, on its clock)."""
@@ -95,13 +101,26 @@ class LoopReport:
     safe_time_s: float  # motor mode exited
     motor_disabled: bool
     timing: TimingSummary
-    motor_timeouts: int
+    motor_timeouts: int  # cycles whose command had brought no new motor reply by the next cycle
     controller_fault_cycles: int
+    host_stalls: int = 0  # gaps between cycles over STALL_NOTICE_S beyond the period
+    worst_host_stall_s: float = 0.0
+    transmit_failures: int = 0
+    degraded: tuple[str, ...] = ()  # states the run went on in (load cell lost, recording off)
+    realtime: str = ""  # the real-time settings applied, or why not
 
     @property
     def clean(self) -> bool:
         """True when the run ended by its duration or a stop request, not by a watchdog."""
         return self.fault in (Fault.NONE, Fault.STOP_REQUESTED)
+
+    def describe_health(self) -> str:
+        """One line on what the host and the devices did (for the run summary)."""
+        parts = [f"host stalls {self.host_stalls} (worst {1e3 * self.worst_host_stall_s:.0f} ms)",
+                 f"cycles without a new motor reply {self.motor_timeouts}",
+                 f"transmit failures {self.transmit_failures}"]
+        parts.extend(self.degraded)
+        return "; ".join(parts)
 
 
 class ControlLoop:
@@ -123,6 +142,14 @@ class ControlLoop:
         Called with one :data:`Row` per cycle; must not block (e.g. ``Recorder.record``).
     reference_elevation
         Reference elevation (rad) at loop time t, for the recording (NaN if None).
+    recorder_failure
+        Returns why the recording failed, or None while it works (e.g. ``lambda: recorder.failure``);
+        read every cycle.
+    on_event
+        Called with (loop time s, kind, message) for what happened once (host stalls, degraded
+        states); must not block (e.g. ``Recorder.event``).
+    realtime
+        Real-time settings for the loop's thread while it runs (None: leave the scheduling alone).
     """
 
     def __init__(
@@ -136,6 +163,9 @@ class ControlLoop:
         tension_sensor: TensionSensor | None = None,
         record: Callable[[Row], None] | None = None,
         reference_elevation: Callable[[float], float] | None = None,
+        recorder_failure: Callable[[], str | None] | None = None,
+        on_event: Callable[[float, str, str], None] | None = None,
+        realtime: RealtimeConfig | None = None,
     ) -> None:
         self.controller = controller
         self.motor = motor
@@ -145,6 +175,9 @@ class ControlLoop:
         self.tension_sensor = tension_sensor
         self.record = record
         self.reference_elevation = reference_elevation
+        self.recorder_failure = recorder_failure
+        self.on_event = on_event
+        self.realtime = realtime
         self.timing = LoopTiming(self.config.rate_hz)
         self._stop_reason: str | None = None
         self.state = LoopState.RUNNING
@@ -178,13 +211,22 @@ class ControlLoop:
             If the motor cannot be put into motor mode.
         """
         self._wait_for_imu()
-        try:
-            return self._run()
-        except BaseException:
-            # An error the watchdogs do not cover (a bug, an interrupt mid-cycle): no ramp is possible
-            # any more, so at least leave motor mode before the error goes up.
-            self._disable_motor()
-            raise
+        with ExitStack() as stack:
+            settings = ""
+            if self.realtime is not None:
+                settings = stack.enter_context(realtime(self.realtime)).describe()
+            try:
+                report = self._run()
+            except BaseException:
+                # An error the watchdogs do not cover (a bug, an interrupt mid-cycle): no ramp is
+                # possible any more, so at least leave motor mode before the error goes up.
+                self._disable_motor()
+                raise
+        return replace(report, realtime=settings)
+
+    def _event(self, time_s: float, kind: str, message: str) -> None:
+        if self.on_event is not None:
+            self.on_event(time_s, kind, message)
 
     def _run(self) -> LoopReport:
         safety = self.config.safety
@@ -195,21 +237,29 @@ class ControlLoop:
         controller = self.controller
         record = self.record
         reference = self.reference_elevation
+        recorder_failure = self.recorder_failure
         timing = self.timing
         period = 1.0 / self.config.rate_hz
         duration = self.config.duration_s if self.config.duration_s is not None else math.inf
         imu_max_age = safety.imu_max_age_s
         motor_max_silence = safety.motor_max_silence_s
+        motor_min_unanswered = safety.motor_min_unanswered
+        max_transmit_failures = safety.max_transmit_failures
+        stall_max = safety.host_stall_max_s
         max_temperature = safety.max_temperature_c
         max_tension = safety.max_tension_n
+        cell_max_age = safety.load_cell_max_age_s
+        stop_on_cell_lost = safety.on_load_cell_lost == "stop"
+        stop_on_recorder_failure = safety.on_recorder_failure == "stop"
         ramp_s = safety.ramp_down_s
         isfinite = math.isfinite
         disabled = False
 
         reply: MotorState | None = motor.enable()
         t0 = clock.now()
-        last_reply_s = t0
         deadline = t0
+        last_wake = t0 - period
+        fresh_since = t0  # sample ages count from here at most: the loop could not read before it
         k = 0
         state = LoopState.RUNNING
         fault = Fault.NONE
@@ -218,25 +268,54 @@ class ControlLoop:
         ramp_from = 0.0
         torque = 0.0
         motor_timeouts = 0
+        unanswered = 0
+        oldest_unanswered_s = _NAN
         controller_fault_cycles = 0
-        transmit_failed = False
+        transmit_failures = consecutive_transmit_failures = 0
+        transmit_error = ""
+        new_reply: MotorState | None = None
         motor_malformed = False
+        host_stalls = 0
+        worst_stall = 0.0
+        degraded: list[str] = []
+        degraded_flags = 0
+        cell_lost = recording_lost = False
         cycles = 0
 
         while True:
             clock.sleep_until(deadline)
             now = clock.now()
             t = now - t0
+            stall = now - last_wake - period
+            last_wake = now
+            if stall > STALL_NOTICE_S:
+                host_stalls += 1
+                fresh_since = now
+                if stall > worst_stall:
+                    worst_stall = stall
+                if stall <= stall_max:
+                    self._event(t, "host_stall", f"loop not scheduled for {1e3 * stall:.0f} ms "
+                                f"(tolerated up to {1e3 * stall_max:.0f} ms)")
             sample = imu.read()
             tension = _NAN
-            if load_cell is not None:
+            cell_problem = ""
+            if load_cell is not None and not cell_lost:
                 tension_sample = load_cell.read()
+                failure = load_cell.failure
                 if tension_sample is not None:
                     tension = tension_sample.tension_n
+                    cell_age = now - max(tension_sample.time_s, fresh_since)
+                else:
+                    cell_age = now - fresh_since
+                if failure is not None:
+                    cell_problem = failure
+                elif cell_age > cell_max_age:
+                    cell_problem = (f"load cell: no reading for {1e3 * cell_age:.0f} ms "
+                                    f"(limit {1e3 * cell_max_age:.0f} ms)")
             if sample is not None:
                 elevation = sample.elevation_rad
                 velocity = sample.elevation_velocity_rad_s
-                imu_age = now - sample.time_s
+                imu_age = now - max(sample.time_s, fresh_since)
             else:
                 elevation = velocity = _NAN
                 imu_age = math.inf
@@ -245,16 +324,26 @@ class ControlLoop:
                 motor_torque = reply.torque_nm
             else:
                 motor_velocity = motor_torque = _NAN
+            recording_problem = None
+            if recorder_failure is not None and not recording_lost:
+                recording_problem = recorder_failure()
 
             if state is LoopState.RUNNING:
                 # Watchdogs, most specific first; each one names what to check.
                 new_fault = Fault.NONE
-                if transmit_failed:
-                    new_fault, reason = Fault.TRANSMIT_FAILED, "motor: CAN transmit failed"
-                elif now - last_reply_s > motor_max_silence:
+                if stall > stall_max:
+                    new_fault = Fault.HOST_STALL
+                    reason = (f"host stall: the loop was not scheduled for {1e3 * stall:.0f} ms "
+                              f"(limit {1e3 * stall_max:.0f} ms)")
+                elif consecutive_transmit_failures >= max_transmit_failures:
+                    new_fault = Fault.TRANSMIT_FAILED
+                    reason = (f"motor: CAN transmit failed {consecutive_transmit_failures} times in a row "
+                              f"({transmit_error})")
+                elif unanswered >= motor_min_unanswered and now - oldest_unanswered_s > motor_max_silence:
                     new_fault = Fault.MOTOR_NO_REPLY
-                    reason = f"motor: no valid reply for {1e3 * (now - last_reply_s):.0f} ms"
-                    if motor_malformed:
+                    reason = (f"motor: no valid reply to the last {unanswered} commands "
+                              f"(the oldest sent {1e3 * (now - oldest_unanswered_s):.0f} ms ago)")
+                    if motor_malformed or getattr(motor, "last_malformed", None):
                         reason += " (malformed frames)"
                 elif reply is not None and reply.error_code != 0:
                     new_fault = Fault.MOTOR_ERROR
@@ -276,6 +365,10 @@ class ControlLoop:
                 elif tension > max_tension:
                     new_fault = Fault.TENSION_LIMIT
                     reason = f"load cell: {tension:.1f} N above the {max_tension:.0f} N limit"
+                elif cell_problem and stop_on_cell_lost:
+                    new_fault, reason = Fault.LOAD_CELL_LOST, f"{cell_problem}: the tension limit is blind"
+                elif recording_problem is not None and stop_on_recorder_failure:
+                    new_fault, reason = Fault.RECORDER_FAILED, f"recording failed: {recording_problem}"
                 elif self._stop_reason is not None:
                     new_fault, reason = Fault.STOP_REQUESTED, self._stop_reason
                 elif t >= duration - 1e-9:  # 1 ns: a cycle landing on the end, up to rounding
@@ -291,9 +384,22 @@ class ControlLoop:
                     log = _log.info if fault in (Fault.NONE, Fault.STOP_REQUESTED) else _log.warning
                     log("safe stop at t = %.3f s: %s; ramping %.2f Nm to zero in %.0f ms",
                         t, reason, ramp_from, 1e3 * ramp_s)
+            # Degraded states the operator chose to run on in: said once, flagged in every row after.
+            if cell_problem and not cell_lost and (state is not LoopState.RUNNING or not stop_on_cell_lost):
+                cell_lost = True
+                degraded_flags |= int(Fault.LOAD_CELL_LOST)
+                degraded.append(f"load cell lost at t = {t:.3f} s ({cell_problem}); tension limit off")
+                _log.warning("%s", degraded[-1])
+                self._event(t, "degraded", degraded[-1])
+            if recording_problem is not None and not recording_lost and (
+                    state is not LoopState.RUNNING or not stop_on_recorder_failure):
+                recording_lost = True
+                degraded_flags |= int(Fault.RECORDER_FAILED)
+                degraded.append(f"recording failed at t = {t:.3f} s ({recording_problem})")
+                _log.error("%s", degraded[-1])
 
             desired_tension = moment_arm = _NAN
-            flags = int(fault)
+            flags = int(fault) | degraded_flags
             if state is LoopState.RUNNING:
                 command = controller.step(t, elevation, velocity, motor_velocity, motor_torque)
                 torque = command.torque_nm
@@ -308,21 +414,35 @@ class ControlLoop:
                     zero_time = t
 
             try:
-                reply = motor.command_torque(torque)
-                last_reply_s = clock.now()
-                motor_malformed = False
-            # Without a reply the last valid one stands in (its age is the no-reply watchdog's business).
+                new_reply = motor.command_torque(torque)
+            except TransmitError as error:
+                transmit_failures += 1
+                consecutive_transmit_failures += 1
+                transmit_error = str(error)
+            # Any other refusal or a timeout of a motor that waits: no new reply this cycle.
             except DeviceTimeoutError:
-                motor_timeouts += 1
-            except MalformedFrameError:
+                new_reply = None
+                consecutive_transmit_failures = 0
+            except HardwareError:
+                new_reply = None
                 motor_malformed = True
-            except TransmitError:
-                transmit_failed = True
-            except HardwareError:  # any other refusal: treated like a missing reply
-                motor_malformed = True
+                consecutive_transmit_failures = 0
+            else:
+                consecutive_transmit_failures = 0
+            if consecutive_transmit_failures == 0:
+                if new_reply is not None:
+                    reply = new_reply
+                    motor_malformed = False
+                    # The command just sent now waits for its own reply.
+                    unanswered, oldest_unanswered_s = 1, now
+                else:
+                    motor_timeouts += 1
+                    if unanswered == 0:
+                        oldest_unanswered_s = now
+                    unanswered += 1
             end = clock.now()
 
-            if record is not None:
+            if record is not None and not recording_lost:
                 record((
                     t,
                     reference(t) if reference is not None else _NAN,
@@ -370,6 +490,10 @@ class ControlLoop:
             timing=timing.summary(),
             motor_timeouts=motor_timeouts,
             controller_fault_cycles=controller_fault_cycles,
+            host_stalls=host_stalls,
+            worst_host_stall_s=worst_stall,
+            transmit_failures=transmit_failures,
+            degraded=tuple(degraded),
         )
 
     def _disable_motor(self) -> bool:

@@ -1,11 +1,19 @@
 """The crash-safe trial recorder: the loop hands rows to a queue, a writer thread commits them.
 
-The control loop never touches the database: :meth:`Recorder.record` only appends a tuple to an
-unbounded ``queue.SimpleQueue`` (a lock-free C append, well under a microsecond). A writer thread
+The control loop never touches the database: :meth:`Recorder.record` only appends a tuple to a
+``queue.SimpleQueue`` (a lock-free C append, well under a microsecond). A writer thread
 batches what arrived and commits at least every ``commit_interval_s`` (default 0.1 s, so with the
 time a commit takes, well inside the 0.2 s of DESIGN.md) into the SQLite store of
 :mod:`bowden.runtime.store_schema` (WAL journal, ``synchronous=FULL``). A ``kill -9`` therefore loses
 only rows not yet committed and never corrupts what was (tested by killing a recording process).
+
+Failures reach the loop: :attr:`Recorder.failure` says why the recording cannot go on — the writer
+failed (a full disk, a removed file), or the backlog passed ``max_backlog_rows`` (the disk cannot keep
+up). The loop reads it every cycle and, by default, stops safely. The queue's policy: rows are queued
+while the writer lives (the loop stops within a cycle of the backlog bound, so the queue stays
+bounded); once the writer has died, rows are counted as dropped instead of queued for nobody.
+:meth:`Recorder.close` then still closes the trial (end time, stop reason) over a fresh connection
+when the file lets it, and everything committed before the failure stays in the store.
 """
 
 from __future__ import annotations
@@ -88,6 +96,8 @@ class RecorderStats:
     commits: int = 0
     max_commit_gap_s: float = 0.0  # longest time between two commits while recording
     max_backlog: int = 0
+    dropped_rows: int = 0  # rows handed over after the writer had failed (written by the loop side)
+    last_committed_time_s: float = math.nan  # loop time of the newest committed row
 
 
 class Recorder:
@@ -105,6 +115,9 @@ class Recorder:
         ``"FULL"`` (survives power loss) or ``"NORMAL"`` (survives process crashes).
     on_commit
         Called in the writer thread after each commit with the total committed rows.
+    max_backlog_rows
+        Rows waiting for the writer beyond which the recording counts as failed (default 5000:
+        10 s at 500 Hz, where a healthy writer keeps fewer than a hundred).
     """
 
     def __init__(
@@ -115,9 +128,13 @@ class Recorder:
         commit_interval_s: float = 0.1,
         synchronous: str = "FULL",
         on_commit: Callable[[int], None] | None = None,
+        max_backlog_rows: int = 5000,
     ) -> None:
         if not (math.isfinite(commit_interval_s) and 0.0 < commit_interval_s <= 0.2):
             raise ParameterError(f"commit_interval_s must be in (0, 0.2] s, got {commit_interval_s!r}")
+        if isinstance(max_backlog_rows, bool) or not isinstance(max_backlog_rows, int) \
+                or max_backlog_rows < 1:
+            raise ParameterError(f"max_backlog_rows must be a whole number ≥ 1, got {max_backlog_rows!r}")
         self.path = Path(path)
         self.trial = trial
         self.commit_interval_s = commit_interval_s
@@ -125,7 +142,11 @@ class Recorder:
         self.on_commit = on_commit
         self.stats = RecorderStats()
         self.trial_id: int | None = None
+        self.max_backlog_rows = max_backlog_rows
         self.error: BaseException | None = None
+        self.failure: str | None = None  # why the recording cannot go on; read by the loop
+        self.trial_closed = False
+        self._writer_dead = False
         self._queue: queue.SimpleQueue[object] = queue.SimpleQueue()
         self._ready = threading.Event()
         self._thread: threading.Thread | None = None
@@ -134,7 +155,14 @@ class Recorder:
     # --- loop side -------------------------------------------------------------------------------
     def record(self, row: tuple[float | int, ...]) -> None:
         """Queue one trial-recording row (``contracts.TRIAL_COLUMNS`` order). Never blocks."""
-        self._queue.put(row)
+        if self._writer_dead:
+            self.stats.dropped_rows += 1
+            return
+        queue_ = self._queue
+        queue_.put(row)
+        if queue_.qsize() > self.max_backlog_rows and self.failure is None:
+            self.failure = (f"{queue_.qsize()} rows waiting to be written to {self.path} "
+                            "(the disk cannot keep up)")
 
     def event(self, time_s: float, kind: str, message: str) -> None:
         """Queue an event (safe stop, fault...) at loop time ``time_s``."""
@@ -163,6 +191,9 @@ class Recorder:
     def close(self, stop_reason: str | None = None) -> None:
         """Commit everything queued, close the trial (end time, stop reason) and the file.
 
+        After a writer failure the trial is still closed over a fresh connection if the file takes
+        it (:attr:`trial_closed` says whether it did), then the failure is raised.
+
         Raises
         ------
         StoreError
@@ -175,7 +206,27 @@ class Recorder:
         self._thread.join()
         self._thread = None
         if self.error is not None:
-            raise StoreError(f"recording into {self.path} failed: {self.error}") from self.error
+            self._close_trial_after_failure(stop_reason)
+            kept = (f"{self.stats.committed_rows} rows committed before it are kept; the trial was "
+                    + ("closed with its stop reason" if self.trial_closed else "left open (no end time)"))
+            raise StoreError(f"recording into {self.path} failed: {self.error}; {kept}") from self.error
+
+    def _close_trial_after_failure(self, stop_reason: str | None) -> None:
+        reason = f"{stop_reason}; " if stop_reason else ""
+        try:
+            connection = sqlite3.connect(self.path, timeout=1.0)
+            try:
+                with connection:
+                    connection.execute(
+                        "UPDATE trials SET ended_utc = ?, stop_reason = ? WHERE id = ?",
+                        (utc_now_iso(), f"{reason}recording failed: {self.error}", self.trial_id),
+                    )
+            finally:
+                connection.close()
+        except (sqlite3.Error, OSError) as error:
+            _log.error("recorder: could not close trial %s after the failure: %s", self.trial_id, error)
+            return
+        self.trial_closed = True
 
     def __enter__(self) -> Self:
         return self.start()
@@ -219,7 +270,9 @@ class Recorder:
             self._drain(connection)
         except (sqlite3.Error, OSError, StoreError) as error:
             self.error = error
-            _log.error("recorder: writing %s failed: %s", self.path, error)
+            self._writer_dead = True
+            self.failure = f"writing {self.path} failed: {error}"
+            _log.error("recorder: %s", self.failure)
         finally:
             connection.close()
 
@@ -271,6 +324,9 @@ class Recorder:
                         )
                 stats = self.stats
                 stats.committed_rows += len(samples)
+                if samples:
+                    newest = samples[-1][1]  # [0] is the trial id
+                    stats.last_committed_time_s = float(newest) if newest is not None else math.nan
                 stats.commits += 1
                 stats.max_commit_gap_s = max(stats.max_commit_gap_s, time.monotonic() - last_commit)
                 stats.max_backlog = max(stats.max_backlog, backlog)

@@ -26,42 +26,80 @@ class LoopState(IntEnum):
     SAFE = LOOP_STATE_SAFE  # torque zero and motor mode exited
 
 
+FAULT_POLICIES = ("stop", "continue")
+
+
 @dataclass(frozen=True, kw_only=True)
 class SafetyConfig:
-    """Watchdog thresholds (s, °C, N).
+    """Watchdog thresholds (s, °C, N) and what to do when an evaluation device fails.
+
+    The defaults put every fault at zero torque within 80 ms of its cause: detection (IMU 40 ms,
+    motor 30 ms, load cell 50 ms) plus the 30 ms ramp plus a cycle.
 
     Parameters
     ----------
     imu_max_age_s
-        Elevation samples older than this stop the suit (issue 5: 50 ms).
-    motor_max_silence_s
-        No valid motor reply for this long stops the suit.
+        An elevation sample older than this, at the moment the loop could read it, stops the suit.
+    motor_max_silence_s, motor_min_unanswered
+        The motor counts as silent when at least ``motor_min_unanswered`` commands were sent since
+        its last valid reply *and* the oldest of them went out ``motor_max_silence_s`` ago. Judged on
+        commands actually sent, so a stall of the host (no commands sent) never reads as a dead motor.
+    max_transmit_failures
+        Consecutive failed command transmissions (CAN) that stop the suit.
+    host_stall_max_s
+        The loop itself not scheduled for longer than this (beyond its period) stops the suit with
+        its own reason; shorter stalls are tolerated (the motor holds its last command), counted,
+        recorded as events and reported.
     max_temperature_c
         Motor temperature above this stops the suit (the AK60-6's driver warns near 80 °C; the
         temperature byte's scale is unverified on V1.1, so set it from your motor's behaviour).
     max_tension_n
         A load-cell reading above this stops the suit (only when a load cell is connected).
+    load_cell_max_age_s
+        With a load cell connected, no new reading for this long (or the reader reporting the
+        sensor lost) is a lost load cell.
+    on_load_cell_lost
+        ``"stop"`` (default: the tension limit is a safety limit and cannot be watched any more) or
+        ``"continue"``: assistance goes on in an explicit degraded state, flagged in every recorded
+        row, logged, recorded as an event and reported.
+    on_recorder_failure
+        ``"stop"`` (default) or ``"continue"`` without recording (rows are counted as dropped).
     ramp_down_s
         Duration of the torque ramp to zero, ≤ 0.1 s.
     imu_startup_timeout_s
         How long the loop waits for a first elevation sample before refusing to start.
     """
 
-    imu_max_age_s: float = 0.05
-    motor_max_silence_s: float = 0.02
+    imu_max_age_s: float = 0.04
+    motor_max_silence_s: float = 0.03
+    motor_min_unanswered: int = 5
+    max_transmit_failures: int = 3
+    host_stall_max_s: float = 0.1
     max_temperature_c: float = 80.0
     max_tension_n: float = 200.0
-    ramp_down_s: float = 0.05
+    load_cell_max_age_s: float = 0.05
+    on_load_cell_lost: str = "stop"
+    on_recorder_failure: str = "stop"
+    ramp_down_s: float = 0.03
     imu_startup_timeout_s: float = 2.0
 
     def __post_init__(self) -> None:
-        for name in ("imu_max_age_s", "motor_max_silence_s", "max_temperature_c", "max_tension_n",
-                     "ramp_down_s", "imu_startup_timeout_s"):
+        for name in ("imu_max_age_s", "motor_max_silence_s", "host_stall_max_s", "max_temperature_c",
+                     "max_tension_n", "load_cell_max_age_s", "ramp_down_s", "imu_startup_timeout_s"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
                 raise ParameterError(f"SafetyConfig.{name} must be a finite number, got {value!r}")
             if value <= 0.0:
                 raise ParameterError(f"SafetyConfig.{name} must be positive, got {value!r}")
+        for name in ("motor_min_unanswered", "max_transmit_failures"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ParameterError(f"SafetyConfig.{name} must be a whole number ≥ 1, got {value!r}")
+        for name in ("on_load_cell_lost", "on_recorder_failure"):
+            if getattr(self, name) not in FAULT_POLICIES:
+                raise ParameterError(
+                    f"SafetyConfig.{name} must be one of {FAULT_POLICIES}, got {getattr(self, name)!r}"
+                )
         if self.ramp_down_s > MAX_RAMP_DOWN_S:
             raise ParameterError(
                 f"SafetyConfig.ramp_down_s must be at most {MAX_RAMP_DOWN_S} s, got {self.ramp_down_s}"

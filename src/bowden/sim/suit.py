@@ -185,6 +185,7 @@ class SimulatedLoadCell:
         self._suit = suit
         self._latest: TensionSample | None = None
         self._last_index = -1
+        self.failure: str | None = None  # the simulated load cell is never lost
 
     def sample(self, times: np.ndarray, record: np.ndarray) -> None:
         cell = self._suit.parameters.load_cell

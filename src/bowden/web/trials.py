@@ -287,6 +287,8 @@ class TrialManager:
             tension_sensor=suit.tension_sensor,
             record=record,
             reference_elevation=setup.reference.elevation_rad,
+            recorder_failure=lambda: recorder.failure,
+            on_event=recorder.event,
         )
         return _Trial(setup, suit, control_loop, recorder, tap, time.time())
 
@@ -336,6 +338,7 @@ class TrialManager:
                 deadline_misses=report.timing.deadline_misses,
                 motor_disabled=report.motor_disabled,
                 safe_time_s=report.safe_time_s,
+                health=report.describe_health(),
             )
         self.last_result = result
         self._trial = None

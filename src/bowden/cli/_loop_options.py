@@ -1,0 +1,59 @@
+"""The control loop's command-line options shared by ``bowden run`` and ``bowden serve``.
+
+Watchdogs a lab may have to fit to its links (IMU over Wi-Fi, motor over CAN, a slow host), the
+policies for losing an evaluation device (load cell, recording), and the real-time settings of the
+loop's thread. Each flag maps onto one field of :class:`~bowden.runtime.SafetyConfig` or
+:class:`~bowden.runtime.realtime.RealtimeConfig`, which validate them.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from bowden.runtime import SafetyConfig
+from bowden.runtime.realtime import RealtimeConfig
+from bowden.runtime.safety import FAULT_POLICIES
+
+DEFAULT_RT_PRIORITY = 50
+
+
+def add_safety_arguments(parser: argparse.ArgumentParser) -> None:
+    """Watchdog thresholds, fault policies and real-time settings (one group each)."""
+    defaults = SafetyConfig()
+    group = parser.add_argument_group("watchdogs (each stops the suit safely)")
+    group.add_argument("--imu-max-age-ms", type=float, default=1e3 * defaults.imu_max_age_s,
+                       help="newest IMU sample older than this "
+                       f"(default {1e3 * defaults.imu_max_age_s:g} ms)")
+    group.add_argument("--motor-silence-ms", type=float, default=1e3 * defaults.motor_max_silence_s,
+                       help="no valid motor reply to the commands sent over this long (default "
+                       f"{1e3 * defaults.motor_max_silence_s:g} ms, and at least "
+                       f"{defaults.motor_min_unanswered} commands)")
+    group.add_argument("--host-stall-ms", type=float, default=1e3 * defaults.host_stall_max_s,
+                       help="the loop itself not scheduled for longer than this (default "
+                       f"{1e3 * defaults.host_stall_max_s:g} ms; shorter stalls are counted and reported)")
+    group.add_argument("--on-load-cell-lost", choices=FAULT_POLICIES, default=defaults.on_load_cell_lost,
+                       help="stop (default: the tension limit is a safety limit) or continue, flagged")
+    group.add_argument("--on-recorder-failure", choices=FAULT_POLICIES,
+                       default=defaults.on_recorder_failure,
+                       help="stop (default) or continue without recording")
+    timing = parser.add_argument_group("real-time settings of the loop thread")
+    timing.add_argument("--rt-priority", type=int, default=DEFAULT_RT_PRIORITY,
+                        help="SCHED_FIFO priority 1-99 where the OS allows it "
+                        f"(default {DEFAULT_RT_PRIORITY}); 0 leaves the scheduling alone")
+    timing.add_argument("--cpu", type=int, action="append", dest="cpus", metavar="N",
+                        help="pin the loop thread to CPU N (repeat for several; default: any)")
+
+
+def safety_config(args: argparse.Namespace) -> SafetyConfig:
+    """The watchdog thresholds and policies of :func:`add_safety_arguments`, validated."""
+    return SafetyConfig(imu_max_age_s=args.imu_max_age_ms / 1e3,
+                        motor_max_silence_s=args.motor_silence_ms / 1e3,
+                        host_stall_max_s=args.host_stall_ms / 1e3,
+                        on_load_cell_lost=args.on_load_cell_lost,
+                        on_recorder_failure=args.on_recorder_failure)
+
+
+def realtime_config(args: argparse.Namespace) -> RealtimeConfig:
+    """The real-time settings of :func:`add_safety_arguments`, validated."""
+    return RealtimeConfig(priority=args.rt_priority or None,
+                          cpus=frozenset(args.cpus) if args.cpus else None)
