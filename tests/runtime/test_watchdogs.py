@@ -13,6 +13,7 @@ its own fault still does. ``benchmarks/faults.py`` prints the latencies themselv
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import signal
@@ -131,8 +132,19 @@ def check_safe_stop(rig: Rig, report: LoopReport, tap: Tap, fault: Fault, reason
     if measured:
         times = bus_times_from(frames, tap)
         slack = host_delay_s(report)
+        note_latencies(fault, times, slack)
         assert times.zero_s <= ZERO_BUDGET_S + slack, (times, report.describe_health())
         assert times.exit_s <= EXIT_BUDGET_S + slack, (times, report.describe_health())
+
+
+def note_latencies(fault: Fault, times: BusTimes, slack: float) -> None:
+    """Append the measured latencies to $BOWDEN_FAULT_LATENCIES (benchmarks/faults.py prints them)."""
+    path = os.environ.get("BOWDEN_FAULT_LATENCIES")
+    if path:
+        with open(path, "a", encoding="utf-8") as out:
+            out.write(json.dumps({"test": os.environ.get("PYTEST_CURRENT_TEST", "").split(" ")[0],
+                                  "fault": fault.name, "zero_s": times.zero_s, "exit_s": times.exit_s,
+                                  "host_delay_s": slack}) + "\n")
 
 
 def bus_times_from(frames: list[can.Message], tap: Tap) -> BusTimes:

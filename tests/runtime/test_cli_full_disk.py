@@ -1,0 +1,50 @@
+"""A recording that cannot be written reaches the loop and the operator: ``bowden run`` on a full disk.
+
+The run's process gets a file-size limit (RLIMIT_FSIZE, with SIGXFSZ ignored, so a write past it
+fails with EFBIG as a write to a full disk fails with ENOSPC: SQLite reports both as "database or disk
+is full"). Measured before: rows stopped at 1.2 s while the run went on to 15 s, then exit 1 with the
+trial left open and no summary. Now: a safe stop with the recorder's reason, exit 3, the summary, and
+every committed row kept.
+"""
+
+from __future__ import annotations
+
+import resource
+import signal
+import sqlite3
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+LIMIT_BYTES = 256 * 1024
+
+
+def run(args: list[str], *, limited: bool) -> subprocess.CompletedProcess[str]:
+    def limit_file_size() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # inherited across exec: EFBIG instead of a kill
+        resource.setrlimit(resource.RLIMIT_FSIZE, (LIMIT_BYTES, LIMIT_BYTES))
+
+    return subprocess.run([sys.executable, "-m", "bowden", "run", "--backend", "sim", "--rt-priority", "0",
+                           *args], capture_output=True, text=True, timeout=300,
+                          preexec_fn=limit_file_size if limited else None, check=False)
+
+
+@pytest.mark.timeout(600)
+def test_full_disk_stops_safely_and_keeps_what_was_written(tmp_path: Path) -> None:
+    # A first run without the limit, so that nothing but the store meets it (compile caches).
+    warm = run(["--duration", "0.5"], limited=False)
+    assert warm.returncode == 0, warm.stderr
+    store = tmp_path / "study.db"
+    result = run(["--duration", "60", "--record", str(store), "--participant", "P03",
+                  "--condition", "support_50"], limited=True)
+    out = result.stdout
+    assert result.returncode == 3, out + result.stderr
+    assert "stopped: recording failed" in out and "RECORDER_FAILED" in out, out
+    assert "disk is full" in out
+    assert "motor mode exited" in out  # the safe-state path ran to its end
+    assert "recording: recording into" in out  # the summary says what became of the recording
+    with sqlite3.connect(store) as check:
+        rows, last = check.execute("SELECT COUNT(*), MAX(time_s) FROM samples").fetchone()
+    assert rows > 100 and last < 50.0  # it stopped long before the 60 s, with the rows it had
