@@ -1,18 +1,24 @@
-"""The AK60-6 driver against the simulated motor over python-can's virtual bus: the bytes are real."""
+"""The AK60-6 driver against the simulated motor over python-can's virtual bus: the bytes are real.
+
+The driver never waits for a reply in a torque command (the reply of one cycle serves the next), so
+the tests that need the answer to one particular command use :func:`exchange`: older replies are
+taken first, then the command goes out and the test waits (not the driver) for its reply.
+"""
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Iterator
 from typing import TYPE_CHECKING, Any
 
 import can
 import pytest
 
-from bowden.errors import DeviceTimeoutError, MalformedFrameError, ParameterError, TransmitError
+from bowden.errors import DeviceTimeoutError, ParameterError, TransmitError
 from bowden.hardware.ak60 import ERRNO_NO_BUFFER_SPACE, AK60Config, AK60Motor
 from bowden.hardware.ak60_codec import FIRMWARE_LIMITS, MotorErrorCode, position_resolution_rad
-from bowden.hardware.protocols import Motor
+from bowden.hardware.protocols import Motor, MotorState
 from bowden.sim.peers import AK60Peer, WallTimePlant
 from bowden.sim.peers.ak60_peer import COMMAND, ENTER, EXIT, ZERO
 
@@ -20,6 +26,26 @@ if TYPE_CHECKING:
     from conftest import SimplePlant
 
 FAST = AK60Config(reply_timeout_s=0.05, special_reply_timeout_s=0.2, zero_settle_s=0.02, zero_timeout_s=1.0)
+
+
+def exchange(motor: AK60Motor, torque_nm: float, timeout_s: float = 2.0) -> MotorState:
+    """Send one torque command and wait (here, not in the driver) for the reply to it."""
+    while motor.poll(0.005) is not None:  # replies to earlier commands
+        pass
+    state = motor.command_torque(torque_nm)
+    deadline = time.monotonic() + timeout_s
+    while state is None and time.monotonic() < deadline:
+        state = motor.poll(0.01)
+    assert state is not None, "no reply"
+    return state
+
+
+def run_for(motor: AK60Motor, torque_nm: float, cycles: int) -> MotorState:
+    """Command ``torque_nm`` every 2 ms for ``cycles`` cycles, like the loop; the last reply."""
+    for _ in range(cycles):
+        motor.command_torque(torque_nm)
+        time.sleep(0.002)
+    return exchange(motor, torque_nm)
 
 
 @pytest.fixture
@@ -41,8 +67,7 @@ def test_enter_command_reply_exit(motor: AK60Motor, peer: AK60Peer, plant: Simpl
     state = motor.enable()
     assert peer.in_motor_mode and motor.enabled
     assert state.error_code == 0 and state.temperature_c == plant.motor.temperature_c
-    for _ in range(200):
-        state = motor.command_torque(2.0)
+    state = run_for(motor, 2.0, 100)
     commands = [frame for frame in peer.received if frame.kind == COMMAND]
     # The peer decoded the driver's bytes to the torque asked for (within one 12-bit step of ±15 Nm).
     assert commands[-1].torque_nm == pytest.approx(2.0, abs=30.0 / 4095)
@@ -54,7 +79,7 @@ def test_enter_command_reply_exit(motor: AK60Motor, peer: AK60Peer, plant: Simpl
     assert peer.received[0].kind == ENTER
     assert peer.received[-1].kind == EXIT
     # Outside motor mode the motor answers but applies no torque.
-    motor.command_torque(3.0)
+    exchange(motor, 3.0)
     assert peer.received[-1].torque_nm == 0.0
     motor.disable()  # twice is fine
 
@@ -63,8 +88,7 @@ def test_negative_direction_flips_every_sign(can_buses: tuple[can.BusABC, can.Bu
                                              plant: SimplePlant) -> None:
     motor = AK60Motor(can_buses[0], AK60Config(reply_timeout_s=0.05, direction=-1))
     motor.enable()
-    for _ in range(100):
-        state = motor.command_torque(1.0)
+    state = run_for(motor, 1.0, 50)
     assert peer.received[-1].torque_nm == pytest.approx(-1.0, abs=30.0 / 4095)
     assert plant.motor.velocity_rad_s < 0.0 < state.velocity_rad_s
     assert state.torque_nm > 0.0
@@ -73,7 +97,7 @@ def test_negative_direction_flips_every_sign(can_buses: tuple[can.BusABC, can.Bu
 
 def test_torque_is_clamped_to_the_configured_limit(motor: AK60Motor, peer: AK60Peer) -> None:
     motor.enable()
-    motor.command_torque(50.0)
+    exchange(motor, 50.0)
     assert peer.received[-1].torque_nm == pytest.approx(9.0, abs=30.0 / 4095)
     with pytest.raises(ParameterError, match="NaN"):
         motor.command_torque(math.nan)
@@ -82,14 +106,13 @@ def test_torque_is_clamped_to_the_configured_limit(motor: AK60Motor, peer: AK60P
 
 def test_set_zero_waits_out_the_silence(motor: AK60Motor, peer: AK60Peer, plant: SimplePlant) -> None:
     motor.enable()
-    for _ in range(300):
-        state = motor.command_torque(1.0)
-    motor.command_torque(0.0)
+    state = run_for(motor, 1.0, 150)
+    exchange(motor, 0.0)
     plant.motor.damping_nm_s = 10.0  # stop the spool so the zero is well defined
     assert abs(state.position_rad) > 0.05
     motor.set_zero()
     assert any(frame.kind == ZERO for frame in peer.received)
-    after = motor.command_torque(0.0)
+    after = exchange(motor, 0.0)
     assert after.position_rad == pytest.approx(0.0, abs=0.01)
     motor.disable()
 
@@ -103,17 +126,39 @@ def test_set_zero_times_out_on_a_motor_that_stays_silent(can_buses: tuple[can.Bu
             motor.set_zero()
 
 
-def test_timeouts_then_recovery(motor: AK60Motor, peer: AK60Peer) -> None:
+class CountingClock:
+    """The driver's clock, counting how often it is read (a wait would read it again and again)."""
+
+    def __init__(self) -> None:
+        self.reads = 0
+
+    def __call__(self) -> float:
+        self.reads += 1
+        return time.monotonic()
+
+
+def test_a_silent_motor_never_holds_the_command(can_buses: tuple[can.BusABC, can.BusABC],
+                                                 peer: AK60Peer) -> None:
+    clock = CountingClock()
+    motor = AK60Motor(can_buses[0], FAST, clock=clock)
     motor.enable()
+    exchange(motor, 0.5)
     peer.mute()
-    with pytest.raises(DeviceTimeoutError, match="no reply"):
-        motor.command_torque(1.0)
-    with pytest.raises(DeviceTimeoutError):
-        motor.command_torque(1.0)
-    assert motor.counters.timeouts == 2
+    time.sleep(0.02)
+    while motor.poll(0.005) is not None:
+        pass
+    before = clock.reads
+    for k in range(1, 21):
+        assert motor.command_torque(1.0) is None
+        assert motor.unanswered_commands == k
+    # One clock read for the send time and one for the (zero) wait per command: no waiting loop.
+    assert clock.reads - before <= 3 * 20
+    first_send = motor.oldest_unanswered_send_s
+    assert math.isfinite(first_send)
     peer.mute(False)
-    state = motor.command_torque(0.5)
+    state = exchange(motor, 0.5)
     assert state.error_code == 0
+    assert motor.unanswered_commands == 0 and math.isnan(motor.oldest_unanswered_send_s)
     motor.disable()
 
 
@@ -146,10 +191,10 @@ def test_each_motor_error_code_surfaces_in_the_state(motor: AK60Motor, peer: AK6
                                                       code: MotorErrorCode) -> None:
     motor.enable()
     peer.inject_error(int(code))
-    state = motor.command_torque(0.5)
+    state = exchange(motor, 0.5)
     assert state.error_code == code
     peer.inject_error(0)
-    assert motor.command_torque(0.0).error_code == 0
+    assert exchange(motor, 0.0).error_code == 0
     motor.disable()
 
 
@@ -167,22 +212,72 @@ def test_other_firmware_variant_end_to_end(can_buses: tuple[can.BusABC, can.BusA
     with AK60Peer(can_buses[1], wall_plant, limits=limits) as peer:
         motor = AK60Motor(can_buses[0], AK60Config(limits=limits, reply_timeout_s=0.05))
         motor.enable()
-        motor.command_torque(4.0)
+        exchange(motor, 4.0)
         assert peer.received[-1].torque_nm == pytest.approx(4.0, abs=18.0 / 4095)
         motor.disable()
 
 
-def test_malformed_reply_is_a_fault(motor: AK60Motor, peer: AK60Peer) -> None:
+def test_a_bad_frame_never_ends_the_wait_for_a_good_one(motor: AK60Motor, peer: AK60Peer,
+                                                        can_buses: tuple[can.BusABC, can.BusABC]) -> None:
     motor.enable()
-    peer.replace_next_reply(bytes([1, 0x80, 0x00]))  # right id, wrong length
-    with pytest.raises(MalformedFrameError, match="6 or 8"):
-        motor.command_torque(0.5)
-    assert motor.counters.malformed == 1
-    peer.replace_next_reply(bytes([7, 1, 2, 3, 4, 5, 6, 7]))  # another motor's reply is not ours
-    with pytest.raises(DeviceTimeoutError):
-        motor.command_torque(0.5)
-    assert motor.command_torque(0.0).error_code == 0
+    exchange(motor, 0.5)
+    while motor.poll(0.005) is not None:
+        pass
+    peer.replace_next_reply(bytes([1, 0x80, 0x00]))  # right ids, wrong length: malformed
+    motor.command_torque(0.5)
+    motor.command_torque(0.25)
+    deadline = time.monotonic() + 2.0
+    while len([f for f in peer.received if f.kind == COMMAND]) < 3 and time.monotonic() < deadline:
+        time.sleep(0.005)
+    time.sleep(0.01)
+    # One poll meets the bad reply first and the good one after it: the good one is returned.
+    state = motor.poll()
+    assert state is not None and state.error_code == 0
+    assert motor.counters.malformed == 1 and motor.last_malformed is None
+    # Frames that are not this motor's replies: another motor's, another node's carrying our id in
+    # byte 0 on another CAN id, an extended id, a remote frame. None is taken; each is counted.
+    foreign_before = motor.counters.foreign
+    intruder = can_buses[1]
+    for message in (
+        can.Message(arbitration_id=0, data=bytes([7, 1, 2, 3, 4, 5, 6, 7]), is_extended_id=False),
+        can.Message(arbitration_id=0x123, data=bytes([1, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0, 0]),
+                    is_extended_id=False),
+        can.Message(arbitration_id=0, data=bytes([1, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0, 0]),
+                    is_extended_id=True),
+        can.Message(arbitration_id=0, is_remote_frame=True, dlc=8, is_extended_id=False),
+    ):
+        intruder.send(message)
+    time.sleep(0.02)
+    assert motor.poll() is None
+    assert motor.counters.foreign - foreign_before == 4
+    assert exchange(motor, 0.0).error_code == 0
     motor.disable()
+
+
+def test_a_flood_is_taken_a_bounded_number_of_frames_at_a_time(motor: AK60Motor, peer: AK60Peer,
+                                                                can_buses: tuple[can.BusABC, can.BusABC]
+                                                                ) -> None:
+    motor.enable()
+    exchange(motor, 0.0)
+    flood = can.Message(arbitration_id=0x555, data=bytes([1, 2, 3, 4, 5, 6, 7, 8]), is_extended_id=False)
+    for _ in range(10_000):
+        can_buses[1].send(flood)
+    before = motor.counters.foreign
+    motor.command_torque(0.0)
+    assert motor.counters.foreign - before <= motor.config.max_frames_per_poll
+    assert motor.counters.poll_limit_hits >= 1
+    motor.disable()
+
+
+def test_replies_on_another_id_are_named_when_enable_fails(can_buses: tuple[can.BusABC, can.BusABC],
+                                                           wall_plant: WallTimePlant) -> None:
+    with AK60Peer(can_buses[1], wall_plant, reply_arbitration_id=0x10):
+        motor = AK60Motor(can_buses[0], AK60Config(special_reply_timeout_s=0.05, enter_attempts=1))
+        with pytest.raises(DeviceTimeoutError, match="CAN id 0x10"):
+            motor.enable()
+        relaxed = AK60Motor(can_buses[0], AK60Config(reply_arbitration_id=0x10))
+        assert relaxed.enable().error_code == 0
+        relaxed.disable()
 
 
 def test_wraps_are_counted_over_many_turns(motor: AK60Motor, peer: AK60Peer, plant: SimplePlant) -> None:
@@ -195,7 +290,7 @@ def test_wraps_are_counted_over_many_turns(motor: AK60Motor, peer: AK60Peer, pla
     for target in targets:
         plant.motor.position_rad = target
         plant.motor.velocity_rad_s = 0.0
-        state = motor.command_torque(0.0)
+        state = exchange(motor, 0.0)
         assert state.position_rad == pytest.approx(target, abs=lsb)
     motor.disable()
 
@@ -204,7 +299,7 @@ def test_context_manager_leaves_the_motor_safe(can_buses: tuple[can.BusABC, can.
                                                peer: AK60Peer) -> None:
     with pytest.raises(RuntimeError, match="boom"), AK60Motor(can_buses[0], FAST) as motor:
         motor.enable()
-        motor.command_torque(2.0)
+        exchange(motor, 2.0)
         raise RuntimeError("boom")
     kinds = [frame.kind for frame in peer.received]
     assert kinds[-1] == EXIT
@@ -263,10 +358,29 @@ def test_persistent_transmit_failure_raises_with_a_hint(can_buses: tuple[can.Bus
         bus.shutdown()
 
 
+def test_a_failed_send_in_the_cycle_raises_at_once(can_buses: tuple[can.BusABC, can.BusABC],
+                                                   peer: AK60Peer) -> None:
+    bus = FlakyBus(can_buses[0], failures=0)
+    try:
+        motor = AK60Motor(bus, FAST)
+        motor.enable()
+        bus.failures = 100
+        attempts = bus.attempts
+        with pytest.raises(TransmitError, match="no buffer space"):
+            motor.command_torque(1.0)
+        assert bus.attempts - attempts == 1  # no retry, no sleep in the cycle
+        # Leaving the block on a dead bus is said (exit_error), never raised.
+        motor.__exit__(None, None, None)
+        assert motor.exit_error is not None and "no buffer space" in motor.exit_error
+    finally:
+        bus.shutdown()
+
+
 def test_config_validation_names_the_field() -> None:
     bad: list[dict[str, Any]] = [
         {"motor_id": 0}, {"reply_timeout_s": 0.0}, {"direction": 2}, {"kd": 6.0},
         {"zero_settle_s": 3.0}, {"send_attempts": 0}, {"reply_arbitration_id": 0x800},
+        {"reply_wait_s": 0.01}, {"max_frames_per_poll": 0},
     ]
     for kwargs in bad:
         with pytest.raises(ParameterError, match=next(iter(kwargs))):

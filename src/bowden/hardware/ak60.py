@@ -5,14 +5,22 @@ simulated peer in tests), never opened here. Frames are those of :mod:`bowden.ha
 
 What the driver adds to the codec:
 
-* replies are matched to the command that asked for them (stale replies queued from an earlier,
-  timed-out exchange are drained before each send), with a deadline: a silent motor raises
-  :class:`~bowden.errors.DeviceTimeoutError` instead of blocking the loop;
+* :meth:`AK60Motor.command_torque` never waits for its reply (by default; at most
+  ``reply_wait_s``): it sends, takes the frames that have arrived (at most ``max_frames_per_poll``,
+  so a node flooding the bus cannot hold the loop) and returns the newest valid reply, or None. The
+  reply to cycle k's command thus serves cycle k + 1. The driver counts the commands sent since the
+  last valid reply and when the oldest of them went out, which is what the loop's no-reply watchdog
+  judges (a stall of the host sends nothing, so it cannot look like a silent motor);
+* only the motor's replies are taken: standard data frames on ``reply_arbitration_id`` (the
+  firmware's master id, 0 by default), 6 or 8 bytes long, byte 0 the motor id. Other frames are
+  counted as foreign and ignored; a reply that does not decode is counted and skipped, never the end
+  of a wait for a good one;
 * the ±12.5 rad position field is only ±2 output turns, so wraps are counted and ``position_rad`` is
   multi-turn spool position (the field wraps on the AK firmware; a jump of more than half the field
   between two replies is a wrap, which needs |v| < P·reply rate: 6000 rad/s at 500 Hz);
 * transmit failures — typically ``No buffer space available`` (errno 105) when nothing on the bus
-  acknowledges — are retried briefly, then raised as :class:`~bowden.errors.TransmitError`;
+  acknowledges — raise :class:`~bowden.errors.TransmitError`: at once in the cycle (the loop counts
+  them), after brief retries for enter/exit/zero; leaving the ``with`` block never raises for them;
 * motor error codes are passed through in :attr:`MotorState.error_code` (the loop's watchdog turns
   them into a safe stop), never swallowed;
 * ``direction`` maps the motor's positive sense onto the suit's (torque > 0 pulls the cable).
@@ -48,6 +56,7 @@ from bowden.hardware.protocols import MotorState
 
 _log = logging.getLogger(__name__)
 ERRNO_NO_BUFFER_SPACE = 105  # ENOBUFS on Linux: the CAN controller's transmit queue is full
+MAX_REPLY_WAIT_S = 0.0005
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -61,7 +70,13 @@ class AK60Config:
     limits
         Field ranges of the firmware variant (see ``ak60_codec.FIRMWARE_LIMITS``).
     reply_timeout_s
-        How long a command waits for its reply. A bus round trip is ≈ 0.25 ms.
+        Send timeout, and how long :meth:`AK60Motor.set_zero` polls wait for a reply.
+    reply_wait_s
+        How long a torque command may wait for a reply to arrive (default 0: it takes what has
+        arrived). A round trip on a 1 Mbit/s bus is ≈ 0.25 ms, so 0.0003 lets a cycle use its own
+        reply; at most 0.5 ms, a small part of the period.
+    max_frames_per_poll
+        Frames taken from the bus per torque command at most (the rest wait for the next one).
     special_reply_timeout_s
         How long enter/exit motor mode wait for the motor's state frame.
     enter_attempts
@@ -78,7 +93,9 @@ class AK60Config:
     kd
         Damping gain sent with every torque command (Nm·s/rad); 0 = pure torque control.
     reply_arbitration_id
-        Accept replies only on this CAN id (the firmware's "master id"), or None for any standard id.
+        Accept replies only on this CAN id (the firmware's "master id", 0 by default on the
+        AK-series firmware), or None to accept any standard id (not recommended: any node whose
+        frame starts with the motor id would be taken for the motor).
     send_attempts, send_retry_s
         A failed transmit is retried this many times in all, ``send_retry_s`` apart.
     """
@@ -86,13 +103,15 @@ class AK60Config:
     motor_id: int = 1
     limits: AK60Limits = field(default_factory=lambda: FIRMWARE_LIMITS[DEFAULT_FIRMWARE])
     reply_timeout_s: float = 0.01
+    reply_wait_s: float = 0.0
+    max_frames_per_poll: int = 32
     special_reply_timeout_s: float = 0.1
     zero_settle_s: float = 0.5
     zero_timeout_s: float = 2.0
     direction: int = 1
     torque_limit_nm: float = 9.0
     kd: float = 0.0
-    reply_arbitration_id: int | None = None
+    reply_arbitration_id: int | None = 0
     send_attempts: int = 3
     send_retry_s: float = 0.0002
     enter_attempts: int = 3
@@ -116,6 +135,11 @@ class AK60Config:
             raise ParameterError(f"AK60Config.kd ({self.kd}) exceeds limits.kd_max ({self.limits.kd_max})")
         if self.send_attempts < 1:
             raise ParameterError(f"AK60Config.send_attempts must be >= 1, got {self.send_attempts}")
+        if not (math.isfinite(self.reply_wait_s) and 0.0 <= self.reply_wait_s <= MAX_REPLY_WAIT_S):
+            raise ParameterError(f"AK60Config.reply_wait_s must be in [0, {MAX_REPLY_WAIT_S}] s, "
+                                 f"got {self.reply_wait_s!r}")
+        if self.max_frames_per_poll < 1:
+            raise ParameterError(f"AK60Config.max_frames_per_poll must be >= 1, got {self.max_frames_per_poll}")
         if self.enter_attempts < 1:
             raise ParameterError(f"AK60Config.enter_attempts must be >= 1, got {self.enter_attempts}")
         if self.reply_arbitration_id is not None and not 0 <= self.reply_arbitration_id <= MAX_STANDARD_ID:
@@ -131,7 +155,9 @@ class AK60Counters:
     replies: int = 0
     timeouts: int = 0
     malformed: int = 0
-    stale_replies: int = 0
+    stale_replies: int = 0  # valid replies superseded by a newer one in the same poll
+    foreign: int = 0  # frames that are not this motor's replies
+    poll_limit_hits: int = 0  # polls that left frames on the bus (max_frames_per_poll reached)
     transmit_retries: int = 0
     transmit_failures: int = 0
 
@@ -165,6 +191,11 @@ class AK60Motor:
         self._turns = 0
         self._field_span_rad = 2.0 * self.config.limits.position_rad
         self.last_state: MotorState | None = None
+        self.unanswered_commands = 0  # torque commands sent since the last valid reply
+        self.oldest_unanswered_send_s = math.nan  # clock time of the first of them
+        self.last_malformed: str | None = None  # why the newest undecodable reply was refused
+        self.exit_error: str | None = None  # what went wrong leaving the ``with`` block
+        self._foreign_ids: set[int] = set()  # ids of foreign frames carrying our id in byte 0
 
     # --- Motor protocol ---------------------------------------------------------------------------
     @property
@@ -174,6 +205,7 @@ class AK60Motor:
 
     def enable(self) -> MotorState:
         """Enter motor mode and return the state frame the motor answers with."""
+        self._discard_waiting()
         attempt = 1
         while True:
             self._send(ENTER_MOTOR_MODE)
@@ -187,6 +219,8 @@ class AK60Motor:
                              self.config.motor_id, attempt, self.config.enter_attempts)
                 attempt += 1
         self._enabled = True
+        self.unanswered_commands = 0
+        self.oldest_unanswered_send_s = math.nan
         return state
 
     def disable(self) -> None:
@@ -233,17 +267,16 @@ class AK60Motor:
             self.last_state = self._to_state(reply)
             return
 
-    def command_torque(self, torque_nm: float) -> MotorState:
-        """Send a pure torque command (spool side, Nm, > 0 pulls) and return the reply to it.
+    def command_torque(self, torque_nm: float) -> MotorState | None:
+        """Send a pure torque command (spool side, Nm, > 0 pulls) without waiting for its reply.
+
+        Returns the newest valid state that arrived since the previous call — the reply to an
+        earlier command — or None when none did (waits at most ``reply_wait_s`` for one).
 
         Raises
         ------
-        DeviceTimeoutError
-            No reply within ``reply_timeout_s``.
-        MalformedFrameError
-            A frame from this motor that does not decode.
         TransmitError
-            The frame could not be sent.
+            The frame could not be sent (one attempt, no retry: the loop counts failures).
         ParameterError
             ``torque_nm`` is NaN (a NaN command never reaches the wire).
         """
@@ -252,9 +285,29 @@ class AK60Motor:
         limit = self.config.torque_limit_nm
         motor_torque = self.config.direction * min(max(torque_nm, -limit), limit)
         command = MitCommand(torque_nm=motor_torque, kd=self.config.kd)
-        self._drain()
-        self._send(pack_command(command, self.config.limits))
-        return self._await_state(self.config.reply_timeout_s, "torque command")
+        sent_s = self._clock()
+        self._send(pack_command(command, self.config.limits), attempts=1, timeout_s=0.0)
+        if self.unanswered_commands == 0:
+            self.oldest_unanswered_send_s = sent_s
+        self.unanswered_commands += 1
+        reply = self._poll(self.config.reply_wait_s)
+        if reply is None:
+            return None
+        state = self._to_state(reply)
+        self.last_state = state
+        return state
+
+    def poll(self, wait_s: float = 0.0) -> MotorState | None:
+        """The newest valid state among the frames that arrived, waiting at most ``wait_s`` for one,
+        without sending anything (tools and tests; the loop uses :meth:`command_torque`)."""
+        if not (math.isfinite(wait_s) and wait_s >= 0.0):
+            raise ParameterError(f"poll: wait_s must be ≥ 0, got {wait_s!r}")
+        reply = self._poll(wait_s)
+        if reply is None:
+            return None
+        state = self._to_state(reply)
+        self.last_state = state
+        return state
 
     def __enter__(self) -> Self:
         return self
@@ -265,73 +318,116 @@ class AK60Motor:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        """Leave motor mode if still in it. Never raises for the bus: the caller reports ``exit_error``."""
         if not self._enabled:
             return
         try:
             self.command_torque(0.0)
-        except (DeviceTimeoutError, MalformedFrameError, TransmitError) as error:
-            _log.warning("AK60 id %d: zero-torque command on exit failed (%s)", self.config.motor_id, error)
-        try:
             self.disable()
-        except TransmitError:
-            if exc is None:
-                raise
-            _log.exception("AK60 id %d: could not send exit motor mode", self.config.motor_id)
+        except TransmitError as error:
+            self.exit_error = f"could not leave motor mode: {error}"
+            _log.error("AK60 id %d: %s", self.config.motor_id, self.exit_error)
 
     # --- wire ------------------------------------------------------------------------------------
-    def _send(self, data: bytes) -> None:
+    def _send(self, data: bytes, *, attempts: int | None = None, timeout_s: float | None = None) -> None:
         message = can.Message(arbitration_id=self.config.motor_id, data=data, is_extended_id=False)
+        attempts = self.config.send_attempts if attempts is None else attempts
+        timeout = self.config.reply_timeout_s if timeout_s is None else timeout_s
         last_error: can.CanError | None = None
-        for attempt in range(self.config.send_attempts):
+        for attempt in range(attempts):
             try:
-                self._bus.send(message, timeout=self.config.reply_timeout_s)
+                self._bus.send(message, timeout=timeout)
                 return
             except can.CanError as error:  # CanOperationError carries errno 105 on socketcan
                 last_error = error
-                if attempt + 1 < self.config.send_attempts:
+                if attempt + 1 < attempts:
                     self.counters.transmit_retries += 1
                     time.sleep(self.config.send_retry_s)
         self.counters.transmit_failures += 1
         hint = ""
         if getattr(last_error, "error_code", None) == ERRNO_NO_BUFFER_SPACE:
             hint = " (no buffer space: nothing acknowledges — is the motor powered, the bus terminated?)"
+        tries = f" after {attempts} attempts" if attempts > 1 else ""
         raise TransmitError(
-            f"AK60 id {self.config.motor_id}: transmit failed after {self.config.send_attempts} "
-            f"attempts: {last_error}{hint}"
+            f"AK60 id {self.config.motor_id}: transmit failed{tries}: {last_error}{hint}"
         ) from last_error
 
-    def _is_reply(self, message: can.Message) -> bool:
-        if message.is_error_frame or message.is_remote_frame or message.is_extended_id:
-            return False
-        if not message.data or message.data[0] != self.config.motor_id:
-            return False
-        wanted = self.config.reply_arbitration_id
-        return wanted is None or message.arbitration_id == wanted
+    def _discard_waiting(self, limit: int = 1000) -> None:
+        """Drop frames queued before a request, so that its answer is not taken from them."""
+        for _ in range(limit):
+            if self._bus.recv(timeout=0.0) is None:
+                return
 
-    def _drain(self) -> None:
-        while (message := self._bus.recv(timeout=0.0)) is not None:
+    def _is_reply(self, message: can.Message) -> bool:
+        """From our motor: a standard data frame on the reply id, byte 0 our id (its length, 6 or 8
+        bytes, is the decoder's to check: a wrong one is a malformed reply, not a foreign frame)."""
+        data = message.data
+        mine = (
+            not (message.is_error_frame or message.is_remote_frame or message.is_extended_id)
+            and len(data) > 0
+            and data[0] == self.config.motor_id
+        )
+        wanted = self.config.reply_arbitration_id
+        if mine and (wanted is None or message.arbitration_id == wanted):
+            return True
+        self.counters.foreign += 1
+        if data and data[0] == self.config.motor_id and not message.is_extended_id:
+            self._foreign_ids.add(message.arbitration_id)
+        return False
+
+    def _decode(self, message: can.Message) -> MitReply | None:
+        """The reply in ``message``, or None (counted) if it does not decode."""
+        try:
+            reply = unpack_reply(message.data, self.config.limits)
+        except MalformedFrameError as error:
+            self.counters.malformed += 1
+            self.last_malformed = str(error)
+            return None
+        self.counters.replies += 1
+        self.last_malformed = None
+        self.unanswered_commands = 0
+        self.oldest_unanswered_send_s = math.nan
+        return reply
+
+    def _poll(self, wait_s: float) -> MitReply | None:
+        """The newest valid reply among the frames that arrived (bounded), waiting at most ``wait_s``."""
+        newest: MitReply | None = None
+        deadline = self._clock() + wait_s
+        for _ in range(self.config.max_frames_per_poll):
+            remaining = deadline - self._clock() if newest is None else 0.0
+            message = self._bus.recv(timeout=max(remaining, 0.0))
+            if message is None:
+                return newest
             if self._is_reply(message):
-                self.counters.stale_replies += 1
+                reply = self._decode(message)
+                if reply is not None:
+                    if newest is not None:
+                        self.counters.stale_replies += 1
+                    newest = reply
+        self.counters.poll_limit_hits += 1
+        return newest
 
     def _await_reply(self, timeout_s: float) -> MitReply:
+        """The first valid reply within ``timeout_s`` (enter/exit/zero); bad frames do not end the wait."""
         deadline = self._clock() + timeout_s
         while True:
             remaining = deadline - self._clock()
             if remaining <= 0.0:
                 self.counters.timeouts += 1
+                hint = ""
+                if self._foreign_ids:
+                    ids = ", ".join(f"{i:#x}" for i in sorted(self._foreign_ids))
+                    hint = (f"; frames starting with its id came on CAN id {ids}, not on the reply id "
+                            f"{self.config.reply_arbitration_id}: check the firmware's master id")
                 raise DeviceTimeoutError(
-                    f"AK60 id {self.config.motor_id}: no reply within {timeout_s * 1e3:.1f} ms"
+                    f"AK60 id {self.config.motor_id}: no reply within {timeout_s * 1e3:.1f} ms{hint}"
                 )
             message = self._bus.recv(timeout=remaining)
             if message is None or not self._is_reply(message):
                 continue
-            try:
-                reply = unpack_reply(message.data, self.config.limits)
-            except MalformedFrameError:
-                self.counters.malformed += 1
-                raise
-            self.counters.replies += 1
-            return reply
+            reply = self._decode(message)
+            if reply is not None:
+                return reply
 
     def _await_state(self, timeout_s: float, what: str) -> MotorState:
         try:

@@ -385,17 +385,17 @@ class ControlLoop:
                     log("safe stop at t = %.3f s: %s; ramping %.2f Nm to zero in %.0f ms",
                         t, reason, ramp_from, 1e3 * ramp_s)
             # Degraded states the operator chose to run on in: said once, flagged in every row after.
-            if cell_problem and not cell_lost and (state is not LoopState.RUNNING or not stop_on_cell_lost):
+            if cell_problem and not cell_lost and not stop_on_cell_lost:
                 cell_lost = True
                 degraded_flags |= int(Fault.LOAD_CELL_LOST)
                 degraded.append(f"load cell lost at t = {t:.3f} s ({cell_problem}); tension limit off")
                 _log.warning("%s", degraded[-1])
                 self._event(t, "degraded", degraded[-1])
-            if recording_problem is not None and not recording_lost and (
-                    state is not LoopState.RUNNING or not stop_on_recorder_failure):
+            if recording_problem is not None and not recording_lost and not stop_on_recorder_failure:
                 recording_lost = True
                 degraded_flags |= int(Fault.RECORDER_FAILED)
-                degraded.append(f"recording failed at t = {t:.3f} s ({recording_problem})")
+                degraded.append(f"recording failed at t = {t:.3f} s ({recording_problem}); "
+                                "assisting without it")
                 _log.error("%s", degraded[-1])
 
             desired_tension = moment_arm = _NAN
@@ -442,7 +442,7 @@ class ControlLoop:
                     unanswered += 1
             end = clock.now()
 
-            if record is not None and not recording_lost:
+            if record is not None:  # a failed recorder counts what it can no longer write
                 record((
                     t,
                     reference(t) if reference is not None else _NAN,

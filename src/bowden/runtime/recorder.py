@@ -145,6 +145,7 @@ class Recorder:
         self.max_backlog_rows = max_backlog_rows
         self.error: BaseException | None = None
         self.failure: str | None = None  # why the recording cannot go on; read by the loop
+        self.failed_at_utc_s = math.nan  # when it failed (time.time(), like the bus's frame stamps)
         self.trial_closed = False
         self._writer_dead = False
         self._queue: queue.SimpleQueue[object] = queue.SimpleQueue()
@@ -161,6 +162,7 @@ class Recorder:
         queue_ = self._queue
         queue_.put(row)
         if queue_.qsize() > self.max_backlog_rows and self.failure is None:
+            self.failed_at_utc_s = time.time()
             self.failure = (f"{queue_.qsize()} rows waiting to be written to {self.path} "
                             "(the disk cannot keep up)")
 
@@ -271,6 +273,7 @@ class Recorder:
         except (sqlite3.Error, OSError, StoreError) as error:
             self.error = error
             self._writer_dead = True
+            self.failed_at_utc_s = time.time()
             self.failure = f"writing {self.path} failed: {error}"
             _log.error("recorder: %s", self.failure)
         finally:

@@ -34,7 +34,7 @@ class SafetyConfig:
     """Watchdog thresholds (s, °C, N) and what to do when an evaluation device fails.
 
     The defaults put every fault at zero torque within 80 ms of its cause: detection (IMU 40 ms,
-    motor 30 ms, load cell 50 ms) plus the 30 ms ramp plus a cycle.
+    motor 30 ms, load cell 40 ms) plus the 30 ms ramp plus a cycle.
 
     Parameters
     ----------
@@ -77,7 +77,7 @@ class SafetyConfig:
     host_stall_max_s: float = 0.1
     max_temperature_c: float = 80.0
     max_tension_n: float = 200.0
-    load_cell_max_age_s: float = 0.05
+    load_cell_max_age_s: float = 0.04
     on_load_cell_lost: str = "stop"
     on_recorder_failure: str = "stop"
     ramp_down_s: float = 0.03

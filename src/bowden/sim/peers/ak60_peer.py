@@ -6,8 +6,9 @@ for a while afterwards), turns each command into a torque τ = τ_ff + Kp(p_des 
 applied to the simulated plant while in motor mode, and answers every frame it heard with a real
 reply frame (6 or 8 bytes, position wrapped into the ±P field like the real encoder count).
 
-Fault injection for the tests: :meth:`AK60Peer.mute`, :meth:`AK60Peer.inject_error`,
-:meth:`AK60Peer.override_temperature`, :meth:`AK60Peer.replace_next_reply`.
+Fault injection for the tests: :meth:`AK60Peer.mute`, :meth:`AK60Peer.ignore_next`,
+:meth:`AK60Peer.inject_error`, :meth:`AK60Peer.override_temperature`, :meth:`AK60Peer.replace_next_reply`,
+:meth:`AK60Peer.garble_replies`.
 """
 
 from __future__ import annotations
@@ -116,6 +117,7 @@ class AK60Peer(StartedInWith):
         self._last_state: MotorState | None = None
         self._applied_torque_nm = 0.0
         self._next_raw_reply: bytes | None = None
+        self._garbled = False
         self._server = StoppableThread(self._serve, f"ak60-peer-{self.motor_id}")
 
     # --- lifecycle -------------------------------------------------------------------------------
@@ -159,6 +161,11 @@ class AK60Peer(StartedInWith):
     def replace_next_reply(self, data: bytes) -> None:
         """Answer the next frame with these raw bytes instead of a proper reply (malformed-frame tests)."""
         self._next_raw_reply = data
+
+    def garble_replies(self, garbled: bool = True) -> None:
+        """Answer every frame with an undecodable reply (right ids, 7 bytes: no firmware sends that),
+        as a damaged transceiver would, from now on; False goes back to proper replies."""
+        self._garbled = garbled
 
     # --- firmware --------------------------------------------------------------------------------
     def _serve(self) -> None:
@@ -217,6 +224,8 @@ class AK60Peer(StartedInWith):
 
     def _reply(self, state: MotorState) -> None:
         raw, self._next_raw_reply = self._next_raw_reply, None
+        if raw is None and self._garbled:
+            raw = bytes([self.motor_id]) + b"\xff" * 6
         if raw is not None:
             self._send(raw)
             return
