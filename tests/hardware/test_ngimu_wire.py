@@ -120,8 +120,10 @@ def test_stream_stops_when_the_imu_pauses(client: NgimuClient, peer: NgimuPeer) 
     fresh_sample(client, time.monotonic())
     peer.pause()
     time.sleep(0.05)
+    client.read()  # takes in what was sent before the pause
     count = client.counters.quaternions
     time.sleep(0.1)
+    client.read()
     assert client.counters.quaternions == count
     peer.pause(False)
     fresh_sample(client, time.monotonic())
@@ -130,19 +132,95 @@ def test_stream_stops_when_the_imu_pauses(client: NgimuClient, peer: NgimuPeer) 
 def test_nan_orientation_gives_a_nan_sample(client: NgimuClient, peer: NgimuPeer) -> None:
     calibrate(client, peer)
     peer.send_nan()
-    wait_for(lambda: client.counters.non_finite > 0)
+    wait_for(lambda: client.read() is not None and client.counters.non_finite > 0)
     sample = fresh_sample(client, time.monotonic())
     assert math.isnan(sample.elevation_rad) and math.isnan(sample.elevation_velocity_rad_s)
 
 
-def test_garbage_datagrams_over_udp_are_counted_and_survived(client: NgimuClient, peer: NgimuPeer) -> None:
-    calibrate(client, peer)
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
-        payloads = (b"\x00\x01garbage", b"/quaternion\x00", b"#bundle\x00\xff", b"/x\x00\x00,s\x00\x00")
-        for payload in payloads:
-            sender.sendto(payload, client.address)
-    wait_for(lambda: client.counters.malformed >= 3)
+def test_garbage_datagrams_over_udp_are_counted_and_survived(wall_plant: WallTimePlant, arm: FixedArm) -> None:
+    # The IMU's address without a port: every socket of this host counts as the IMU.
+    with NgimuClient(NgimuConfig(port=0, sender="127.0.0.1")) as client, \
+            NgimuPeer(wall_plant, client.address, rate_hz=400.0) as peer:
+        calibrate(client, peer)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+            payloads = (b"\x00\x01garbage", b"/quaternion\x00", b"#bundle\x00\xff", b"/x\x00\x00,s\x00\x00")
+            for payload in payloads:
+                sender.sendto(payload, client.address)
+        wait_for(lambda: client.read() is not None and client.counters.malformed >= 3)
+        fresh_sample(client, time.monotonic())
+        assert client.counters.foreign == 0
+
+
+def spoof_bundle(elevation_deg: float) -> bytes:
+    """A well-formed NGIMU bundle for an arm at ``elevation_deg`` (what a spoofer would send)."""
+    q = arm_orientation(math.radians(elevation_deg), 0.4, DEFAULT_MOUNTING)
+    bundle = OscBundleBuilder(time.time())  # type: ignore[arg-type]
+    bundle.add_content(_builder("/quaternion", q).build())
+    return bytes(bundle.build().dgram)
+
+
+def test_a_spoofing_sender_is_never_used(client: NgimuClient, peer: NgimuPeer, arm: FixedArm,
+                                         caplog: pytest.LogCaptureFixture) -> None:
+    calibrate(client, peer)  # the peer's datagrams came first: it is locked in
     fresh_sample(client, time.monotonic())
+    assert client.sender is not None and client.sender[0] == "127.0.0.1"
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as spoofer:
+        for _ in range(200):
+            spoofer.sendto(spoof_bundle(100.0), client.address)
+            sample = client.read()
+            assert sample is not None and abs(sample.elevation_rad - math.radians(70.0)) < 1e-4
+            time.sleep(0.0005)
+    assert client.counters.foreign >= 150  # UDP on loopback may drop a few under load
+    assert sum("ignoring datagrams" in r.getMessage() for r in caplog.records) == 1  # said once
+
+
+def test_a_configured_sender_excludes_even_the_first_datagram(wall_plant: WallTimePlant,
+                                                              arm: FixedArm) -> None:
+    calibration = ArmDownCalibration.from_quaternions([arm_orientation(0.0, 0.4, DEFAULT_MOUNTING)])
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as imu, \
+            socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as spoofer:
+        imu.bind(("127.0.0.1", 0))
+        configured = f"127.0.0.1:{imu.getsockname()[1]}"
+        with NgimuClient(NgimuConfig(port=0, sender=configured), calibration=calibration) as client:
+            spoofer.sendto(spoof_bundle(100.0), client.address)  # first, but not the IMU
+            wait_for(lambda: client.read() is None and client.counters.foreign == 1)
+            imu.sendto(spoof_bundle(45.0), client.address)
+            wait_for(lambda: client.read() is not None)
+            sample = client.read()
+            assert sample is not None and sample.elevation_rad == pytest.approx(math.radians(45.0), abs=1e-5)
+            assert client.sender == ("127.0.0.1", imu.getsockname()[1])
+
+
+def test_a_flood_is_taken_a_bounded_number_at_a_time() -> None:
+    clock_reads = [0]
+
+    def clock() -> float:
+        clock_reads[0] += 1
+        return time.monotonic()
+
+    config = NgimuConfig(port=0, max_datagrams_per_read=64, parse_newest=4)
+    calibration = ArmDownCalibration(axis=(0.0, 0.0, -1.0))
+    with NgimuClient(config, calibration=calibration, clock=clock) as client, \
+            socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as flooder:
+        flooder.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 1 << 20)
+        datagram = _message("/quaternion", (1.0, 0.0, 0.0, 0.0))
+        for _ in range(10_000):
+            flooder.sendto(datagram, client.address)
+        taken = client.poll()
+        assert taken <= 4  # parsed: the newest few of at most 64 taken from the socket
+        assert client.counters.read_limit_hits == 1
+        assert client.counters.quaternions <= 4 and clock_reads[0] <= 4 * 2
+        assert client.counters.skipped_backlog == 60
+
+
+def test_samples_are_stamped_when_taken_in() -> None:
+    now = [10.0]
+    client = NgimuClient(calibration=ArmDownCalibration(axis=(0.0, 0.0, -1.0)), clock=lambda: now[0])
+    client.handle_datagram(_message("/quaternion", (1.0, 0.0, 0.0, 0.0)))
+    now[0] = 12.5
+    client.handle_datagram(_message("/quaternion", (1.0, 0.0, 0.0, 0.0)))
+    sample = client.read()
+    assert sample is not None and sample.time_s == 12.5
 
 
 def test_calibration_times_out_without_an_imu(client: NgimuClient) -> None:
@@ -163,6 +241,15 @@ def test_future_time_tags_do_not_stall(client: NgimuClient) -> None:
 def test_config_validation() -> None:
     with pytest.raises(ParameterError, match="port"):
         NgimuConfig(port=70000)
+    with pytest.raises(ParameterError, match="NgimuConfig.host"):
+        NgimuConfig(host="localhost")
+    with pytest.raises(ParameterError, match="NgimuConfig.sender"):
+        NgimuConfig(sender="imu.local")
+    with pytest.raises(ParameterError, match="NgimuConfig.sender port"):
+        NgimuConfig(sender="10.0.0.7:0")
+    with pytest.raises(ParameterError, match="parse_newest"):
+        NgimuConfig(parse_newest=0)
+    assert NgimuConfig().host == "127.0.0.1"
     with pytest.raises(ParameterError, match="not started"):
         _ = NgimuClient().address
 

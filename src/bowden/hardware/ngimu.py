@@ -7,14 +7,22 @@ The NGIMU streams OSC bundles to the host (port 8000 by default). This client re
 * ``/sensors gx gy gz ax ay az mx my mz baro`` — gyroscope in °/s (sensor frame), then accelerometer
   (g), magnetometer (µT) and barometer (hPa), which are not needed here.
 
-A python-osc server runs in one background thread (a thread per datagram would cost more than the
-work it does at 100–400 messages/s and could reorder samples). The dispatcher uses
-``strict_timing=False``: NGIMU bundles carry the sensor's own time tag, which is not synchronised to
-the host; with strict timing, python-osc sleeps until tags "in the future" and the stream stalls.
+There is no receive thread: :meth:`NgimuClient.read` (the control loop calls it every cycle) takes
+in the datagrams waiting on the socket, non-blocking and bounded, parses them with python-osc and
+returns the newest sample. Each sample is time-stamped with the injected clock when it is taken in,
+so its age is its age at the moment the loop could read it: a stall of the host does not age the IMU,
+and no thread competes with the loop for the interpreter. After a stall only the newest datagrams are
+parsed (older ones describe an arm that has moved on). The dispatcher uses ``strict_timing=False``:
+NGIMU bundles carry the sensor's own time tag, which is not synchronised to the host; with strict
+timing, python-osc sleeps until tags "in the future" and the stream stalls.
+
+Only the IMU is listened to: the socket binds ``host`` (loopback by default; the suit's interface on
+the real suit), and datagrams are taken only from the configured ``sender`` or, without one, from
+the first source whose datagram is OSC, locked in from then on. Anything else is counted as foreign
+and never parsed.
 
 Each ``/quaternion`` makes one :class:`~bowden.hardware.ElevationSample` (see
-:mod:`bowden.hardware.elevation`), time-stamped with the injected clock on arrival, so the loop's
-staleness watchdog compares like with like. Velocity comes from the latest gyro reading if it is
+:mod:`bowden.hardware.elevation`). Velocity comes from the latest gyro reading if it is
 fresh, else from a filtered difference. Anything that does not parse — random bytes, a bundle cut
 short, a message with the wrong arguments — is counted in :class:`NgimuCounters` and dropped; a
 non-finite orientation yields a NaN sample, which the loop's watchdog turns into a safe stop.
@@ -22,8 +30,10 @@ non-finite orientation yields a NaN sample, which the loop's watchdog turns into
 
 from __future__ import annotations
 
+import ipaddress
 import logging
 import math
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -32,7 +42,6 @@ from typing import Any, Self
 
 from pythonosc import osc_packet
 from pythonosc.dispatcher import Dispatcher
-from pythonosc.osc_server import BlockingOSCUDPServer
 
 from bowden.errors import DeviceTimeoutError, ParameterError
 from bowden.hardware.elevation import (
@@ -50,6 +59,27 @@ _log = logging.getLogger(__name__)
 QUATERNION_ADDRESS = "/quaternion"
 SENSORS_ADDRESS = "/sensors"
 DEFAULT_HOST_PORT = 8000
+_MAX_DATAGRAM = 65536
+
+
+def parse_sender(text: str, field_name: str = "sender") -> tuple[str, int | None]:
+    """``"IP"`` or ``"IP:port"`` → (ip, port or None).
+
+    Raises
+    ------
+    ParameterError
+        Naming ``field_name`` when the text is not an IP address, optionally with a port.
+    """
+    host, _, port_text = text.rpartition(":") if text.count(":") == 1 else (text, "", "")
+    try:
+        ipaddress.ip_address(host)
+        port = int(port_text) if port_text else None
+    except ValueError:
+        raise ParameterError(f"NgimuConfig.{field_name} must be an IP address, optionally with :port, "
+                             f"got {text!r}") from None
+    if port is not None and not 1 <= port <= 65535:
+        raise ParameterError(f"NgimuConfig.{field_name} port must be 1–65535, got {port}")
+    return host, port
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -59,7 +89,18 @@ class NgimuConfig:
     Parameters
     ----------
     host, port
-        Address to bind (port 0: any free port, see :attr:`NgimuClient.address`).
+        Address to bind: loopback by default (the simulated suit); on the real suit the address of
+        the interface the IMU sends to (``0.0.0.0``: every interface). Port 0: any free port, see
+        :attr:`NgimuClient.address`.
+    sender
+        Accept datagrams only from this source, ``"IP"`` or ``"IP:port"``; None: from the first
+        source that sends OSC, locked in from then on (logged).
+    max_datagrams_per_read
+        Datagrams taken from the socket per :meth:`NgimuClient.read` at most (a flood cannot hold the
+        loop; the rest waits for the next call).
+    parse_newest
+        Of the datagrams taken in one read, only this many newest are parsed (after a stall, the
+        older ones describe an arm that has moved on).
     gyro_max_age_s
         A gyro reading older than this (s, on the client clock) is not used for velocity.
     min_elevation_for_gyro_rad
@@ -68,13 +109,26 @@ class NgimuConfig:
         Corner frequency of the difference-velocity low-pass.
     """
 
-    host: str = "0.0.0.0"
+    host: str = "127.0.0.1"
     port: int = DEFAULT_HOST_PORT
+    sender: str | None = None
+    max_datagrams_per_read: int = 256
+    parse_newest: int = 16
     gyro_max_age_s: float = 0.02
     min_elevation_for_gyro_rad: float = math.radians(5.0)
     velocity_cutoff_hz: float = 20.0
 
     def __post_init__(self) -> None:
+        try:
+            ipaddress.ip_address(self.host)
+        except ValueError:
+            raise ParameterError(f"NgimuConfig.host must be an IP address to bind, got {self.host!r}")\
+                from None
+        if self.sender is not None:
+            parse_sender(self.sender)
+        for name in ("max_datagrams_per_read", "parse_newest"):
+            if getattr(self, name) < 1:
+                raise ParameterError(f"NgimuConfig.{name} must be >= 1, got {getattr(self, name)}")
         if not 0 <= self.port <= 65535:
             raise ParameterError(f"NgimuConfig.port must be 0..65535, got {self.port}")
         if not (math.isfinite(self.gyro_max_age_s) and self.gyro_max_age_s > 0.0):
@@ -95,9 +149,21 @@ class NgimuCounters:
     malformed: int = 0  # not OSC at all, or a packet that does not parse
     bad_messages: int = 0  # a known address with the wrong arguments
     unknown_addresses: int = 0
+    foreign: int = 0  # datagrams from a source other than the IMU, dropped unparsed
+    skipped_backlog: int = 0  # older datagrams of a read not parsed (after a stall)
+    read_limit_hits: int = 0  # reads that left datagrams on the socket
     quaternions: int = 0
     gyro_readings: int = 0
     non_finite: int = 0
+
+
+def _is_osc(data: bytes) -> bool:
+    """True if ``data`` parses as an OSC message or bundle."""
+    try:
+        osc_packet.OscPacket(data)
+    except Exception:  # untrusted bytes: any parser failure means not OSC
+        return False
+    return True
 
 
 def _floats(params: list[Any], count: int) -> tuple[float, ...] | None:
@@ -129,21 +195,6 @@ class _CountingDispatcher(Dispatcher):
             for handler in handlers:
                 handler.invoke(client_address, timed.message)
         return []
-
-
-class _CountingServer(BlockingOSCUDPServer):
-    """Counts datagrams python-osc rejects before dispatch (not starting with ``/`` or ``#bundle``)."""
-
-    def __init__(self, address: tuple[str, int], dispatcher: _CountingDispatcher, counters: NgimuCounters):
-        self._counters = counters
-        super().__init__(address, dispatcher)
-
-    def verify_request(self, request: Any, client_address: Any) -> bool:
-        accepted = bool(super().verify_request(request, client_address))
-        if not accepted:
-            self._counters.datagrams += 1
-            self._counters.malformed += 1
-        return accepted
 
 
 class NgimuClient(StartedInWith):
@@ -182,44 +233,81 @@ class NgimuClient(StartedInWith):
         self._latest: ElevationSample | None = None
         self._latest_quaternion: tuple[float, float, float, float] | None = None
         self._collecting: list[tuple[float, float, float, float]] | None = None
-        self._server: _CountingServer | None = None
-        self._thread: threading.Thread | None = None
+        self._socket: socket.socket | None = None
+        self._lock = threading.Lock()  # one reader of the socket at a time (loop, console, calibration)
+        self._allowed: tuple[str, int | None] | None = (
+            parse_sender(self.config.sender) if self.config.sender is not None else None
+        )
+        self._foreign_seen: set[tuple[str, int]] = set()
 
     # --- lifecycle -------------------------------------------------------------------------------
     def start(self) -> Self:
-        """Bind the UDP port and start receiving in a background thread."""
-        if self._server is None:
-            address = (self.config.host, self.config.port)
-            self._server = _CountingServer(address, self._dispatcher, self.counters)
-            self._thread = threading.Thread(
-                target=self._server.serve_forever, kwargs={"poll_interval": 0.05},
-                name="ngimu-osc", daemon=True,
-            )
-            self._thread.start()
+        """Bind the UDP port (non-blocking; datagrams are taken in by :meth:`read`)."""
+        if self._socket is None:
+            family = socket.AF_INET6 if ":" in self.config.host else socket.AF_INET
+            sock = socket.socket(family, socket.SOCK_DGRAM)
+            try:
+                sock.bind((self.config.host, self.config.port))
+            except OSError:
+                sock.close()
+                raise
+            sock.setblocking(False)
+            self._socket = sock
         return self
 
     def close(self) -> None:
-        """Stop the server thread and close the socket."""
-        if self._server is not None:
-            self._server.shutdown()
-            self._server.server_close()
-            self._server = None
-        if self._thread is not None:
-            self._thread.join(timeout=2.0)
-            self._thread = None
+        """Close the socket."""
+        with self._lock:
+            if self._socket is not None:
+                self._socket.close()
+                self._socket = None
 
     @property
     def address(self) -> tuple[str, int]:
         """The bound (host, port); useful with port 0."""
-        if self._server is None:
+        if self._socket is None:
             raise ParameterError("NgimuClient is not started")
-        host, port = self._server.server_address[:2]
+        host, port = self._socket.getsockname()[:2]
         return str(host), int(port)
+
+    @property
+    def sender(self) -> tuple[str, int | None] | None:
+        """The source accepted (configured, or locked on the first OSC datagram), None until then."""
+        return self._allowed
 
     # --- ElevationSensor -------------------------------------------------------------------------
     def read(self) -> ElevationSample | None:
-        """The latest elevation sample, or None before calibration or the first message."""
+        """Take in what arrived (non-blocking, bounded) and return the latest elevation sample, or
+        None before calibration or the first message."""
+        self.poll()
         return self._latest
+
+    def poll(self) -> int:
+        """Take in the datagrams waiting on the socket (bounded); return how many were taken."""
+        with self._lock:
+            sock = self._socket
+            if sock is None:
+                return 0
+            received: list[tuple[bytes, tuple[str, int]]] = []
+            limit = self.config.max_datagrams_per_read
+            for _ in range(limit):
+                try:
+                    data, source = sock.recvfrom(_MAX_DATAGRAM)
+                except (BlockingIOError, InterruptedError):
+                    break
+                except OSError:  # e.g. an ICMP error queued on the socket: not a datagram
+                    continue
+                received.append((data, (str(source[0]), int(source[1]))))
+            else:
+                self.counters.read_limit_hits += 1
+            newest = self.config.parse_newest
+            if len(received) > newest:
+                self.counters.skipped_backlog += len(received) - newest
+                self.counters.datagrams += len(received) - newest
+                received = received[-newest:]
+            for data, source in received:
+                self._take(data, source)
+            return len(received)
 
     def calibrate_arm_down(self, duration_s: float = 1.0, *, min_samples: int = 10) -> ArmDownCalibration:
         """Average the orientation while the arm hangs still for ``duration_s`` and use it.
@@ -230,7 +318,11 @@ class NgimuClient(StartedInWith):
             If fewer than ``min_samples`` orientations arrived (IMU not streaming to this host?).
         """
         self._collecting = []
-        time.sleep(duration_s)
+        end = time.monotonic() + duration_s
+        while time.monotonic() < end:
+            self.poll()
+            time.sleep(0.002)
+        self.poll()
         collected, self._collecting = self._collecting, None
         if len(collected) < min_samples:
             raise DeviceTimeoutError(
@@ -241,9 +333,29 @@ class NgimuClient(StartedInWith):
         _log.info("NGIMU arm-down calibration: humeral axis %s", self.calibration.axis)
         return self.calibration
 
-    def handle_datagram(self, data: bytes) -> None:
-        """Process one UDP payload as if it had arrived (the receive thread calls the same path)."""
-        self._dispatcher.call_handlers_for_packet(data, ("", 0))
+    def handle_datagram(self, data: bytes, sender: tuple[str, int] = ("127.0.0.1", 0)) -> None:
+        """Process one UDP payload as if it had arrived from ``sender`` (:meth:`read` takes the same
+        path)."""
+        with self._lock:
+            self._take(data, sender)
+
+    def _take(self, data: bytes, source: tuple[str, int]) -> None:
+        allowed = self._allowed
+        if allowed is None:
+            if not _is_osc(data):
+                self.counters.datagrams += 1
+                self.counters.malformed += 1
+                return
+            self._allowed = allowed = (source[0], source[1])
+            _log.info("NGIMU: accepting only %s:%d from now on", source[0], source[1])
+        if source[0] != allowed[0] or (allowed[1] is not None and source[1] != allowed[1]):
+            self.counters.foreign += 1
+            if source not in self._foreign_seen:
+                self._foreign_seen.add(source)
+                _log.warning("NGIMU: ignoring datagrams from %s:%d (not the IMU %s)", source[0], source[1],
+                             allowed[0] if allowed[1] is None else f"{allowed[0]}:{allowed[1]}")
+            return
+        self._dispatcher.call_handlers_for_packet(data, source)
 
     # --- handlers (receive thread) ----------------------------------------------------------------
     def _on_unknown(self, address: str, *params: Any) -> None:
