@@ -1,9 +1,9 @@
 """A recording that cannot be written reaches the loop and the operator: ``bowden run`` on a full disk.
 
 The run's process gets a file-size limit (RLIMIT_FSIZE, with SIGXFSZ ignored, so a write past it
-fails with EFBIG as a write to a full disk fails with ENOSPC). Measured before: rows stopped at 1.2 s while the run went on to 15 s, then exit 1 with the
-trial left open and no summary. Now: a safe stop with the recorder's reason, exit 3, the summary, and
-every committed row kept.
+fails with EFBIG as a write to a full disk fails with ENOSPC). Measured before: rows stopped at 1.2 s
+while the run went on to 15 s, then exit 1 with the trial left open and no summary. Now: a safe stop
+with the recorder's reason, exit 3, the summary, and every committed row kept.
 """
 
 from __future__ import annotations

@@ -139,7 +139,9 @@ class AK60Config:
             raise ParameterError(f"AK60Config.reply_wait_s must be in [0, {MAX_REPLY_WAIT_S}] s, "
                                  f"got {self.reply_wait_s!r}")
         if self.max_frames_per_poll < 1:
-            raise ParameterError(f"AK60Config.max_frames_per_poll must be >= 1, got {self.max_frames_per_poll}")
+            raise ParameterError(
+                f"AK60Config.max_frames_per_poll must be >= 1, got {self.max_frames_per_poll}"
+            )
         if self.enter_attempts < 1:
             raise ParameterError(f"AK60Config.enter_attempts must be >= 1, got {self.enter_attempts}")
         if self.reply_arbitration_id is not None and not 0 <= self.reply_arbitration_id <= MAX_STANDARD_ID:

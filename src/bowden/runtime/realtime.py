@@ -49,10 +49,9 @@ class RealtimeConfig:
         if priority is not None and (isinstance(priority, bool) or not isinstance(priority, int)
                                      or not 1 <= priority <= 99):
             raise ParameterError(f"RealtimeConfig.priority must be 1–99 or None, got {priority!r}")
-        if self.cpus is not None:
-            if not self.cpus or not all(isinstance(c, int) and not isinstance(c, bool) and c >= 0
-                                        for c in self.cpus):
-                raise ParameterError(f"RealtimeConfig.cpus must be CPU numbers ≥ 0, got {self.cpus!r}")
+        if self.cpus is not None and (not self.cpus or not all(
+                isinstance(c, int) and not isinstance(c, bool) and c >= 0 for c in self.cpus)):
+            raise ParameterError(f"RealtimeConfig.cpus must be CPU numbers ≥ 0, got {self.cpus!r}")
 
 
 @dataclass(frozen=True)

@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable
 from typing import Protocol
 
+from bowden.errors import HardwareError
 from bowden.hardware.protocols import (
     ElevationSample,
     ElevationSensor,
@@ -102,7 +103,10 @@ class WallTimePlant:
         """Apply ``torque_nm`` (spool side) from now on; the motor state now."""
         with self._lock:
             self._sync()
-            return self.plant.motor.command_torque(torque_nm)
+            state = self.plant.motor.command_torque(torque_nm)
+        if state is None:  # a simulated motor answers at once: None would be a bug in the plant
+            raise HardwareError("the simulated motor returned no state")
+        return state
 
     def elevation(self) -> ElevationSample | None:
         """The arm's elevation now (ground truth of the simulated IMU)."""
