@@ -2,28 +2,25 @@
 
 One place for both commands: the real suit's options (AK60-6 over CAN, NGIMU over OSC/UDP, optional
 ADS1115 load cell) as a validated :class:`CanSuitOptions`, the ``argparse`` group that fills it, and
-two context managers that open a suit and close it safely — :func:`open_can_backend` (the real
-devices) and :func:`open_sim_backend` (the simulated suit behind peers that speak the same wire
-protocols, driven by the same drivers). Both yield a :class:`Backend`: what the control loop needs.
+:func:`open_can_backend`, which opens the real devices and closes them safely. The simulated suit's
+wiring lives beside the simulator (:func:`bowden.sim.backend.open_sim_backend`, re-exported here
+and imported only when used). Both yield a :class:`~bowden.hardware.backend.Backend`.
 
-The drivers need the ``hardware`` extra (python-can, python-osc, smbus2); they are imported when a
-suit opens, so that ``bowden`` and its other subcommands work without it. This module is private
-(leading underscore): the subcommand discovery of :mod:`bowden.cli` skips it.
+This module is private (leading underscore): the subcommand discovery of :mod:`bowden.cli` skips it.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib.util
-import itertools
+import ipaddress
 import math
 import sys
 from collections.abc import Callable, Iterator
-from contextlib import ExitStack, contextmanager
+from contextlib import AbstractContextManager, ExitStack, contextmanager
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Final
+from typing import TYPE_CHECKING, Any, Final
 
-from bowden.contracts import SPEED_PEAK_DEG_S
 from bowden.errors import BowdenError, HardwareError, ParameterError
 from bowden.hardware.ak60_codec import (
     DEFAULT_FIRMWARE,
@@ -31,44 +28,25 @@ from bowden.hardware.ak60_codec import (
     MAX_STANDARD_ID,
     limits_for_firmware,
 )
-from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
-from bowden.protocol.minimum_jerk import MinimumJerkCycle
-from bowden.runtime import MonotonicClock, SafetyConfig
+from bowden.hardware.backend import Backend
+from bowden.runtime import MonotonicClock
 
 if TYPE_CHECKING:
     from bowden.hardware.ads1115 import ADS1115LoadCell
-    from bowden.sim.arm import PrescribedArm
-    from bowden.sim.peers import WallTimePlant
-    from bowden.web.reference import TrialReference
+
+__all__ = ["DEFAULT_IMU_PORT", "Backend", "CanSuitOptions", "add_can_arguments", "open_can_backend",
+           "open_sim_backend", "require_hardware_extra"]
 
 DEFAULT_IMU_PORT: Final = 8000
 CAN_BITRATE: Final = 1_000_000  # the AK60-6's CAN speed (REFERENCE §4)
 MAX_CALIBRATION_S: Final = 30.0
 
-_sim_channels = itertools.count()
 
+def open_sim_backend(**options: Any) -> AbstractContextManager[Backend]:
+    """:func:`bowden.sim.backend.open_sim_backend` (imported here only when a simulated suit opens)."""
+    from bowden.sim.backend import open_sim_backend as opener
 
-@dataclass
-class Backend:
-    """An open suit as the loop sees it, plus what the run summary reports on.
-
-    Attributes
-    ----------
-    motor, imu, clock, load_cell
-        The devices (the sensors stamp their samples with ``clock``).
-    reference_elevation
-        Reference elevation (rad) at loop time t when the suit itself follows one (the simulated
-        arm), for the recording; None for the real suit.
-    describe
-        One line naming the devices ("AK60-6 id 1 on socketcan:can0").
-    """
-
-    motor: Motor
-    imu: ElevationSensor
-    clock: Clock
-    load_cell: TensionSensor | None = None
-    reference_elevation: Callable[[float], float] | None = None
-    describe: str = ""
+    return opener(**options)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -87,6 +65,10 @@ class CanSuitOptions:
         +1 if positive motor torque pulls the cable, −1 if the spool is wound the other way.
     imu_port
         UDP port the NGIMU sends its OSC bundles to.
+    imu_host
+        Address to listen on for the NGIMU: the suit's interface (``0.0.0.0``: every interface).
+    imu_sender
+        The NGIMU's address (``IP`` or ``IP:port``); without it, the first sender is locked in.
     calibration_s
         Arm-down calibration time (s) at the start of each run or trial.
     i2c_bus
@@ -101,6 +83,8 @@ class CanSuitOptions:
     firmware: str = DEFAULT_FIRMWARE
     direction: int = 1
     imu_port: int = DEFAULT_IMU_PORT
+    imu_host: str = "0.0.0.0"
+    imu_sender: str | None = None
     calibration_s: float = 1.0
     i2c_bus: int | None = None
     load_cell_gain_n_per_v: float = 100.0
@@ -114,6 +98,14 @@ class CanSuitOptions:
             raise ParameterError(f"CanSuitOptions.direction must be +1 or -1, got {self.direction!r}")
         if not 1 <= self.imu_port <= 65535:
             raise ParameterError(f"CanSuitOptions.imu_port must be 1–65535, got {self.imu_port!r}")
+        try:
+            ipaddress.ip_address(self.imu_host)
+        except ValueError:
+            raise ParameterError(f"--imu-host must be an IP address, got {self.imu_host!r}") from None
+        if self.imu_sender is not None:
+            from bowden.hardware.ngimu import parse_sender
+
+            parse_sender(self.imu_sender, "sender (--imu-sender)")
         if not (math.isfinite(self.calibration_s) and 0.0 < self.calibration_s <= MAX_CALIBRATION_S):
             raise ParameterError(f"CanSuitOptions.calibration_s must be in (0, {MAX_CALIBRATION_S:g}] s, "
                                  f"got {self.calibration_s!r}")
@@ -133,6 +125,7 @@ class CanSuitOptions:
         """The options of :func:`add_can_arguments`, validated."""
         return cls(channel=args.channel, interface=args.interface, motor_id=args.motor_id,
                    firmware=args.firmware, direction=args.direction, imu_port=args.imu_port,
+                   imu_host=args.imu_host, imu_sender=args.imu_sender,
                    calibration_s=args.calibration_s, i2c_bus=args.i2c_bus,
                    load_cell_gain_n_per_v=args.load_cell_gain)
 
@@ -150,27 +143,16 @@ def add_can_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--direction", type=int, choices=(1, -1), default=defaults.direction,
                        help="+1 if positive motor torque pulls the cable")
     group.add_argument("--imu-port", type=int, default=defaults.imu_port, help="NGIMU send port (8000)")
+    group.add_argument("--imu-host", default=defaults.imu_host,
+                       help="address to listen on for the NGIMU (default 0.0.0.0: every interface; "
+                       "give the suit's Wi-Fi address to listen there only)")
+    group.add_argument("--imu-sender", help="the NGIMU's IP (or IP:port): only it is listened to "
+                       "(default: the first sender, locked in and logged)")
     group.add_argument("--calibration-s", type=float, default=defaults.calibration_s,
                        help="arm-down calibration time in s (default 1)")
     group.add_argument("--i2c-bus", type=int, help="I²C bus number of the ADS1115 load cell (optional)")
     group.add_argument("--load-cell-gain", type=float, default=defaults.load_cell_gain_n_per_v,
                        help="load cell N per V (default 100)")
-
-
-def add_safety_arguments(parser: argparse.ArgumentParser) -> None:
-    """The two watchdogs a lab may need to tune to its links (IMU over Wi-Fi, motor over CAN)."""
-    imu_ms, motor_ms = 1e3 * SafetyConfig().imu_max_age_s, 1e3 * SafetyConfig().motor_max_silence_s
-    group = parser.add_argument_group("watchdogs (each stops the suit safely)")
-    group.add_argument("--imu-max-age-ms", type=float, default=imu_ms,
-                       help=f"newest IMU sample older than this (default {imu_ms:g} ms)")
-    group.add_argument("--motor-silence-ms", type=float, default=motor_ms,
-                       help=f"no valid motor reply for this long (default {motor_ms:g} ms)")
-
-
-def safety_config(args: argparse.Namespace) -> SafetyConfig:
-    """The watchdog thresholds of :func:`add_safety_arguments`, validated."""
-    return SafetyConfig(imu_max_age_s=args.imu_max_age_ms / 1e3,
-                        motor_max_silence_s=args.motor_silence_ms / 1e3)
 
 
 def require_hardware_extra(command: str, options: CanSuitOptions) -> None:
@@ -222,10 +204,11 @@ def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None]
             raise HardwareError(f"cannot open the CAN interface {where}: {error} "
                                 "(is it up? see docs/hardware.md)") from None
         try:
-            imu = stack.enter_context(NgimuClient(NgimuConfig(port=options.imu_port)))
+            imu = stack.enter_context(NgimuClient(NgimuConfig(host=options.imu_host, port=options.imu_port,
+                                                              sender=options.imu_sender)))
         except OSError as error:
-            raise HardwareError(f"cannot listen for the NGIMU on UDP port {options.imu_port}: "
-                                f"{error.strerror or error}") from None
+            raise HardwareError(f"cannot listen for the NGIMU on {options.imu_host} UDP port "
+                                f"{options.imu_port}: {error.strerror or error}") from None
         announce(f"calibrating the IMU: keep the arm hanging still for {options.calibration_s:g} s")
         imu.calibrate_arm_down(options.calibration_s)
         load_cell: ADS1115LoadCell | None = None
@@ -243,109 +226,3 @@ def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None]
         motor = stack.enter_context(AK60Motor(bus, config))
         yield Backend(motor=motor, imu=imu, clock=MonotonicClock(), load_cell=load_cell,
                       describe=f"AK60-6 id {options.motor_id} on {where}")
-
-
-class _ArmFollowingTheLoop:
-    """A simulated participant who follows a trial's reference from the loop's first cycle on.
-
-    The arm rests at the reference's low elevation until the loop runs, then moves as the reference
-    says at loop time (rest, the repetitions, rest), as a person starts following the display. The
-    instance is both the arm's motion (vectorised over plant time, for the simulator) and the
-    loop's ``reference_elevation`` (plain floats): the first loop call notes the plant time of loop
-    time 0, which ties the two clocks, so the recorded reference is the one the arm follows.
-    """
-
-    def __init__(self, reference: TrialReference) -> None:
-        self.reference = reference
-        self.plant: WallTimePlant | None = None
-        self.plant_time_at_loop_start_s = math.inf  # until the loop's first cycle: rest
-
-    def arm(self) -> PrescribedArm:
-        import numpy as np
-
-        from bowden.sim.arm import PrescribedArm
-
-        cycle, start, end = self.reference.cycle, self.reference.start_s, self.reference.end_s
-
-        def loop_time(plant_time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            t = plant_time_s - self.plant_time_at_loop_start_s
-            return t, (t > start) & (t < end)
-
-        def elevation(plant_time_s: np.ndarray) -> np.ndarray:
-            t, moving = loop_time(plant_time_s)
-            return np.where(moving, cycle.elevation_rad(np.clip(t - start, 0.0, None)), cycle.low_rad)
-
-        def velocity(plant_time_s: np.ndarray) -> np.ndarray:
-            t, moving = loop_time(plant_time_s)
-            return np.where(moving, cycle.elevation_velocity_rad_s(np.clip(t - start, 0.0, None)), 0.0)
-
-        return PrescribedArm(elevation_rad=elevation, elevation_velocity_rad_s=velocity)
-
-    def __call__(self, time_s: float) -> float:
-        if self.plant_time_at_loop_start_s == math.inf and self.plant is not None:
-            self.plant_time_at_loop_start_s = self.plant.plant_time_s() - time_s
-        return self.reference.elevation_rad(time_s)
-
-
-@contextmanager
-def open_sim_backend(
-    *, speed: str = "V1", reference: TrialReference | None = None, calibration_s: float = 0.3
-) -> Iterator[Backend]:
-    """The simulated suit behind its wire peers, driven by the real drivers (all closed on exit).
-
-    Parameters
-    ----------
-    speed
-        Without ``reference``: the arm repeats the paper's cycle at this speed from the start.
-    reference
-        The arm follows this reference instead (lead-in, repetitions, rest), as a participant
-        following the display would; it is also what the recording's reference column holds.
-    calibration_s
-        The simulated arm-down calibration.
-    """
-    # Imported here: the real-suit path must not need the simulator's compiled kernels.
-    import can
-
-    from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
-    from bowden.hardware.ak60 import AK60Config, AK60Motor
-    from bowden.hardware.ngimu import NgimuClient, NgimuConfig
-    from bowden.sim.arm import PrescribedArm
-    from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
-    from bowden.sim.suit import SimulatedSuit
-
-    cycle = MinimumJerkCycle(peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]))
-    follower = _ArmFollowingTheLoop(reference) if reference is not None else None
-    arm = follower.arm() if follower is not None else PrescribedArm.following(cycle)
-    plant = WallTimePlant(SimulatedSuit(arm=arm))
-    channel = f"bowden-sim-{next(_sim_channels)}"
-    with ExitStack() as stack:
-        driver_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
-        peer_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
-        stack.enter_context(AK60Peer(peer_bus, plant))
-        imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
-        # 200 Hz IMU and 475 SPS ADC: realistic rates that leave the loop more of the shared CPU.
-        imu_peer = stack.enter_context(NgimuPeer(plant, imu.address, rate_hz=200.0))
-        smbus = stack.enter_context(FakeSMBus(ADS1115Peer(plant, offset_v=0.05, volts_per_newton=0.01)))
-        calibration = LoadCellCalibration(offset_v=0.05, gain_n_per_v=100.0)
-        load_cell = stack.enter_context(
-            ADS1115LoadCell(smbus, ADS1115Config(data_rate=6), calibration=calibration)
-        )
-        imu_peer.hold_arm_down()  # the participant stands with the arm hanging for the calibration
-        imu.calibrate_arm_down(calibration_s)
-        imu_peer.hold_arm_down(False)
-        plant.start()
-        recorded: Callable[[float], float]
-        if follower is not None:
-            follower.plant = plant
-            recorded = follower
-        else:
-            offset = plant.plant_time_s()
-
-            def recorded(t: float) -> float:
-                return float(cycle.elevation_rad(t + offset))
-
-        yield Backend(
-            motor=stack.enter_context(AK60Motor(driver_bus, AK60Config())),
-            imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
-            describe=f"simulated suit over virtual CAN {channel}, OSC on {imu.address}, fake I²C",
-        )

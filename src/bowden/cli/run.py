@@ -3,8 +3,8 @@
 ``--backend can`` drives the real suit: the AK60-6 on a socketcan channel (``--channel can0``), the
 NGIMU streaming to ``--imu-port`` (the arm must hang still during the calibration at the start) and,
 optionally, the load cell on an I²C bus (``--i2c-bus``). ``--backend sim`` runs the same drivers
-against the simulated suit behind simulated devices that speak the same wire protocols (virtual CAN,
-OSC over loopback UDP, a fake I²C bus), in real time. The run prints a status line every second and,
+against the simulated suit in a process of its own, behind simulated devices that speak the same wire
+protocols (CAN across processes, OSC over loopback UDP, I²C over a local socket), in real time. The run prints a status line every second and,
 at the end, why it stopped and how well the loop kept time. ``--record study.db`` stores every cycle
 in the study store (crash-safe), with the wearer's anthropometrics (participants table and trial
 metadata). Every argument, the wearer and the store are checked before any device is opened. SIGINT
@@ -61,6 +61,10 @@ if TYPE_CHECKING:
 __all__ = ["DEFAULT_IMU_PORT", "Backend", "open_can_backend", "open_sim_backend", "register", "run"]
 
 DRAIN_S = 2.0  # at the end, how long the browsers get to receive the last messages
+
+
+def _say(text: str) -> None:
+    print(f"bowden run: {text}", file=sys.stderr, flush=True)
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -266,7 +270,8 @@ def run(args: argparse.Namespace) -> int:
         error = "the run did not finish"
         recording_error = ""
         try:
-            opener = open_sim_backend(reference=reference) if options is None else open_can_backend(options)
+            opener = (open_sim_backend(reference=reference, announce=_say) if options is None
+                      else open_can_backend(options))
             backend = stack.enter_context(opener)
             print(f"bowden run: {backend.describe}", file=sys.stderr)
             report = run_trial(

@@ -69,6 +69,12 @@ class WallTimePlant:
                 self._origin_s = self._time_source() - self._plant_time_s
 
     @property
+    def origin_s(self) -> float:
+        """The time source's reading at plant time 0 (NaN before :meth:`start`)."""
+        with self._lock:
+            return self._origin_s if self._origin_s is not None else float("nan")
+
+    @property
     def started(self) -> bool:
         """True once :meth:`start` was called."""
         return self._origin_s is not None

@@ -1,0 +1,227 @@
+"""``bowden run --backend sim``: the simulated suit behind its wire peers, driven by the real drivers.
+
+By default the suit runs in a process of its own (:mod:`bowden.sim.link.suit_process`) and the
+loop's process talks to it as to the real suit: the AK60-6 driver over a CAN bus that crosses
+processes (``bowden_loopback``), the NGIMU client over loopback UDP, the ADS1115 reader over an I²C
+link. A stall of the loop's process is then seen by the devices as it would be on the suit.
+``in_process=True`` keeps the peers as threads of the loop's process on python-can's ``virtual``
+bus (quick tests); batch simulation (``bowden study``) uses neither, it runs the plant directly.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+from bowden.contracts import SPEED_PEAK_DEG_S
+from bowden.hardware.backend import Backend
+from bowden.protocol.minimum_jerk import MinimumJerkCycle
+
+if TYPE_CHECKING:
+    from bowden.sim.arm import PrescribedArm
+    from bowden.sim.peers import WallTimePlant
+
+_channels = itertools.count()
+
+
+class FollowedReference(Protocol):
+    """What the simulated arm needs of a trial's reference (``bowden.web.reference.TrialReference``)."""
+
+    @property
+    def cycle(self) -> MinimumJerkCycle: ...
+
+    @property
+    def start_s(self) -> float: ...
+
+    @property
+    def end_s(self) -> float: ...
+
+    def elevation_rad(self, time_s: float) -> float: ...
+
+
+class ArmFollowingTheLoop:
+    """A simulated participant who follows a trial's reference from the loop's first cycle on.
+
+    The arm rests at the reference's low elevation until the loop runs, then moves as the reference
+    says at loop time (rest, the repetitions, rest), as a person starts following the display.
+    :meth:`arm` is the arm's motion over plant time (for the simulator); ``plant_time_at_loop_start_s``
+    ties the two clocks (set on the loop's first cycle), so the recorded reference is the one the
+    arm follows.
+    """
+
+    def __init__(self, reference: FollowedReference) -> None:
+        self.reference = reference
+        self.plant: WallTimePlant | None = None
+        self.plant_time_at_loop_start_s = math.inf  # until the loop's first cycle: rest
+
+    def arm(self) -> PrescribedArm:
+        from bowden.sim.arm import PrescribedArm
+
+        cycle, start, end = self.reference.cycle, self.reference.start_s, self.reference.end_s
+
+        def loop_time(plant_time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            t = plant_time_s - self.plant_time_at_loop_start_s
+            return t, (t > start) & (t < end)
+
+        def elevation(plant_time_s: np.ndarray) -> np.ndarray:
+            t, moving = loop_time(plant_time_s)
+            return np.where(moving, cycle.elevation_rad(np.clip(t - start, 0.0, None)), cycle.low_rad)
+
+        def velocity(plant_time_s: np.ndarray) -> np.ndarray:
+            t, moving = loop_time(plant_time_s)
+            return np.where(moving, cycle.elevation_velocity_rad_s(np.clip(t - start, 0.0, None)), 0.0)
+
+        return PrescribedArm(elevation_rad=elevation, elevation_velocity_rad_s=velocity)
+
+
+class _RecordedReference:
+    """The loop's ``reference_elevation``: the reference at loop time; its first call ties the arm."""
+
+    def __init__(self, reference: FollowedReference, tie: Callable[[float], None]) -> None:
+        self.reference = reference
+        self._tie: Callable[[float], None] | None = tie
+
+    def __call__(self, time_s: float) -> float:
+        if self._tie is not None:
+            tie, self._tie = self._tie, None
+            tie(time.monotonic() - time_s)  # the loop's clock is time.monotonic (MonotonicClock)
+        return self.reference.elevation_rad(time_s)
+
+
+@contextmanager
+def open_sim_backend(
+    *, speed: str = "V1", reference: FollowedReference | None = None, calibration_s: float = 0.3,
+    in_process: bool = False, announce: Callable[[str], None] | None = None,
+) -> Iterator[Backend]:
+    """The simulated suit behind its wire peers, driven by the real drivers (all closed on exit).
+
+    Parameters
+    ----------
+    speed
+        Without ``reference``: the arm repeats the paper's cycle at this speed from the start.
+    reference
+        The arm follows this reference instead (lead-in, repetitions, rest), as a participant
+        following the display would; it is also what the recording's reference column holds.
+    calibration_s
+        The simulated arm-down calibration.
+    in_process
+        Run the device peers as threads of this process (quick tests) instead of a process of their own.
+    announce
+        Told about a slow start (a first run compiles the simulated suit).
+    """
+    cycle = MinimumJerkCycle(peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]))
+    opener = _in_process if in_process else _own_process
+    with opener(cycle, reference, calibration_s, announce) as backend:
+        yield backend
+
+
+@contextmanager
+def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, calibration_s: float,
+                 announce: Callable[[str], None] | None) -> Iterator[Backend]:
+    import can
+
+    from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
+    from bowden.hardware.ak60 import AK60Config, AK60Motor
+    from bowden.hardware.ngimu import NgimuClient, NgimuConfig
+    from bowden.runtime.clock import MonotonicClock
+    from bowden.sim.link.i2c import RemoteSMBus
+    from bowden.sim.link.suit_process import SimulatedSuitProcess
+
+    with ExitStack() as stack:
+        imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
+        suit = SimulatedSuitProcess(imu_target=imu.address, reference=reference,
+                                    cycle=cycle if reference is None else None)
+        stack.enter_context(suit.start(announce))
+        stack.callback(suit.close)
+        bus = stack.enter_context(can.Bus(interface="bowden_loopback", channel=suit.can_channel))
+        smbus = stack.enter_context(RemoteSMBus(suit.i2c_path))
+        calibration = LoadCellCalibration(offset_v=0.05, gain_n_per_v=100.0)
+        load_cell = stack.enter_context(ADS1115LoadCell(smbus, ADS1115Config(data_rate=6),
+                                                        calibration=calibration))
+        suit.hold_arm_down()  # the participant stands with the arm hanging for the calibration
+        imu.calibrate_arm_down(calibration_s)
+        suit.hold_arm_down(False)
+        origin = suit.start_plant()
+        recorded: Callable[[float], float]
+        if reference is not None:
+            recorded = _RecordedReference(reference, suit.loop_started)
+        else:
+            def recorded(t: float) -> float:
+                # Plant time of loop time t: the loop's clock and the plant's are both time.monotonic.
+                return float(cycle.elevation_rad(time.monotonic() - origin))
+
+        yield Backend(
+            motor=stack.enter_context(AK60Motor(bus, AK60Config())),
+            imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
+            describe=f"simulated suit in its own process (pid {suit.pid}): CAN over bowden_loopback, "
+                     f"OSC on {imu.address[0]}:{imu.address[1]}, I²C over a local socket",
+            inject=suit.inject,
+        )
+
+
+@contextmanager
+def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, calibration_s: float,
+                announce: Callable[[str], None] | None) -> Iterator[Backend]:
+    import can
+
+    from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
+    from bowden.hardware.ak60 import AK60Config, AK60Motor
+    from bowden.hardware.ngimu import NgimuClient, NgimuConfig
+    from bowden.runtime.clock import MonotonicClock
+    from bowden.sim.arm import PrescribedArm
+    from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
+    from bowden.sim.suit import SimulatedSuit
+
+    follower = ArmFollowingTheLoop(reference) if reference is not None else None
+    arm = follower.arm() if follower is not None else PrescribedArm.following(cycle)
+    plant = WallTimePlant(SimulatedSuit(arm=arm))
+    channel = f"bowden-sim-{next(_channels)}"
+    with ExitStack() as stack:
+        driver_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
+        peer_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
+        motor_peer = stack.enter_context(AK60Peer(peer_bus, plant))
+        imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
+        imu_peer = stack.enter_context(NgimuPeer(plant, imu.address, rate_hz=200.0))
+        adc = ADS1115Peer(plant, offset_v=0.05, volts_per_newton=0.01)
+        smbus = stack.enter_context(FakeSMBus(adc))
+        calibration = LoadCellCalibration(offset_v=0.05, gain_n_per_v=100.0)
+        load_cell = stack.enter_context(
+            ADS1115LoadCell(smbus, ADS1115Config(data_rate=6), calibration=calibration)
+        )
+        imu_peer.hold_arm_down()
+        imu.calibrate_arm_down(calibration_s)
+        imu_peer.hold_arm_down(False)
+        plant.start()
+        recorded: Callable[[float], float]
+        if follower is not None:
+            follower.plant = plant
+
+            def tie(monotonic_s: float) -> None:
+                follower.plant_time_at_loop_start_s = monotonic_s - plant.origin_s
+
+            recorded = _RecordedReference(follower.reference, tie)
+        else:
+            offset = plant.origin_s
+
+            def recorded(t: float) -> float:
+                return float(cycle.elevation_rad(time.monotonic() - offset))
+
+        devices: dict[str, Any] = {"motor": motor_peer, "imu": imu_peer, "adc": adc}
+
+        def inject(target: str, method: str, *args: Any) -> Any:
+            return getattr(devices[target], method)(*args)
+
+        yield Backend(
+            motor=stack.enter_context(AK60Motor(driver_bus, AK60Config())),
+            imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
+            describe=f"simulated suit in this process over virtual CAN {channel}, OSC on {imu.address}, "
+                     "fake I²C",
+            inject=inject,
+        )
+

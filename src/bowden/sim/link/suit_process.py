@@ -1,0 +1,381 @@
+"""The simulated suit in a process of its own, as the real motor and IMU are machines of their own.
+
+The child process runs the plant integrated to wall time and the three device peers on real
+transports: the AK60-6 on a ``bowden_loopback`` CAN bus, the NGIMU sending OSC bundles over UDP to
+the client's loopback address, the ADS1115 behind an :class:`~bowden.sim.link.i2c.I2CServer`. So a
+stall of the loop's process is not a stall of the devices: the motor keeps answering (its replies
+wait on the bus), the IMU keeps streaming, as on the suit. Where the OS allows, the child's threads
+run under ``SCHED_FIFO`` (they are the devices' own processors, which a busy host does not delay).
+
+Before it says ready, the child compiles and runs everything once (the plant's numba kernels take
+tens of seconds to compile in a fresh installation), so no device is enabled before the suit can
+answer. The parent talks to it over a pipe: start the plant clock, hold the arm down for the IMU
+calibration, tie the arm to the loop's time 0, and inject faults (tests, benchmarks). The child ends
+by itself when the parent goes away.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+import multiprocessing.connection
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import traceback
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from pathlib import Path
+from types import TracebackType
+from typing import Any, Final, Self
+
+from bowden.errors import HardwareError, ParameterError
+
+_log = logging.getLogger(__name__)
+
+READY_TIMEOUT_S: Final = 300.0  # a first run compiles the plant: minutes on a slow, busy machine
+CHILD_PRIORITY: Final = 40
+FAULTS: Final = {
+    "motor": ("mute", "ignore_next", "inject_error", "override_temperature", "replace_next_reply",
+              "garble_replies"),
+    "imu": ("pause", "send_nan", "hold_arm_down"),
+    "adc": ("override_tension_n", "fail_next"),
+    "i2c": ("unplug",),
+}
+
+
+@dataclass(frozen=True)
+class SuitProcessSettings:
+    """What the child builds (picklable).
+
+    Attributes
+    ----------
+    directory
+        Where the bus and the I²C socket files live (the CAN channel is ``directory / "can"``).
+    imu_target
+        (host, port) the simulated NGIMU sends to.
+    reference
+        The reference the arm follows from the loop's time 0 (an object with ``cycle``,
+        ``start_s``, ``end_s``), or None to repeat ``cycle`` from the plant's start.
+    cycle
+        The minimum-jerk cycle of the free-running arm.
+    imu_rate_hz
+        Stream rate of the simulated NGIMU.
+    """
+
+    directory: str
+    imu_target: tuple[str, int]
+    reference: Any
+    cycle: Any
+    imu_rate_hz: float = 200.0
+
+
+class SimulatedSuitProcess:
+    """The parent's handle on the simulated suit's process (a context manager).
+
+    Parameters
+    ----------
+    imu_target
+        The NGIMU client's bound (host, port); must be a loopback address.
+    reference, cycle
+        See :class:`SuitProcessSettings`.
+    ready_timeout_s
+        How long to wait for the child to be ready (it compiles on a first run).
+    """
+
+    def __init__(self, *, imu_target: tuple[str, int], reference: Any = None, cycle: Any = None,
+                 ready_timeout_s: float = READY_TIMEOUT_S) -> None:
+        if not imu_target[0].startswith("127.") and imu_target[0] != "::1":
+            raise ParameterError(f"the simulated IMU sends to loopback only, got {imu_target[0]!r}")
+        if reference is None and cycle is None:
+            raise ParameterError("SimulatedSuitProcess needs a reference or a cycle for the arm")
+        self._directory = Path(tempfile.mkdtemp(prefix="bowden-suit-"))
+        self.settings = SuitProcessSettings(directory=str(self._directory), imu_target=imu_target,
+                                            reference=reference, cycle=cycle)
+        self.ready_timeout_s = ready_timeout_s
+        self._process: subprocess.Popen[str] | None = None
+        self._requests: Connection | None = None
+        self._notices: Connection | None = None
+        self._lock = threading.Lock()
+        self.plant_origin_s = math.nan  # time.monotonic() at plant time 0, once started
+        self.loop_start_notified = False
+
+    @property
+    def can_channel(self) -> str:
+        """The ``bowden_loopback`` channel of the suit's CAN bus."""
+        return str(self._directory / "can")
+
+    @property
+    def i2c_path(self) -> str:
+        """The socket file of the suit's I²C bus."""
+        return str(self._directory / "i2c.sock")
+
+    @property
+    def pid(self) -> int | None:
+        return self._process.pid if self._process is not None else None
+
+    # --- lifecycle -------------------------------------------------------------------------------
+    def start(self, announce: Any = None) -> Self:
+        """Start the child and wait until its devices answer.
+
+        Raises
+        ------
+        HardwareError
+            If the child dies or is not ready in time (with its own error message).
+        """
+        # A fresh interpreter (not a fork of this one with its threads and sockets, and not
+        # multiprocessing's spawn, which would re-run the caller's main script), talking over two
+        # socket pairs: requests and replies, and one-way notices from the loop.
+        parent_requests, child_requests = socket.socketpair()
+        notice_writer, notice_reader = socket.socketpair()
+        fds = (child_requests.fileno(), notice_reader.fileno())
+        try:
+            process = subprocess.Popen(
+                [sys.executable, "-m", "bowden.sim.link.suit_process", str(fds[0]), str(fds[1]),
+                 str(os.getpid())],
+                pass_fds=fds, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                text=True,
+            )
+        finally:
+            child_requests.close()
+            notice_reader.close()
+        self._process = process
+        self._requests = Connection(parent_requests.detach())
+        self._notices = Connection(notice_writer.detach())
+        self._requests.send(self.settings)
+        started = time.monotonic()
+        announced = False
+        while not self._requests.poll(0.2):
+            if process.poll() is not None:
+                message = self._child_error()
+                self.close()
+                raise HardwareError(f"the simulated suit's process ended before it was ready "
+                                    f"(exit code {process.returncode}){message}")
+            if announce is not None and not announced and time.monotonic() > started + 3.0:
+                announce("preparing the simulated suit (a first run compiles it: up to a minute or two)")
+                announced = True
+            if time.monotonic() > started + self.ready_timeout_s:
+                self.close()
+                raise HardwareError(f"the simulated suit was not ready within {self.ready_timeout_s:g} s")
+        try:
+            kind, detail = self._requests.recv()
+        except EOFError:
+            kind, detail = "error", f"its process ended{self._child_error()}"
+        if kind != "ready":
+            self.close()
+            raise HardwareError(f"the simulated suit could not start: {detail}")
+        return self
+
+    def _child_error(self) -> str:
+        """The last line the child wrote to stderr, if it has ended (for an error message)."""
+        process = self._process
+        if process is None or process.poll() is None or process.stderr is None:
+            return ""
+        lines = [line.strip() for line in process.stderr.read().splitlines() if line.strip()]
+        return f": {lines[-1]}" if lines else ""
+
+    def close(self) -> None:
+        """Stop the child (politely, then by force) and remove its socket files."""
+        process = self._process
+        if process is not None:
+            if process.poll() is None and self._requests is not None:
+                try:
+                    with self._lock:
+                        self._requests.send(("stop", None, ()))
+                except (OSError, ValueError):
+                    pass
+            try:
+                process.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait(timeout=5.0)
+            if process.stderr is not None:
+                process.stderr.close()
+            self._process = None
+        for connection in (self._requests, self._notices):
+            if connection is not None:
+                connection.close()
+        self._requests = self._notices = None
+        shutil.rmtree(self._directory, ignore_errors=True)
+
+    def __enter__(self) -> Self:
+        return self.start()
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+    # --- requests --------------------------------------------------------------------------------
+    def _call(self, target: str, method: str | None, *args: Any) -> Any:
+        if self._requests is None:
+            raise HardwareError("the simulated suit is not running")
+        with self._lock:
+            try:
+                self._requests.send((target, method, args))
+                if not self._requests.poll(10.0):
+                    raise HardwareError(f"the simulated suit did not answer {target}.{method}")
+                kind, result = self._requests.recv()
+            except (EOFError, OSError) as error:
+                raise HardwareError(f"the simulated suit's process is gone ({error})") from None
+        if kind == "error":
+            raise HardwareError(f"the simulated suit refused {target}.{method}: {result}")
+        return result
+
+    def start_plant(self) -> float:
+        """Let the plant's time run from now on; returns ``time.monotonic()`` at plant time 0."""
+        self.plant_origin_s = float(self._call("plant", "start"))
+        return self.plant_origin_s
+
+    def hold_arm_down(self, held: bool = True) -> None:
+        """The simulated IMU reports a still, hanging arm (the calibration pose) while ``held``."""
+        self._call("imu", "hold_arm_down", held)
+
+    def loop_started(self, monotonic_s: float) -> None:
+        """Tell the arm when loop time 0 was (``time.monotonic()``); never waits (called in the loop)."""
+        if self._notices is None or self.loop_start_notified:
+            return
+        self.loop_start_notified = True
+        # A one-way pipe of its own, so that the loop never queues behind a fault-injection request.
+        self._notices.send(("loop_started", monotonic_s))
+
+    def inject(self, target: str, method: str, *args: Any) -> Any:
+        """Call a fault injection of a device peer in the child (``FAULTS`` lists them)."""
+        if method not in FAULTS.get(target, ()):
+            raise ParameterError(f"no fault injection {target}.{method}; known: {FAULTS}")
+        return self._call(target, method, *args)
+
+    def plant_time_s(self) -> float:
+        """The plant's current time (s) as the child sees it."""
+        return float(self._call("plant", "time"))
+
+
+# --- the child --------------------------------------------------------------------------------------
+def _warm_up(cycle: Any) -> None:
+    """Compile and run everything the devices use once, so that the first frame is answered in time."""
+    from bowden.sim.arm import PrescribedArm
+    from bowden.sim.peers import NgimuPeer, WallTimePlant
+    from bowden.sim.suit import SimulatedSuit
+
+    suit = SimulatedSuit(arm=PrescribedArm.following(cycle))
+    suit.motor.enable()
+    suit.motor.command_torque(0.5)
+    suit.advance_to(0.05)
+    suit.elevation_sensor.read()
+    suit.tension_sensor.read()
+    NgimuPeer(WallTimePlant(suit), ("127.0.0.1", 9)).datagrams(0.3, 0.1)
+
+
+def _child_main(requests: Connection, notices: Connection, parent_pid: int) -> None:
+    """Entry point of the suit's process: build, warm up, say ready, serve until told to stop."""
+    # Ctrl-C reaches the whole terminal's process group: the parent stops the suit, not the signal.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # Threads inherit the policy; refused, it is a normal process: it works, only less like hardware.
+    with contextlib.suppress(AttributeError, OSError):
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(CHILD_PRIORITY))
+    settings = requests.recv()
+    try:
+        devices = _ChildDevices(settings)
+    except BaseException as error:
+        requests.send(("error", f"{type(error).__name__}: {error}"))
+        traceback.print_exc()
+        return
+    try:
+        requests.send(("ready", None))
+        devices.serve(requests, notices, parent_pid)
+    finally:
+        devices.close()
+
+
+class _ChildDevices:
+    """The plant and its peers in the child."""
+
+    def __init__(self, settings: SuitProcessSettings) -> None:
+        import can
+
+        from bowden.sim.arm import PrescribedArm
+        from bowden.sim.backend import ArmFollowingTheLoop
+        from bowden.sim.link.i2c import I2CServer
+        from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
+        from bowden.sim.suit import SimulatedSuit
+
+        _warm_up(settings.cycle if settings.cycle is not None else settings.reference.cycle)
+        directory = Path(settings.directory)
+        self.follower = ArmFollowingTheLoop(settings.reference) if settings.reference is not None else None
+        arm = self.follower.arm() if self.follower is not None else PrescribedArm.following(settings.cycle)
+        self.plant = WallTimePlant(SimulatedSuit(arm=arm))
+        if self.follower is not None:
+            self.follower.plant = self.plant
+        self._closers: list[Any] = []
+        self.bus = can.Bus(interface="bowden_loopback", channel=str(directory / "can"))
+        self._closers.append(self.bus.shutdown)
+        self.motor = AK60Peer(self.bus, self.plant).start()
+        self._closers.insert(0, self.motor.close)
+        self.imu = NgimuPeer(self.plant, settings.imu_target, rate_hz=settings.imu_rate_hz).start()
+        self._closers.insert(0, self.imu.close)
+        self.adc = ADS1115Peer(self.plant, offset_v=0.05, volts_per_newton=0.01)
+        self.i2c = I2CServer(FakeSMBus(self.adc), directory / "i2c.sock").start()
+        self._closers.insert(0, self.i2c.close)
+
+    def serve(self, requests: Connection, notices: Connection, parent_pid: int) -> None:
+        listening: list[Connection] = [requests, notices]
+        while True:
+            ready = multiprocessing.connection.wait(listening, timeout=0.1)
+            if notices in ready:
+                try:
+                    kind, value = notices.recv()
+                except EOFError:
+                    listening.remove(notices)
+                    continue
+                if kind == "loop_started" and self.follower is not None:
+                    self.follower.plant_time_at_loop_start_s = value - self.plant.origin_s
+            if requests not in ready:
+                if os.getppid() != parent_pid:
+                    return  # the parent died: nobody will stop us
+                continue
+            try:
+                target, method, args = requests.recv()
+            except EOFError:
+                return
+            if target == "stop":
+                return
+            try:
+                result = self._handle(target, method, args)
+            except Exception as error:
+                requests.send(("error", f"{type(error).__name__}: {error}"))
+            else:
+                requests.send(("ok", result))
+
+    def _handle(self, target: str, method: str, args: tuple[Any, ...]) -> Any:
+        if target == "plant":
+            if method == "start":
+                self.plant.start()
+                return self.plant.origin_s
+            if method == "time":
+                return self.plant.plant_time_s()
+        if method in FAULTS.get(target, ()):
+            if target == "i2c":
+                self.i2c.silent = True
+                return None
+            device = {"motor": self.motor, "imu": self.imu, "adc": self.adc}[target]
+            if method == "replace_next_reply":
+                args = (bytes.fromhex(args[0]),)
+            return getattr(device, method)(*args)
+        raise ParameterError(f"unknown request {target}.{method}")
+
+    def close(self) -> None:
+        for close in self._closers:
+            try:
+                close()
+            except Exception:
+                _log.exception("closing the simulated suit")
+
+
+if __name__ == "__main__":
+    _child_main(Connection(int(sys.argv[1])), Connection(int(sys.argv[2])), int(sys.argv[3]))
