@@ -1,4 +1,4 @@
-"""Loop timing of ``bowden run --backend sim``: the real drivers against the simulated suit in its own process.
+"""Loop timing of ``bowden run --backend sim``: the real drivers against the suit in its own process.
 
 Runs the control loop at 500 Hz and at 1 kHz on the real clock with the default watchdogs and the
 default real-time settings of ``bowden run`` (SCHED_FIFO where allowed, no garbage collection in the

@@ -4,11 +4,12 @@
 NGIMU streaming to ``--imu-port`` (the arm must hang still during the calibration at the start) and,
 optionally, the load cell on an I²C bus (``--i2c-bus``). ``--backend sim`` runs the same drivers
 against the simulated suit in a process of its own, behind simulated devices that speak the same wire
-protocols (CAN across processes, OSC over loopback UDP, I²C over a local socket), in real time. The run prints a status line every second and,
-at the end, why it stopped and how well the loop kept time. ``--record study.db`` stores every cycle
-in the study store (crash-safe), with the wearer's anthropometrics (participants table and trial
-metadata). Every argument, the wearer and the store are checked before any device is opened. SIGINT
-(Ctrl-C) and SIGTERM stop the suit safely. ``--serve`` also serves the participant display, the
+protocols (CAN across processes, OSC over loopback UDP, I²C over a local socket), in real time. The
+run prints a status line every second and, at the end, why it stopped, how well the loop kept time
+and what the host and the devices did (stalls, missing replies, degraded states). ``--record
+study.db`` stores every cycle in the study store (crash-safe), with the wearer's anthropometrics
+(participants table and trial metadata). Every argument, the wearer and the store are checked before
+any device is opened. SIGINT (Ctrl-C) and SIGTERM stop the suit safely. ``--serve`` also serves the participant display, the
 operator console (live plots, loop health, a stop button that puts the suit in its safe state) and
 the questionnaires while the run lasts.
 """
