@@ -9,9 +9,9 @@ run prints a status line every second and, at the end, why it stopped, how well 
 and what the host and the devices did (stalls, missing replies, degraded states). ``--record
 study.db`` stores every cycle in the study store (crash-safe), with the wearer's anthropometrics
 (participants table and trial metadata). Every argument, the wearer and the store are checked before
-any device is opened. SIGINT (Ctrl-C) and SIGTERM stop the suit safely. ``--serve`` also serves the participant display, the
-operator console (live plots, loop health, a stop button that puts the suit in its safe state) and
-the questionnaires while the run lasts.
+any device is opened. SIGINT (Ctrl-C) and SIGTERM stop the suit safely. ``--serve`` also serves the
+participant display, the operator console (live plots, loop health, a stop button that puts the suit
+in its safe state) and the questionnaires while the run lasts.
 """
 
 from __future__ import annotations
