@@ -123,10 +123,25 @@ def test_io_errors_are_counted_and_survived(load_cell: ADS1115LoadCell, adc: ADS
 
 
 def test_reader_gives_up_after_too_many_errors(adc: ADS1115Peer) -> None:
-    with FakeSMBus(adc) as bus, ADS1115LoadCell(bus, ADS1115Config(max_consecutive_errors=5)) as cell:
+    config = ADS1115Config(max_consecutive_errors=5, lost_after_s=0.0)
+    with FakeSMBus(adc) as bus, ADS1115LoadCell(bus, config) as cell:
         adc.fail_next(1000)
         wait_for(lambda: cell.failure is not None)
-        assert "5 I²C errors in a row" in str(cell.failure)
+        assert "5 I²C errors in a row over" in str(cell.failure)
+
+
+def test_failed_reads_must_also_span_the_time_limit(adc: ADS1115Peer) -> None:
+    """A few failed reads in a row (a glitch) are not a lost sensor; failing on for 20 ms is."""
+    with FakeSMBus(adc) as bus, ADS1115LoadCell(bus, ADS1115Config(data_rate=7)) as cell:
+        adc.fail_next(5)  # 5 failed reads at 860 SPS: under 6 ms
+        wait_for(lambda: cell.counters.io_errors == 5)
+        before = cell.counters.samples
+        wait_for(lambda: cell.counters.samples > before)
+        assert cell.failure is None
+        adc.fail_next(10**6)
+        wait_for(lambda: cell.failure is not None)
+        spanned_ms = int(str(cell.failure).split(" over ")[1].split(" ms")[0])
+        assert spanned_ms >= 20 and cell.counters.io_errors - 5 >= 3
 
 
 def test_tare_zeroes_the_offset(load_cell: ADS1115LoadCell, adc: ADS1115Peer) -> None:

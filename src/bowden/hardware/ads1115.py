@@ -135,15 +135,18 @@ class ADS1115Config:
         Gain code; full scale ``FULL_SCALE_V[pga]`` volts.
     data_rate
         Rate code; ``DATA_RATES_SPS[data_rate]`` samples/s (7: 860 SPS).
-    max_consecutive_errors
-        I²C errors in a row after which the reader stops and reports the sensor lost.
+    max_consecutive_errors, lost_after_s
+        The reader stops and reports the sensor lost after at least this many failed reads in a row
+        spanning at least this long (s): failed attempts, so a reader thread that was not scheduled
+        is not a lost sensor.
     """
 
     address: int = DEFAULT_ADDRESS
     mux: int = 0
     pga: int = 1
     data_rate: int = 7
-    max_consecutive_errors: int = 50
+    max_consecutive_errors: int = 3
+    lost_after_s: float = 0.02
 
     def __post_init__(self) -> None:
         if not 0x48 <= self.address <= 0x4B:
@@ -151,6 +154,8 @@ class ADS1115Config:
         encode_config(mux=self.mux, pga=self.pga, continuous=True, data_rate=self.data_rate)
         if self.max_consecutive_errors < 1:
             raise ParameterError("ADS1115Config.max_consecutive_errors must be >= 1")
+        if not (math.isfinite(self.lost_after_s) and self.lost_after_s >= 0.0):
+            raise ParameterError(f"ADS1115Config.lost_after_s must be ≥ 0, got {self.lost_after_s!r}")
 
     @property
     def full_scale_v(self) -> float:
@@ -271,6 +276,7 @@ class ADS1115LoadCell(StartedInWith):
         full_scale = self.config.full_scale_v
         address = self.config.address
         errors = 0
+        first_error_s = 0.0
         # The first result is ready one period after configuring; before that the conversion
         # register still holds its power-on 0, which would read as a real 0 V sample.
         deadline = time.monotonic() + 1.5 * period
@@ -281,19 +287,24 @@ class ADS1115LoadCell(StartedInWith):
             try:
                 data = self._bus.read_i2c_block_data(address, REG_CONVERSION, 2)
                 volts = conversion_to_volts(data, full_scale)
-            except MalformedFrameError:
-                self.counters.malformed += 1
-                errors += 1
-            except OSError:
-                self.counters.io_errors += 1
+            except (MalformedFrameError, OSError) as error:
+                if isinstance(error, MalformedFrameError):
+                    self.counters.malformed += 1
+                else:
+                    self.counters.io_errors += 1
+                if errors == 0:
+                    first_error_s = time.monotonic()
                 errors += 1
             else:
                 errors = 0
                 self._latest_volts = volts
                 self._latest = TensionSample(self._clock(), self.calibration.tension_n(volts))
                 self.counters.samples += 1
-            if errors >= self.config.max_consecutive_errors:
-                self.failure = f"ADS1115 at {address:#x}: {errors} I²C errors in a row, load cell lost"
+            # Errors that are attempts which failed, not a reader that was not scheduled: the device.
+            if errors >= self.config.max_consecutive_errors and \
+                    time.monotonic() - first_error_s >= self.config.lost_after_s:
+                self.failure = (f"ADS1115 at {address:#x}: {errors} I²C errors in a row over "
+                                f"{1e3 * (time.monotonic() - first_error_s):.0f} ms, load cell lost")
                 _log.error(self.failure)
                 return
             deadline += period

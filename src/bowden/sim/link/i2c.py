@@ -30,7 +30,7 @@ _REQUEST = struct.Struct("!IBBBB")  # request id, op, i2c address, register, len
 _REPLY = struct.Struct("!IH")  # request id, errno (0: done)
 _READ, _WRITE = 0, 1
 _clients = itertools.count()
-DEFAULT_TIMEOUT_S: Final = 0.02
+DEFAULT_TIMEOUT_S: Final = 0.005  # a local round trip takes ~0.1 ms
 
 
 class RemoteSMBus:
@@ -41,7 +41,8 @@ class RemoteSMBus:
     server_path
         The server's socket file.
     timeout_s
-        A transfer without a reply within this long fails with ``ETIMEDOUT``.
+        A transfer without a reply within this long fails with ``ETIMEDOUT`` (default 5 ms; the
+        round trip takes about 0.1 ms).
     """
 
     def __init__(self, server_path: str | os.PathLike[str], *, timeout_s: float = DEFAULT_TIMEOUT_S) -> None:

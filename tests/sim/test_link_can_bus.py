@@ -1,0 +1,88 @@
+"""The ``bowden_loopback`` CAN bus: frames cross processes bit-exactly and never leave the machine."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import can
+import pytest
+
+from bowden.sim.link.can_bus import ERRNO_NO_BUFFER_SPACE, LoopbackBus
+
+FRAMES = [
+    can.Message(arbitration_id=0x001, data=bytes([0xFF] * 7 + [0xFC]), is_extended_id=False),
+    can.Message(arbitration_id=0x000, data=bytes([1, 2, 3, 4, 5, 6]), is_extended_id=False),
+    can.Message(arbitration_id=0x1ABCDE0F, data=b"\x00", is_extended_id=True),
+    can.Message(arbitration_id=0x123, is_remote_frame=True, dlc=4, is_extended_id=False),
+    can.Message(arbitration_id=0x0, is_error_frame=True, data=b"", is_extended_id=False),
+]
+
+ECHO = """
+import sys, can
+bus = can.Bus(interface="bowden_loopback", channel=sys.argv[1])
+print("ready", flush=True)
+for _ in range(int(sys.argv[2])):
+    message = bus.recv(timeout=10.0)
+    reply = can.Message(arbitration_id=message.arbitration_id ^ 0x7,
+                        data=bytes(b ^ 0xFF for b in message.data), is_extended_id=message.is_extended_id, is_remote_frame=message.is_remote_frame,
+                        is_error_frame=message.is_error_frame, dlc=message.dlc)
+    bus.send(reply)
+bus.shutdown()
+"""
+
+
+def same_frame(a: can.Message, b: can.Message) -> bool:
+    return (a.arbitration_id, a.is_extended_id, a.is_remote_frame, a.is_error_frame, a.dlc,
+            bytes(a.data)) == (b.arbitration_id, b.is_extended_id, b.is_remote_frame, b.is_error_frame,
+                               b.dlc, bytes(b.data))
+
+
+def test_frames_cross_processes_bit_exactly_and_a_sniffer_sees_both_ways(tmp_path: Path) -> None:
+    channel = str(tmp_path / "bus")
+    with can.Bus(interface="bowden_loopback", channel=channel) as bus, \
+            can.Bus(interface="bowden_loopback", channel=channel) as sniffer:
+        echo = subprocess.Popen([sys.executable, "-c", ECHO, channel, str(len(FRAMES))],
+                                stdout=subprocess.PIPE, text=True)
+        try:
+            assert echo.stdout is not None and echo.stdout.readline().strip() == "ready"
+            for frame in FRAMES:
+                bus.send(frame)
+                reply = bus.recv(timeout=10.0)
+                assert reply is not None
+                expected = can.Message(arbitration_id=frame.arbitration_id ^ 0x7,
+                                       data=bytes(b ^ 0xFF for b in frame.data),
+                                       is_extended_id=frame.is_extended_id,
+                                       is_remote_frame=frame.is_remote_frame,
+                                       is_error_frame=frame.is_error_frame, dlc=frame.dlc)
+                assert same_frame(reply, expected), (reply, expected)
+                seen = [sniffer.recv(timeout=5.0), sniffer.recv(timeout=5.0)]
+                assert all(m is not None for m in seen)
+                assert same_frame(seen[0], frame) and same_frame(seen[1], expected)  # type: ignore[arg-type]
+        finally:
+            assert echo.wait(timeout=30) == 0
+    assert list(Path(channel).iterdir()) == []  # every node removed its socket file
+
+
+def test_a_send_with_nobody_on_the_bus_fails_like_socketcan(tmp_path: Path) -> None:
+    with LoopbackBus(tmp_path / "bus") as alone:
+        with pytest.raises(can.CanOperationError, match="No buffer space") as info:
+            alone.send(FRAMES[0])
+        assert info.value.error_code == ERRNO_NO_BUFFER_SPACE
+        with LoopbackBus(tmp_path / "bus") as other:
+            alone.send(FRAMES[0])
+            assert other.recv(timeout=5.0) is not None
+        # The other node left: nothing acknowledges any more.
+        with pytest.raises(can.CanOperationError):
+            alone.send(FRAMES[0])
+
+
+def test_recv_times_out_with_none(tmp_path: Path) -> None:
+    with LoopbackBus(tmp_path / "bus") as bus:
+        assert bus.recv(timeout=0.0) is None
+        assert bus.recv(timeout=0.01) is None
+
+
+def test_the_interface_is_registered_with_python_can() -> None:
+    assert "bowden_loopback" in can.interfaces.VALID_INTERFACES
