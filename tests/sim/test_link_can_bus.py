@@ -26,7 +26,8 @@ print("ready", flush=True)
 for _ in range(int(sys.argv[2])):
     message = bus.recv(timeout=10.0)
     reply = can.Message(arbitration_id=message.arbitration_id ^ 0x7,
-                        data=bytes(b ^ 0xFF for b in message.data), is_extended_id=message.is_extended_id, is_remote_frame=message.is_remote_frame,
+                        data=bytes(b ^ 0xFF for b in message.data),
+                        is_extended_id=message.is_extended_id, is_remote_frame=message.is_remote_frame,
                         is_error_frame=message.is_error_frame, dlc=message.dlc)
     bus.send(reply)
 bus.shutdown()
