@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bowden.cli._loop_options import add_safety_arguments, safety_config
+from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config
 from bowden.cli._suit import (
     CanSuitOptions,
     add_can_arguments,
@@ -106,7 +106,9 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
     safety = safety_config(args)
     LoopConfig(rate_hz=args.rate_hz, safety=safety)  # refused now, not at the first trial
     backend: SuitBackend
+    realtime = None  # the simulated suit's trials run on their own paced clock
     if args.backend == "can":
+        realtime = realtime_config(args)
         if args.model is None:
             raise ParameterError("--backend can needs --model model.json (run `bowden identify` first)")
         options = CanSuitOptions.from_args(args)
@@ -120,7 +122,7 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
         k = args.friction_k if args.friction_k is not None else _sim_friction_k()
         model = CompensationModel.from_friction(k=k)
     return ServeConfig(store_path=args.store, model=model, backend=backend, host=args.host, port=args.port,
-                       rate_hz=args.rate_hz, safety=safety)
+                       rate_hz=args.rate_hz, safety=safety, realtime=realtime)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -22,6 +22,7 @@ from starlette.applications import Starlette
 from bowden.errors import BowdenError, ParameterError
 from bowden.model import CompensationModel
 from bowden.runtime import SafetyConfig
+from bowden.runtime.realtime import RealtimeConfig
 from bowden.web.app import create_app
 from bowden.web.live import LiveHub
 from bowden.web.questionnaire_store import QuestionnaireStore
@@ -51,6 +52,8 @@ class ServeConfig:
         Control-loop rate.
     safety
         Watchdog thresholds of the trials' loops.
+    realtime
+        Real-time settings of the trials' loop thread (None: leave its scheduling alone).
     token
         The session token; None draws a fresh one.
     """
@@ -62,6 +65,7 @@ class ServeConfig:
     port: int = 8765
     rate_hz: float = 500.0
     safety: SafetyConfig = field(default_factory=SafetyConfig)
+    realtime: RealtimeConfig | None = None
     token: str | None = None
 
     def __post_init__(self) -> None:
@@ -103,6 +107,7 @@ def build_server(config: ServeConfig) -> WebServer:
         hub=LiveHub(),
         rate_hz=config.rate_hz,
         safety=config.safety,
+        realtime=config.realtime,
     )
     app = create_app(
         manager=manager, questionnaires=questionnaires, token=token, allowed_hosts=config.allowed_hosts

@@ -39,6 +39,7 @@ from bowden.runtime import (
     SafetyConfig,
     TrialInfo,
 )
+from bowden.runtime.realtime import RealtimeConfig
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, SampleTap, Stamped, Thinning
 from bowden.web.samples import FLAGS, STATE, TIME, console_samples, display_samples, fault_names
 from bowden.web.suits import OpenSuit, SuitBackend
@@ -95,6 +96,7 @@ class TrialManager:
         hub: LiveHub,
         rate_hz: float = 500.0,
         safety: SafetyConfig | None = None,
+        realtime: RealtimeConfig | None = None,
         display_rate_hz: float = 100.0,
         health_period_s: float = 0.25,
     ) -> None:
@@ -104,6 +106,7 @@ class TrialManager:
         self.hub = hub
         self.rate_hz = rate_hz
         self.safety = safety if safety is not None else SafetyConfig()
+        self.realtime = realtime
         self.health_period_s = health_period_s
         self._thinning = Thinning(display_rate_hz)
         self._trial: _Trial | None = None
@@ -289,6 +292,7 @@ class TrialManager:
             reference_elevation=setup.reference.elevation_rad,
             recorder_failure=lambda: recorder.failure,
             on_event=recorder.event,
+            realtime=self.realtime,
         )
         return _Trial(setup, suit, control_loop, recorder, tap, time.time())
 
