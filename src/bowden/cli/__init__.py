@@ -2,20 +2,23 @@
 
 Each subcommand lives in its own module of this package and exposes ``register(subparsers)``, which
 adds its parser and sets ``handler`` to a function taking the parsed namespace and returning an
-exit code. Modules are discovered, so a new subcommand is one new file and no edit here.
+exit code. Modules are discovered, so a new subcommand is one new file and no edit here. A module that
+needs an optional extra says so with ``EXTRA = (extra, (module, ...))``: ``bowden --help`` then marks
+the command when the extra is missing, and running it is one line naming the extra to install.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
 import os
 import pkgutil
 import sys
 from collections.abc import Sequence
 
 from bowden import __version__
-from bowden.errors import BowdenError
+from bowden.errors import BowdenError, MissingExtraError
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -31,7 +34,33 @@ def build_parser() -> argparse.ArgumentParser:
             continue
         module = importlib.import_module(f"{__name__}.{info.name}")
         module.register(subparsers)
+        extra = getattr(module, "EXTRA", None)
+        if extra is not None:
+            _guard_extra(subparsers, info.name, *extra)
     return parser
+
+
+def missing_modules(modules: Sequence[str]) -> list[str]:
+    """The modules of ``modules`` that cannot be imported here."""
+    return [name for name in modules if importlib.util.find_spec(name) is None]
+
+
+def _guard_extra(subparsers: argparse._SubParsersAction[argparse.ArgumentParser], command: str,
+                 extra: str, modules: Sequence[str]) -> None:
+    """Mark ``command`` in ``bowden --help`` and make running it one line, when ``extra`` is missing."""
+    missing = missing_modules(modules)
+    if not missing:
+        return
+    install = f"pip install 'bowden[{extra}]'"
+    for action in subparsers._choices_actions:
+        if action.dest == command:
+            action.help = f"{action.help} [needs: {install}]"
+    message = f"bowden {command} needs the {extra} extra ({', '.join(missing)} missing): {install}"
+
+    def refuse(args: argparse.Namespace) -> int:
+        raise MissingExtraError(message)
+
+    subparsers.choices[command].set_defaults(handler=refuse)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -33,6 +33,9 @@ if TYPE_CHECKING:
     from bowden.web.trial_setup import TrialSetup
 
 
+# bowden --help marks the command, and running it is one line, while this extra is missing.
+EXTRA = ("web", ("starlette", "uvicorn", "websockets"))
+
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "serve",

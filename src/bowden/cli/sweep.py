@@ -16,6 +16,8 @@ from bowden.sweep.presets import PRESETS, preset
 from bowden.sweep.spec import SweepSpec, parse_support, parse_values
 from bowden.sweep.summary import PARETO, SPIKE, TENSION, points_table
 
+# bowden --help marks the command, and running it is one line, while this extra is missing.
+EXTRA = ("cluster", ("dask", "distributed"))
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
