@@ -268,6 +268,7 @@ def run(args: argparse.Namespace) -> int:
         server = stack.enter_context(_serving(args, model)) if args.serve else None
         recorder = Recorder(args.record, trial).start() if trial is not None else None
         report: LoopReport | None = None
+        backend: Backend | None = None
         error = "the run did not finish"
         recording_error = ""
         try:
@@ -307,6 +308,9 @@ def run(args: argparse.Namespace) -> int:
     ramp_ms = 1e3 * (report.zero_torque_time_s - report.stop_time_s)
     exited = "exited" if report.motor_disabled else "NOT confirmed exited"
     print(f"safe state: torque zero {ramp_ms:.0f} ms after the stop, motor mode {exited}")
+    exit_error = getattr(backend.motor, "exit_error", None) if backend is not None else None
+    if exit_error:
+        print(f"motor: {exit_error}")
     print(f"loop timing: {report.timing.describe()}")
     print(f"health: {report.describe_health()}")
     if report.realtime:
