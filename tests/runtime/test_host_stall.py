@@ -3,7 +3,8 @@
 The simulated suit runs in its own process, as the real motor and IMU are other machines, so pausing
 the run's process pauses the loop and its drivers but not the devices. A short pause is tolerated
 (counted and reported); a long one stops the suit with the host-stall reason. The pauses are far from
-the 100 ms bound on both sides, so a busy machine cannot turn one verdict into the other.
+the bound on both sides (40 ms and 1 s against 400 ms here), so a busy machine cannot turn one
+verdict into the other; ``benchmarks/host_stalls.py`` checks the default bound with 40, 90 and 150 ms.
 """
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ import time
 
 import pytest
 
-RUN = [sys.executable, "-m", "bowden", "run", "--backend", "sim", "--duration", "3", "--rt-priority", "0"]
+# A bound far from both pauses: 0.04 s must be tolerated and 1 s must not, on any machine.
+RUN = [sys.executable, "-m", "bowden", "run", "--backend", "sim", "--duration", "3", "--host-stall-ms", "400"]
 
 
 def run_with_pause(pause_s: float) -> subprocess.CompletedProcess[str]:
@@ -60,7 +62,7 @@ def test_short_pause_is_tolerated_and_reported() -> None:
 
 @pytest.mark.timeout(600)
 def test_long_pause_stops_with_its_own_reason() -> None:
-    result = run_with_pause(0.5)
+    result = run_with_pause(1.0)
     assert result.returncode == 3, result.stdout + result.stderr
     stopped = next(line for line in result.stdout.splitlines() if line.startswith("stopped:"))
     assert "host stall" in stopped and "HOST_STALL" in stopped, stopped
