@@ -199,8 +199,11 @@ class Lines(io.TextIOBase):
 
 def test_run_serve_shows_the_run_and_the_console_stops_it(wire_suit: WireSuit, tmp_path: Path) -> None:
     store = tmp_path / "study.sqlite"
+    # The suit's peers are threads of this test process: a busy machine stalls them with the loop, so
+    # the host-stall bound is set out of the way (its own tests are in tests/runtime).
     argv = ["run", *wire_suit.args(), "--serve", "--port", "0", "--record", str(store), "--rate", "250",
-            "--duration", "60", "--participant", "P07", "--speed", "V2", "--lead-in", "0.5"]
+            "--duration", "60", "--participant", "P07", "--speed", "V2", "--lead-in", "0.5",
+            "--host-stall-ms", "2000"]
     out = Lines()
     with contextlib.redirect_stdout(out), concurrent.futures.ThreadPoolExecutor(1) as pool:
         running = pool.submit(main, argv)
