@@ -163,7 +163,8 @@ def require_hardware_extra(command: str, options: CanSuitOptions) -> None:
     BowdenError
         Naming the missing module and the extra that provides it.
     """
-    modules = ["can", "pythonosc"] + (["smbus2"] if options.i2c_bus is not None else [])
+    # python-can and python-osc are core dependencies; only the load cell's I²C library is an extra.
+    modules = ["smbus2"] if options.i2c_bus is not None else []
     missing = [name for name in modules if importlib.util.find_spec(name) is None]
     if missing:
         raise BowdenError(f"{command} --backend can needs the hardware extra ({', '.join(missing)} missing): "
