@@ -67,7 +67,9 @@ def one_run(duration_s: float, pause_ms: float | None = None) -> tuple[int, str,
         os.kill(process.pid, signal.SIGSTOP)
         time.sleep(pause_ms / 1e3)
         os.kill(process.pid, signal.SIGCONT)
-    stdout, _ = process.communicate()
+    assert process.stdout is not None
+    stdout = process.stdout.read()  # stderr is the watcher's
+    process.wait()
     watcher.join()
     text = stop_line(stdout)
     if process.returncode == 1:

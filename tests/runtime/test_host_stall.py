@@ -41,7 +41,9 @@ def run_with_pause(pause_s: float) -> subprocess.CompletedProcess[str]:
         os.kill(process.pid, signal.SIGSTOP)
         time.sleep(pause_s)
         os.kill(process.pid, signal.SIGCONT)
-        stdout, _ = process.communicate(timeout=120.0)
+        assert process.stdout is not None
+        stdout = process.stdout.read()  # stderr is the watcher's
+        process.wait(timeout=120.0)
     finally:
         if process.poll() is None:
             process.kill()

@@ -276,11 +276,14 @@ def _child_main(requests: Connection, notices: Connection, parent_pid: int) -> N
     """Entry point of the suit's process: build, warm up, say ready, serve until told to stop."""
     # Ctrl-C reaches the whole terminal's process group: the parent stops the suit, not the signal.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    # Threads inherit the policy; refused, it is a normal process: it works, only less like hardware.
-    with contextlib.suppress(AttributeError, OSError):
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(CHILD_PRIORITY))
     settings = requests.recv()
     try:
+        # Compiling takes seconds of CPU: at a real-time priority it would starve the machine.
+        _warm_up(settings.cycle if settings.cycle is not None else settings.reference.cycle)
+        # The devices' threads inherit the policy; refused, it is a normal process: it works, only
+        # less like separate hardware.
+        with contextlib.suppress(AttributeError, OSError):
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(CHILD_PRIORITY))
         devices = _ChildDevices(settings)
     except BaseException as error:
         requests.send(("error", f"{type(error).__name__}: {error}"))
@@ -305,7 +308,6 @@ class _ChildDevices:
         from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
         from bowden.sim.suit import SimulatedSuit
 
-        _warm_up(settings.cycle if settings.cycle is not None else settings.reference.cycle)
         directory = Path(settings.directory)
         self.follower = ArmFollowingTheLoop(settings.reference) if settings.reference is not None else None
         arm = self.follower.arm() if self.follower is not None else PrescribedArm.following(settings.cycle)
