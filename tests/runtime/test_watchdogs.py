@@ -102,6 +102,14 @@ class BusTimes:
     exit_s: float  # the exit frame, s after the injection
 
 
+def peer_leaves_motor_mode(rig: Rig, timeout_s: float = 5.0) -> bool:
+    """The simulated motor has handled the exit frame (its thread may not have run yet)."""
+    deadline = time.monotonic() + timeout_s
+    while rig.motor_peer.in_motor_mode and time.monotonic() < deadline:
+        time.sleep(0.005)
+    return not rig.motor_peer.in_motor_mode
+
+
 def host_delay_s(report: LoopReport) -> float:
     """What the host added to a stop: the loop's worst wake-up lateness and its worst stall."""
     return report.timing.worst_lateness_s + report.worst_host_stall_s
@@ -170,14 +178,14 @@ def test_imu_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptureF
     check_safe_stop(rig, report, tap, Fault.IMU_STALE, "IMU: newest sample", caplog)
     # The IMU stopped at injection; the watchdog waited for the age limit (less one IMU period).
     assert report.stop_time_s - tap.injected_at_s >= DEFAULTS.imu_max_age_s - 1.0 / 400.0
-    assert not rig.motor_peer.in_motor_mode
+    assert peer_leaves_motor_mode(rig)
 
 
 def test_imu_nan(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
     report, tap = run(rig, controller, rig.imu_peer.send_nan)
     check_safe_stop(rig, report, tap, Fault.NONFINITE_INPUT, "non-finite input", caplog)
-    assert not rig.motor_peer.in_motor_mode
+    assert peer_leaves_motor_mode(rig)
 
 
 def test_motor_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
@@ -201,21 +209,21 @@ def test_motor_error_code(rig: Rig, controller: Controller, caplog: pytest.LogCa
     caplog.set_level(logging.INFO)
     report, tap = run(rig, controller, lambda: rig.motor_peer.inject_error(int(code)))
     check_safe_stop(rig, report, tap, Fault.MOTOR_ERROR, MotorErrorCode.describe(code), caplog)
-    assert not rig.motor_peer.in_motor_mode
+    assert peer_leaves_motor_mode(rig)
 
 
 def test_motor_over_temperature(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
     report, tap = run(rig, controller, lambda: rig.motor_peer.override_temperature(95.0))
     check_safe_stop(rig, report, tap, Fault.MOTOR_OVER_TEMPERATURE, "motor temperature 95 °C", caplog)
-    assert not rig.motor_peer.in_motor_mode
+    assert peer_leaves_motor_mode(rig)
 
 
 def test_tension_limit(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
     report, tap = run(rig, controller, lambda: rig.adc.override_tension_n(300.0))
     check_safe_stop(rig, report, tap, Fault.TENSION_LIMIT, "above the 120 N limit", caplog)
-    assert not rig.motor_peer.in_motor_mode
+    assert peer_leaves_motor_mode(rig)
 
 
 def test_load_cell_lost_stops(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:

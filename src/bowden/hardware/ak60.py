@@ -231,12 +231,22 @@ class AK60Motor:
         The reply to the exit frame is read if it comes but not required: a motor that has gone
         silent must still be told to stop, and the caller cannot do more than that.
         """
+        # Replies to the last torque commands may still be on their way: the exit's reply is the one
+        # after them (the motor answers in order), so wait for all of them, within the timeout.
+        expected = self.unanswered_commands + 1
         self._send(EXIT_MOTOR_MODE)
         self._enabled = False
-        try:
-            self._await_state(self.config.special_reply_timeout_s, "exit motor mode")
-        except (DeviceTimeoutError, MalformedFrameError) as error:
-            _log.warning("AK60 id %d: no valid reply to exit motor mode (%s)", self.config.motor_id, error)
+        deadline = self._clock() + self.config.special_reply_timeout_s
+        received = 0
+        while received < expected:
+            try:
+                self._await_state(max(deadline - self._clock(), 0.0), "exit motor mode")
+            except (DeviceTimeoutError, MalformedFrameError) as error:
+                if received == 0:
+                    _log.warning("AK60 id %d: no valid reply to exit motor mode (%s)",
+                                 self.config.motor_id, error)
+                return
+            received += 1
 
     def set_zero(self) -> None:
         """Make the current position zero; waits out the motor's silence after the request.

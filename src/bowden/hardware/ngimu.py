@@ -317,6 +317,7 @@ class NgimuClient(StartedInWith):
         DeviceTimeoutError
             If fewer than ``min_samples`` orientations arrived (IMU not streaming to this host?).
         """
+        self.poll()  # what was sent before the call describes the arm before the pose: not collected
         self._collecting = []
         end = time.monotonic() + duration_s
         while time.monotonic() < end:
