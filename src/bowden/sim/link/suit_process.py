@@ -30,6 +30,7 @@ import tempfile
 import threading
 import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -122,7 +123,7 @@ class SimulatedSuitProcess:
         return self._process.pid if self._process is not None else None
 
     # --- lifecycle -------------------------------------------------------------------------------
-    def start(self, announce: Any = None) -> Self:
+    def start(self, announce: Callable[[str], None] | None = None) -> Self:
         """Start the child and wait until its devices answer.
 
         Raises
@@ -269,7 +270,9 @@ def _warm_up(cycle: Any) -> None:
     suit.advance_to(0.05)
     suit.elevation_sensor.read()
     suit.tension_sensor.read()
-    NgimuPeer(WallTimePlant(suit), ("127.0.0.1", 9)).datagrams(0.3, 0.1)
+    imu = NgimuPeer(WallTimePlant(suit), ("127.0.0.1", 9))
+    imu.datagrams(0.3, 0.1)
+    imu.close()
 
 
 def _child_main(requests: Connection, notices: Connection, parent_pid: int) -> None:
