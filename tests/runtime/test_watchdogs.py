@@ -192,7 +192,11 @@ def test_motor_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptur
     caplog.set_level(logging.INFO)
     report, tap = run(rig, controller, rig.motor_peer.mute)
     check_safe_stop(rig, report, tap, Fault.MOTOR_NO_REPLY, "motor: no valid reply", caplog)
-    assert report.stop_time_s - tap.injected_at_s >= DEFAULTS.motor_max_silence_s - 1.0 / RATE_HZ
+    # It waited for the limits: ≥ 5 commands unanswered, the oldest sent ≥ 30 ms before (replies to
+    # commands sent just before the mute, still unanswered then, count too).
+    count = int(report.reason.split("the last ")[1].split(" commands")[0])
+    age_ms = int(report.reason.split("the oldest sent ")[1].split(" ms")[0])
+    assert count >= DEFAULTS.motor_min_unanswered and age_ms >= 1e3 * DEFAULTS.motor_max_silence_s
     assert report.motor_timeouts >= DEFAULTS.motor_min_unanswered
 
 
