@@ -176,8 +176,10 @@ def test_imu_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptureF
     caplog.set_level(logging.INFO)
     report, tap = run(rig, controller, rig.imu_peer.pause)
     check_safe_stop(rig, report, tap, Fault.IMU_STALE, "IMU: newest sample", caplog)
-    # The IMU stopped at injection; the watchdog waited for the age limit (less one IMU period).
-    assert report.stop_time_s - tap.injected_at_s >= DEFAULTS.imu_max_age_s - 1.0 / 400.0
+    # The watchdog waited for the age limit (the IMU stopped at the injection, or earlier if its
+    # thread was late on a busy machine).
+    age_ms = int(report.reason.split("newest sample ")[1].split(" ms")[0])
+    assert age_ms >= 1e3 * DEFAULTS.imu_max_age_s
     assert peer_leaves_motor_mode(rig)
 
 
