@@ -138,7 +138,6 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
         suit = SimulatedSuitProcess(imu_target=imu.address, reference=reference,
                                     cycle=cycle if reference is None else None)
         stack.enter_context(suit.start(announce))
-        stack.callback(suit.close)
         bus = stack.enter_context(can.Bus(interface="bowden_loopback", channel=suit.can_channel))
         smbus = stack.enter_context(RemoteSMBus(suit.i2c_path))
         calibration = LoadCellCalibration(offset_v=0.05, gain_n_per_v=100.0)
