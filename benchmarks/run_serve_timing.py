@@ -27,10 +27,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from bowden.cli._suit import open_sim_backend
 from bowden.control import build_controller
 from bowden.model import CompensationModel, Subject
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row, SafetyConfig, TrialInfo
+from bowden.sim.backend import open_sim_backend
 from bowden.web.server import ServeConfig, ServerThread
 from bowden.web.suits import CommandLineBackend, OpenSuit
 from bowden.web.trial_setup import TrialSetup, study_reference

@@ -2,7 +2,12 @@
 
 The driver never waits for a reply in a torque command (the reply of one cycle serves the next), so
 the tests that need the answer to one particular command use :func:`exchange`: older replies are
-taken first, then the command goes out and the test waits (not the driver) for its reply.
+taken first, then the command goes out and the test waits (not the driver) for its reply. The
+control-cycle contract itself (never blocking, bounded reads, the reply filter, leaving on a dead bus)
+is tested in ``test_ak60_cycle.py``.
+
+Waits for an answer that must come are generous (they only keep a broken driver from hanging); a
+verdict never depends on how fast the machine is.
 """
 
 from __future__ import annotations
@@ -10,6 +15,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import can
@@ -25,7 +31,7 @@ from bowden.sim.peers.ak60_peer import COMMAND, ENTER, EXIT, ZERO
 if TYPE_CHECKING:
     from conftest import SimplePlant
 
-FAST = AK60Config(reply_timeout_s=0.05, special_reply_timeout_s=0.2, zero_settle_s=0.02, zero_timeout_s=1.0)
+FAST = AK60Config(reply_timeout_s=0.05, special_reply_timeout_s=1.0, zero_settle_s=0.02, zero_timeout_s=5.0)
 
 
 def exchange(motor: AK60Motor, torque_nm: float, timeout_s: float = 2.0) -> MotorState:
@@ -86,7 +92,7 @@ def test_enter_command_reply_exit(motor: AK60Motor, peer: AK60Peer, plant: Simpl
 
 def test_negative_direction_flips_every_sign(can_buses: tuple[can.BusABC, can.BusABC], peer: AK60Peer,
                                              plant: SimplePlant) -> None:
-    motor = AK60Motor(can_buses[0], AK60Config(reply_timeout_s=0.05, direction=-1))
+    motor = AK60Motor(can_buses[0], replace(FAST, direction=-1))
     motor.enable()
     state = run_for(motor, 1.0, 50)
     assert peer.received[-1].torque_nm == pytest.approx(-1.0, abs=30.0 / 4095)
@@ -126,42 +132,6 @@ def test_set_zero_times_out_on_a_motor_that_stays_silent(can_buses: tuple[can.Bu
             motor.set_zero()
 
 
-class CountingClock:
-    """The driver's clock, counting how often it is read (a wait would read it again and again)."""
-
-    def __init__(self) -> None:
-        self.reads = 0
-
-    def __call__(self) -> float:
-        self.reads += 1
-        return time.monotonic()
-
-
-def test_a_silent_motor_never_holds_the_command(can_buses: tuple[can.BusABC, can.BusABC],
-                                                 peer: AK60Peer) -> None:
-    clock = CountingClock()
-    motor = AK60Motor(can_buses[0], FAST, clock=clock)
-    motor.enable()
-    exchange(motor, 0.5)
-    peer.mute()
-    time.sleep(0.02)
-    while motor.poll(0.005) is not None:
-        pass
-    before = clock.reads
-    for k in range(1, 21):
-        assert motor.command_torque(1.0) is None
-        assert motor.unanswered_commands == k
-    # One clock read for the send time and one for the (zero) wait per command: no waiting loop.
-    assert clock.reads - before <= 3 * 20
-    first_send = motor.oldest_unanswered_send_s
-    assert math.isfinite(first_send)
-    peer.mute(False)
-    state = exchange(motor, 0.5)
-    assert state.error_code == 0
-    assert motor.unanswered_commands == 0 and math.isnan(motor.oldest_unanswered_send_s)
-    motor.disable()
-
-
 def test_enable_times_out_without_a_motor(can_buses: tuple[can.BusABC, can.BusABC]) -> None:
     motor = AK60Motor(can_buses[0], AK60Config(special_reply_timeout_s=0.02))
     with pytest.raises(DeviceTimeoutError, match="enter motor mode"):
@@ -169,18 +139,22 @@ def test_enable_times_out_without_a_motor(can_buses: tuple[can.BusABC, can.BusAB
     assert not motor.enabled
 
 
-def test_enter_motor_mode_is_sent_again_when_a_frame_is_lost(motor: AK60Motor, peer: AK60Peer,
+def test_enter_motor_mode_is_sent_again_when_a_frame_is_lost(can_buses: tuple[can.BusABC, can.BusABC],
+                                                             peer: AK60Peer,
                                                              caplog: pytest.LogCaptureFixture) -> None:
-    peer.ignore_next(FAST.enter_attempts - 1)  # lost on the bus: every attempt but the last
+    config = replace(FAST, special_reply_timeout_s=0.5)  # each lost attempt costs this long
+    motor = AK60Motor(can_buses[0], config)
+    peer.ignore_next(config.enter_attempts - 1)  # lost on the bus: every attempt but the last
     state = motor.enable()
     assert motor.enabled and peer.in_motor_mode and state.error_code == 0
     assert [frame.kind for frame in peer.received] == [ENTER]  # the lost ones never arrived
-    assert sum("sending it again" in r.getMessage() for r in caplog.records) == FAST.enter_attempts - 1
+    assert sum("sending it again" in r.getMessage() for r in caplog.records) == config.enter_attempts - 1
     motor.disable()
 
 
-def test_enable_gives_up_after_its_attempts(motor: AK60Motor, peer: AK60Peer) -> None:
-    peer.ignore_next(FAST.enter_attempts)
+def test_enable_gives_up_after_its_attempts(can_buses: tuple[can.BusABC, can.BusABC], peer: AK60Peer) -> None:
+    motor = AK60Motor(can_buses[0], replace(FAST, special_reply_timeout_s=0.05))
+    peer.ignore_next(motor.config.enter_attempts)
     with pytest.raises(DeviceTimeoutError, match="enter motor mode"):
         motor.enable()
     assert not motor.enabled and not peer.in_motor_mode
@@ -210,47 +184,33 @@ def test_other_firmware_variant_end_to_end(can_buses: tuple[can.BusABC, can.BusA
                                            wall_plant: WallTimePlant) -> None:
     limits = FIRMWARE_LIMITS["peak-9nm"]
     with AK60Peer(can_buses[1], wall_plant, limits=limits) as peer:
-        motor = AK60Motor(can_buses[0], AK60Config(limits=limits, reply_timeout_s=0.05))
+        motor = AK60Motor(can_buses[0], replace(FAST, limits=limits))
         motor.enable()
         exchange(motor, 4.0)
         assert peer.received[-1].torque_nm == pytest.approx(4.0, abs=18.0 / 4095)
         motor.disable()
 
 
-def test_a_bad_frame_never_ends_the_wait_for_a_good_one(motor: AK60Motor, peer: AK60Peer,
-                                                        can_buses: tuple[can.BusABC, can.BusABC]) -> None:
+def test_bad_and_foreign_frames_never_end_the_wait_for_a_good_one(motor: AK60Motor, peer: AK60Peer) -> None:
     motor.enable()
-    exchange(motor, 0.5)
-    while motor.poll(0.005) is not None:
-        pass
-    peer.replace_next_reply(bytes([1, 0x80, 0x00]))  # right ids, wrong length: malformed
-    motor.command_torque(0.5)
-    motor.command_torque(0.25)
-    deadline = time.monotonic() + 2.0
-    while len([f for f in peer.received if f.kind == COMMAND]) < 3 and time.monotonic() < deadline:
-        time.sleep(0.005)
-    time.sleep(0.01)
-    # One poll meets the bad reply first and the good one after it: the good one is returned.
-    state = motor.poll()
-    assert state is not None and state.error_code == 0
-    assert motor.counters.malformed == 1 and motor.last_malformed is None
-    # Frames that are not this motor's replies: another motor's, another node's carrying our id in
-    # byte 0 on another CAN id, an extended id, a remote frame. None is taken; each is counted.
-    foreign_before = motor.counters.foreign
-    intruder = can_buses[1]
-    for message in (
+    # Just before its reply the motor's end of the bus carries: a reply with the right ids but the wrong
+    # length (malformed), then frames that are not this motor's replies — another motor's, another
+    # node's carrying our id in byte 0 on another CAN id, an extended id, a remote frame.
+    peer.precede_next_reply([
+        can.Message(arbitration_id=0, data=bytes([1, 0x80, 0x00]), is_extended_id=False),
         can.Message(arbitration_id=0, data=bytes([7, 1, 2, 3, 4, 5, 6, 7]), is_extended_id=False),
         can.Message(arbitration_id=0x123, data=bytes([1, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0, 0]),
                     is_extended_id=False),
         can.Message(arbitration_id=0, data=bytes([1, 0xFF, 0xFF, 0xFF, 0xFF, 0xFF, 0, 0]),
                     is_extended_id=True),
         can.Message(arbitration_id=0, is_remote_frame=True, dlc=8, is_extended_id=False),
-    ):
-        intruder.send(message)
-    time.sleep(0.02)
-    assert motor.poll() is None
+    ])
+    foreign_before = motor.counters.foreign
+    state = exchange(motor, 0.5)
+    # The reply behind them is taken, whatever poll met them first; none of them is.
+    assert state.error_code == 0 and abs(state.position_rad) < 1.0
+    assert motor.counters.malformed == 1 and motor.last_malformed is None
     assert motor.counters.foreign - foreign_before == 4
-    assert exchange(motor, 0.0).error_code == 0
     motor.disable()
 
 
@@ -272,10 +232,18 @@ def test_a_flood_is_taken_a_bounded_number_of_frames_at_a_time(motor: AK60Motor,
 def test_replies_on_another_id_are_named_when_enable_fails(can_buses: tuple[can.BusABC, can.BusABC],
                                                            wall_plant: WallTimePlant) -> None:
     with AK60Peer(can_buses[1], wall_plant, reply_arbitration_id=0x10):
-        motor = AK60Motor(can_buses[0], AK60Config(special_reply_timeout_s=0.05, enter_attempts=1))
+        # The driver's time passes only once the motor's frame has come (on the wrong id): its wait
+        # ends after that, however slow the machine.
+        motor: AK60Motor
+
+        def clock() -> float:
+            return 1.0 if motor.counters.foreign else 0.0
+
+        motor = AK60Motor(can_buses[0], AK60Config(special_reply_timeout_s=0.5, enter_attempts=1),
+                          clock=clock)
         with pytest.raises(DeviceTimeoutError, match="CAN id 0x10"):
             motor.enable()
-        relaxed = AK60Motor(can_buses[0], AK60Config(reply_arbitration_id=0x10))
+        relaxed = AK60Motor(can_buses[0], replace(FAST, reply_arbitration_id=0x10))
         assert relaxed.enable().error_code == 0
         relaxed.disable()
 
@@ -284,7 +252,9 @@ def test_wraps_are_counted_over_many_turns(motor: AK60Motor, peer: AK60Peer, pla
     # The plant stands still (no torque) and the test moves the spool by hand, 0.3 rad at a time,
     # out to 8 output turns and back: the ±12.5 rad field wraps twice on the way out.
     motor.enable()
-    plant.motor.damping_nm_s = 0.0
+    # Held in place: the +½-step "zero" torque (zero is not on the 12-bit grid) must not move it between
+    # the test's setting and the reply, however long that takes on a busy machine.
+    plant.motor.inertia_kg_m2 = 1e12
     targets = [0.3 * k for k in range(168)] + [0.3 * k for k in range(167, -60, -1)]
     lsb = position_resolution_rad(motor.config.limits)
     for target in targets:

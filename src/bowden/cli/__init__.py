@@ -4,7 +4,9 @@ Each subcommand lives in its own module of this package and exposes ``register(s
 adds its parser and sets ``handler`` to a function taking the parsed namespace and returning an
 exit code. Modules are discovered, so a new subcommand is one new file and no edit here. A module that
 needs an optional extra says so with ``EXTRA = (extra, (module, ...))``: ``bowden --help`` then marks
-the command when the extra is missing, and running it is one line naming the extra to install.
+the command when the extra is missing, and running it is one line naming the extra to install. A
+dependency found missing only while a command runs (imported deep inside it) is one line too, naming
+the extra, or the core dependency, that provides it.
 """
 
 from __future__ import annotations
@@ -15,10 +17,25 @@ import importlib.util
 import os
 import pkgutil
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Final
 
 from bowden import __version__
 from bowden.errors import BowdenError, MissingExtraError
+
+# The top-level modules of bowden's optional and pure-Python core dependencies, with the distribution
+# and the extra that provides each (None: the core). Keep in step with pyproject.toml.
+PROVIDERS: Final[Mapping[str, tuple[str, str | None]]] = {
+    "can": ("python-can", None),
+    "pythonosc": ("python-osc", None),
+    "smbus2": ("smbus2", "hardware"),
+    "starlette": ("starlette", "web"),
+    "uvicorn": ("uvicorn", "web"),
+    "websockets": ("websockets", "web"),
+    "dask": ("dask", "cluster"),
+    "distributed": ("distributed", "cluster"),
+    "edfio": ("edfio", "emg"),
+}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -28,7 +45,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Sensorless tension control of cable-driven exosuits.",
     )
     parser.add_argument("--version", action="version", version=f"bowden {__version__}")
-    subparsers = parser.add_subparsers(title="commands", metavar="COMMAND")
+    subparsers = parser.add_subparsers(title="commands", metavar="COMMAND", dest="bowden_command")
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
         if info.name.startswith("_"):
             continue
@@ -51,20 +68,49 @@ def _guard_extra(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]
     missing = missing_modules(modules)
     if not missing:
         return
-    install = f"pip install 'bowden[{extra}]'"
     for action in subparsers._choices_actions:
         if action.dest == command:
-            action.help = f"{action.help} [needs: {install}]"
-    message = f"bowden {command} needs the {extra} extra ({', '.join(missing)} missing): {install}"
+            action.help = f"{action.help} [needs: {install_hint(extra)}]"
+    error = missing_extra_error(f"bowden {command}", extra, missing)
 
     def refuse(args: argparse.Namespace) -> int:
-        raise MissingExtraError(message)
+        raise error
 
     subparsers.choices[command].set_defaults(handler=refuse)
 
 
+def install_hint(extra: str) -> str:
+    """The command that installs ``extra`` (``pip install 'bowden[web]'``)."""
+    return f"pip install 'bowden[{extra}]'"
+
+
+def missing_extra_error(command: str, extra: str, missing: Sequence[str]) -> MissingExtraError:
+    """The one-line refusal of ``command`` (``"bowden serve"``) whose ``extra`` lacks ``missing`` modules."""
+    return MissingExtraError(
+        f"{command} needs the {extra} extra ({', '.join(missing)} missing): {install_hint(extra)}"
+    )
+
+
+def missing_dependency_error(command: str, error: ModuleNotFoundError) -> MissingExtraError | None:
+    """The one-line message for a dependency of :data:`PROVIDERS` found missing while ``command`` ran.
+
+    None when the missing module is not one of bowden's dependencies (a bug, shown as such).
+    """
+    module = (error.name or "").partition(".")[0]
+    if module not in PROVIDERS:
+        return None
+    distribution, extra = PROVIDERS[module]
+    if extra is not None:
+        return missing_extra_error(command, extra, [module])
+    return MissingExtraError(
+        f"{command} needs {distribution}, a core dependency of bowden ({module} missing): "
+        f"pip install {distribution} (or reinstall bowden)"
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit code (tests call this directly)."""
+    command = "bowden"
     try:
         parser = build_parser()  # imports every subcommand: a Ctrl-C can land here too
         args = parser.parse_args(argv)
@@ -72,10 +118,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         if handler is None:
             parser.print_help()
             return 2
+        command = f"bowden {args.bowden_command}"
         code: int = handler(args)
         sys.stdout.flush()  # a closed pipe shows here, where it is handled, not at interpreter exit
     except BowdenError as error:
         print(f"bowden: error: {error}", file=sys.stderr)
+        return 1
+    except ModuleNotFoundError as error:
+        # A dependency imported deep inside a command (not caught by its EXTRA declaration).
+        missing = missing_dependency_error(command, error)
+        if missing is None:
+            raise
+        print(f"bowden: error: {missing}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print("bowden: interrupted", file=sys.stderr)

@@ -25,7 +25,7 @@ from bowden.cli._suit import (
     require_hardware_extra,
 )
 from bowden.contracts import BACKEND_CAN
-from bowden.errors import BowdenError, ParameterError
+from bowden.errors import ParameterError
 
 if TYPE_CHECKING:
     from bowden.web.server import ServeConfig
@@ -35,6 +35,7 @@ if TYPE_CHECKING:
 
 # bowden --help marks the command, and running it is one line, while this extra is missing.
 EXTRA = ("web", ("starlette", "uvicorn", "websockets"))
+
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
@@ -99,10 +100,10 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
     try:
         from bowden.web.server import ServeConfig
         from bowden.web.suits import SimulatedBackend
-    except ImportError as error:
-        raise BowdenError(
-            f"bowden serve needs the web extra ({error.name} is missing): pip install 'bowden[web]'"
-        ) from None
+    except ImportError as error:  # the extra is there but incomplete (EXTRA checks its main modules)
+        from bowden.cli import missing_extra_error
+
+        raise missing_extra_error("bowden serve", "web", [error.name or str(error)]) from None
     from bowden.model import CompensationModel
     from bowden.runtime import LoopConfig
 

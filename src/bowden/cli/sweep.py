@@ -19,6 +19,7 @@ from bowden.sweep.summary import PARETO, SPIKE, TENSION, points_table
 # bowden --help marks the command, and running it is one line, while this extra is missing.
 EXTRA = ("cluster", ("dask", "distributed"))
 
+
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "sweep",

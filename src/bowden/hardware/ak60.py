@@ -11,16 +11,19 @@ What the driver adds to the codec:
   reply to cycle k's command thus serves cycle k + 1. The driver counts the commands sent since the
   last valid reply and when the oldest of them went out, which is what the loop's no-reply watchdog
   judges (a stall of the host sends nothing, so it cannot look like a silent motor);
-* only the motor's replies are taken: standard data frames on ``reply_arbitration_id`` (the
-  firmware's master id, 0 by default), 6 or 8 bytes long, byte 0 the motor id. Other frames are
-  counted as foreign and ignored; a reply that does not decode is counted and skipped, never the end
-  of a wait for a good one;
+* only the motor's replies are taken: classic standard data frames on ``reply_arbitration_id`` (the
+  firmware's master id, 0 by default), 6 or 8 bytes long, byte 0 the motor id. Other frames
+  (another id, extended id, remote, error or CAN FD frames, byte 0 another motor's id) are counted
+  as foreign and ignored; a frame with the motor's ids but another length is a damaged reply,
+  counted as malformed and skipped — never the end of a wait for a good one, never an exception;
 * the ±12.5 rad position field is only ±2 output turns, so wraps are counted and ``position_rad`` is
   multi-turn spool position (the field wraps on the AK firmware; a jump of more than half the field
   between two replies is a wrap, which needs |v| < P·reply rate: 6000 rad/s at 500 Hz);
 * transmit failures — typically ``No buffer space available`` (errno 105) when nothing on the bus
   acknowledges — raise :class:`~bowden.errors.TransmitError`: at once in the cycle (the loop counts
-  them), after brief retries for enter/exit/zero; leaving the ``with`` block never raises for them;
+  them), after brief retries for enter/exit/zero; leaving the ``with`` block never raises for them
+  (it records ``exit_error``). A read the interface refuses is counted and, in the cycle, is just
+  no reply;
 * motor error codes are passed through in :attr:`MotorState.error_code` (the loop's watchdog turns
   them into a safe stop), never swallowed;
 * ``direction`` maps the motor's positive sense onto the suit's (torque > 0 pulls the cable).
@@ -38,7 +41,13 @@ from typing import Self
 
 import can
 
-from bowden.errors import DeviceTimeoutError, MalformedFrameError, ParameterError, TransmitError
+from bowden.errors import (
+    DeviceTimeoutError,
+    HardwareError,
+    MalformedFrameError,
+    ParameterError,
+    TransmitError,
+)
 from bowden.hardware.ak60_codec import (
     DEFAULT_FIRMWARE,
     ENTER_MOTOR_MODE,
@@ -154,14 +163,15 @@ class AK60Config:
 class AK60Counters:
     """What went wrong so far (for the run summary and the tests)."""
 
-    replies: int = 0
-    timeouts: int = 0
-    malformed: int = 0
+    replies: int = 0  # valid replies taken
+    timeouts: int = 0  # blocking waits (enter, exit, zero) that ended without a valid reply
+    malformed: int = 0  # frames on the reply id carrying our id that do not decode (wrong length)
     stale_replies: int = 0  # valid replies superseded by a newer one in the same poll
     foreign: int = 0  # frames that are not this motor's replies
-    poll_limit_hits: int = 0  # polls that left frames on the bus (max_frames_per_poll reached)
+    poll_limit_hits: int = 0  # polls that may have left frames on the bus (max_frames_per_poll taken)
     transmit_retries: int = 0
     transmit_failures: int = 0
+    receive_errors: int = 0  # the interface refused a read (e.g. socketcan with the link down)
 
 
 class AK60Motor:
@@ -174,7 +184,36 @@ class AK60Motor:
     config
         :class:`AK60Config`.
     clock
-        Monotonic time source (s) used for reply deadlines and state time stamps.
+        Monotonic time source (s) used for reply deadlines, the send times of the reply accounting
+        and state time stamps.
+
+    Attributes
+    ----------
+    config
+        The :class:`AK60Config` in use.
+    counters
+        :class:`AK60Counters`: replies taken, frames refused, polls cut short, transmit and receive
+        failures.
+    last_state
+        The newest state taken from a valid reply (None before the first).
+    unanswered_commands
+        Torque commands awaiting a reply: those sent since the last valid reply was taken. A reply
+        taken by :meth:`command_torque` is credited to the commands sent before it (it cannot be told
+        from the reply to the command just sent), so that command stays pending and the count is 1
+        after a call that returned a state; a reply of :meth:`enable`, :meth:`disable`,
+        :meth:`set_zero` or :meth:`poll` answers everything and leaves 0.
+    oldest_unanswered_send_s
+        Clock time (s) at which the oldest of the unanswered commands was sent; NaN when none is.
+        The loop judges motor silence by these two (replies missing to commands actually sent), so a
+        pause of the host, which sends nothing, never looks like a silent motor.
+    last_malformed
+        Why the newest undecodable reply was refused, until a valid reply is taken (None then): the
+        loop adds "(malformed frames)" to a no-reply stop while it is set.
+    last_receive_error
+        The interface's message for the newest refused read, until a read succeeds (None then).
+    exit_error
+        What went wrong leaving the ``with`` block (the bus refused the zero command or the exit
+        frame), or None: leaving never raises for the bus, the caller reports this.
     """
 
     def __init__(
@@ -193,10 +232,11 @@ class AK60Motor:
         self._turns = 0
         self._field_span_rad = 2.0 * self.config.limits.position_rad
         self.last_state: MotorState | None = None
-        self.unanswered_commands = 0  # torque commands sent since the last valid reply
-        self.oldest_unanswered_send_s = math.nan  # clock time of the first of them
-        self.last_malformed: str | None = None  # why the newest undecodable reply was refused
-        self.exit_error: str | None = None  # what went wrong leaving the ``with`` block
+        self.unanswered_commands = 0
+        self.oldest_unanswered_send_s = math.nan
+        self.last_malformed: str | None = None
+        self.last_receive_error: str | None = None
+        self.exit_error: str | None = None
         self._foreign_ids: set[int] = set()  # ids of foreign frames carrying our id in byte 0
 
     # --- Motor protocol ---------------------------------------------------------------------------
@@ -206,7 +246,18 @@ class AK60Motor:
         return self._enabled
 
     def enable(self) -> MotorState:
-        """Enter motor mode and return the state frame the motor answers with."""
+        """Enter motor mode and return the state frame the motor answers with.
+
+        Raises
+        ------
+        DeviceTimeoutError
+            No valid reply to any of ``enter_attempts`` enter frames (the message names the CAN id
+            that frames carrying the motor id came on, if they came on another one).
+        TransmitError
+            The enter frame could not be sent (after ``send_attempts``).
+        HardwareError
+            The interface refused to read.
+        """
         self._discard_waiting()
         attempt = 1
         while True:
@@ -221,8 +272,6 @@ class AK60Motor:
                              self.config.motor_id, attempt, self.config.enter_attempts)
                 attempt += 1
         self._enabled = True
-        self.unanswered_commands = 0
-        self.oldest_unanswered_send_s = math.nan
         return state
 
     def disable(self) -> None:
@@ -230,6 +279,11 @@ class AK60Motor:
 
         The reply to the exit frame is read if it comes but not required: a motor that has gone
         silent must still be told to stop, and the caller cannot do more than that.
+
+        Raises
+        ------
+        TransmitError
+            The exit frame could not be sent (after ``send_attempts``).
         """
         # Replies to the last torque commands may still be on their way: the exit's reply is the one
         # after them (the motor answers in order), so wait for all of them, within the timeout.
@@ -241,7 +295,7 @@ class AK60Motor:
         while received < expected:
             try:
                 self._await_state(max(deadline - self._clock(), 0.0), "exit motor mode")
-            except (DeviceTimeoutError, MalformedFrameError) as error:
+            except HardwareError as error:
                 if received == 0:
                     _log.warning("AK60 id %d: no valid reply to exit motor mode (%s)",
                                  self.config.motor_id, error)
@@ -255,6 +309,8 @@ class AK60Motor:
         ------
         DeviceTimeoutError
             If the motor has not answered within ``zero_timeout_s``.
+        TransmitError
+            A frame could not be sent (after ``send_attempts``).
         """
         requested_s = self._clock()
         self._send(SET_ZERO)
@@ -276,19 +332,27 @@ class AK60Motor:
             # The motor's zero is now here; forget the wrap history measured against the old one.
             self._turns = 0
             self._last_raw_position = None
-            self.last_state = self._to_state(reply)
+            self.last_state = self._to_state(reply, self._unwrap(reply.position_rad))
             return
 
     def command_torque(self, torque_nm: float) -> MotorState | None:
         """Send a pure torque command (spool side, Nm, > 0 pulls) without waiting for its reply.
 
-        Returns the newest valid state that arrived since the previous call — the reply to an
-        earlier command — or None when none did (waits at most ``reply_wait_s`` for one).
+        One non-blocking send attempt, then the frames that have arrived are taken (at most
+        ``max_frames_per_poll``; the rest are taken by the next call), waiting at most
+        ``reply_wait_s`` (default 0) for a valid reply.
+
+        Returns
+        -------
+        MotorState or None
+            The newest valid state that arrived since the previous call — on a bus, the reply to an
+            earlier command serves this cycle — or None when none did. Frames that are not this
+            motor's replies, or do not decode, are counted and skipped, never raised.
 
         Raises
         ------
         TransmitError
-            The frame could not be sent (one attempt, no retry: the loop counts failures).
+            The frame could not be sent (one attempt, no retry, no wait: the loop counts failures).
         ParameterError
             ``torque_nm`` is NaN (a NaN command never reaches the wire).
         """
@@ -299,26 +363,28 @@ class AK60Motor:
         command = MitCommand(torque_nm=motor_torque, kd=self.config.kd)
         sent_s = self._clock()
         self._send(pack_command(command, self.config.limits), attempts=1, timeout_s=0.0)
-        if self.unanswered_commands == 0:
+        state = self._poll(self.config.reply_wait_s)
+        if state is not None:
+            # The reply answers the commands before this one; this one now waits for its own.
+            self.unanswered_commands = 1
             self.oldest_unanswered_send_s = sent_s
-        self.unanswered_commands += 1
-        reply = self._poll(self.config.reply_wait_s)
-        if reply is None:
-            return None
-        state = self._to_state(reply)
-        self.last_state = state
+        else:
+            if self.unanswered_commands == 0:
+                self.oldest_unanswered_send_s = sent_s
+            self.unanswered_commands += 1
         return state
 
     def poll(self, wait_s: float = 0.0) -> MotorState | None:
         """The newest valid state among the frames that arrived, waiting at most ``wait_s`` for one,
-        without sending anything (tools and tests; the loop uses :meth:`command_torque`)."""
+        without sending anything (tools and tests; the loop uses :meth:`command_torque`).
+
+        A valid reply taken here answers every command sent so far (``unanswered_commands`` = 0).
+        """
         if not (math.isfinite(wait_s) and wait_s >= 0.0):
             raise ParameterError(f"poll: wait_s must be ≥ 0, got {wait_s!r}")
-        reply = self._poll(wait_s)
-        if reply is None:
-            return None
-        state = self._to_state(reply)
-        self.last_state = state
+        state = self._poll(wait_s)
+        if state is not None:
+            self._all_answered()
         return state
 
     def __enter__(self) -> Self:
@@ -330,14 +396,31 @@ class AK60Motor:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
-        """Leave motor mode if still in it. Never raises for the bus: the caller reports ``exit_error``."""
+        """Leave motor mode if still in it. Never raises for the bus: the caller reports ``exit_error``.
+
+        A zero-torque command goes first; whether or not it could be sent, the exit frame is tried
+        (with its retries): it is what leaves the motor limp.
+        """
         if not self._enabled:
             return
+        problems: list[str] = []
         try:
             self.command_torque(0.0)
+        except (HardwareError, can.CanError) as error:
+            problems.append(f"zero command: {error}")
+        exit_sent = False
+        try:
             self.disable()
-        except TransmitError as error:
-            self.exit_error = f"could not leave motor mode: {error}"
+            exit_sent = True
+        except (HardwareError, can.CanError) as error:
+            problems.append(f"exit motor mode: {error}")
+        if not problems:
+            return
+        if exit_sent:  # only the zero command before the exit frame failed
+            self.exit_error = "left motor mode, but the " + "; ".join(problems)
+            _log.warning("AK60 id %d: %s", self.config.motor_id, self.exit_error)
+        else:
+            self.exit_error = "could not leave motor mode: " + "; ".join(problems)
             _log.error("AK60 id %d: %s", self.config.motor_id, self.exit_error)
 
     # --- wire ------------------------------------------------------------------------------------
@@ -364,18 +447,34 @@ class AK60Motor:
             f"AK60 id {self.config.motor_id}: transmit failed{tries}: {last_error}{hint}"
         ) from last_error
 
+    def _recv(self, timeout_s: float) -> can.Message | None:
+        """One frame within ``timeout_s``, or None; a refused read raises :class:`HardwareError`."""
+        try:
+            message = self._bus.recv(timeout=timeout_s)
+        except can.CanError as error:
+            self.counters.receive_errors += 1
+            if self.last_receive_error is None:  # said once per outage, not every cycle
+                _log.warning("AK60 id %d: CAN receive failed: %s", self.config.motor_id, error)
+            self.last_receive_error = str(error)
+            raise HardwareError(f"AK60 id {self.config.motor_id}: CAN receive failed: {error}") from error
+        self.last_receive_error = None
+        return message
+
     def _discard_waiting(self, limit: int = 1000) -> None:
         """Drop frames queued before a request, so that its answer is not taken from them."""
         for _ in range(limit):
-            if self._bus.recv(timeout=0.0) is None:
+            if self._recv(0.0) is None:
                 return
 
     def _is_reply(self, message: can.Message) -> bool:
-        """From our motor: a standard data frame on the reply id, byte 0 our id (its length, 6 or 8
-        bytes, is the decoder's to check: a wrong one is a malformed reply, not a foreign frame)."""
+        """From our motor: a classic standard data frame on the reply id, byte 0 our id.
+
+        Its length, 6 or 8 bytes, is the decoder's to check: a frame that carries our ids but another
+        length is a damaged reply (counted as malformed), not another node's frame.
+        """
         data = message.data
         mine = (
-            not (message.is_error_frame or message.is_remote_frame or message.is_extended_id)
+            not (message.is_error_frame or message.is_remote_frame or message.is_extended_id or message.is_fd)
             and len(data) > 0
             and data[0] == self.config.motor_id
         )
@@ -383,7 +482,7 @@ class AK60Motor:
         if mine and (wanted is None or message.arbitration_id == wanted):
             return True
         self.counters.foreign += 1
-        if data and data[0] == self.config.motor_id and not message.is_extended_id:
+        if mine:
             self._foreign_ids.add(message.arbitration_id)
         return False
 
@@ -397,30 +496,48 @@ class AK60Motor:
             return None
         self.counters.replies += 1
         self.last_malformed = None
-        self.unanswered_commands = 0
-        self.oldest_unanswered_send_s = math.nan
         return reply
 
-    def _poll(self, wait_s: float) -> MitReply | None:
-        """The newest valid reply among the frames that arrived (bounded), waiting at most ``wait_s``."""
+    def _poll(self, wait_s: float) -> MotorState | None:
+        """The newest valid state among the frames that arrived (at most ``max_frames_per_poll``),
+        waiting at most ``wait_s`` for one. Never raises for what is on the bus or a refused read.
+
+        Every valid reply goes through the wrap counter in order, the superseded ones too, so that
+        a poll taking several replies cannot miss a wrap between them.
+        """
         newest: MitReply | None = None
-        deadline = self._clock() + wait_s
+        position = math.nan
+        deadline = self._clock() + wait_s if wait_s > 0.0 else -math.inf
         for _ in range(self.config.max_frames_per_poll):
-            remaining = deadline - self._clock() if newest is None else 0.0
-            message = self._bus.recv(timeout=max(remaining, 0.0))
+            remaining = deadline - self._clock() if newest is None and wait_s > 0.0 else 0.0
+            try:
+                message = self._recv(max(remaining, 0.0))
+            except HardwareError:
+                break  # counted; the loop sees the missing replies
             if message is None:
-                return newest
-            if self._is_reply(message):
-                reply = self._decode(message)
-                if reply is not None:
-                    if newest is not None:
-                        self.counters.stale_replies += 1
-                    newest = reply
-        self.counters.poll_limit_hits += 1
-        return newest
+                break
+            if not self._is_reply(message):
+                continue
+            reply = self._decode(message)
+            if reply is None:
+                continue
+            if newest is not None:
+                self.counters.stale_replies += 1
+            newest = reply
+            position = self._unwrap(reply.position_rad)
+        else:
+            self.counters.poll_limit_hits += 1
+        if newest is None:
+            return None
+        state = self._to_state(newest, position)
+        self.last_state = state
+        return state
 
     def _await_reply(self, timeout_s: float) -> MitReply:
-        """The first valid reply within ``timeout_s`` (enter/exit/zero); bad frames do not end the wait."""
+        """The first valid reply within ``timeout_s`` (enter/exit/zero); bad frames do not end the wait.
+
+        The reply answers every command sent before it (the motor answers in order).
+        """
         deadline = self._clock() + timeout_s
         while True:
             remaining = deadline - self._clock()
@@ -431,14 +548,17 @@ class AK60Motor:
                     ids = ", ".join(f"{i:#x}" for i in sorted(self._foreign_ids))
                     hint = (f"; frames starting with its id came on CAN id {ids}, not on the reply id "
                             f"{self.config.reply_arbitration_id}: check the firmware's master id")
+                elif self.last_malformed is not None:
+                    hint = f"; frames with its ids did not decode ({self.last_malformed})"
                 raise DeviceTimeoutError(
                     f"AK60 id {self.config.motor_id}: no reply within {timeout_s * 1e3:.1f} ms{hint}"
                 )
-            message = self._bus.recv(timeout=remaining)
+            message = self._recv(remaining)
             if message is None or not self._is_reply(message):
                 continue
             reply = self._decode(message)
             if reply is not None:
+                self._all_answered()
                 return reply
 
     def _await_state(self, timeout_s: float, what: str) -> MotorState:
@@ -446,12 +566,16 @@ class AK60Motor:
             reply = self._await_reply(timeout_s)
         except DeviceTimeoutError as error:
             raise DeviceTimeoutError(f"{error} ({what})") from None
-        state = self._to_state(reply)
+        state = self._to_state(reply, self._unwrap(reply.position_rad))
         self.last_state = state
         return state
 
-    def _to_state(self, reply: MitReply) -> MotorState:
-        raw = reply.position_rad
+    def _all_answered(self) -> None:
+        self.unanswered_commands = 0
+        self.oldest_unanswered_send_s = math.nan
+
+    def _unwrap(self, raw: float) -> float:
+        """Multi-turn position (motor side, rad) of a raw ±P field reading; counts the wraps."""
         previous = self._last_raw_position
         if previous is not None:
             jump = raw - previous
@@ -460,10 +584,13 @@ class AK60Motor:
             elif jump < -0.5 * self._field_span_rad:
                 self._turns += 1
         self._last_raw_position = raw
+        return raw + self._turns * self._field_span_rad
+
+    def _to_state(self, reply: MitReply, position_rad: float) -> MotorState:
         sign = self.config.direction
         return MotorState(
             time_s=self._clock(),
-            position_rad=sign * (raw + self._turns * self._field_span_rad),
+            position_rad=sign * position_rad,
             velocity_rad_s=sign * reply.velocity_rad_s,
             torque_nm=sign * reply.torque_nm,
             temperature_c=reply.temperature_c,

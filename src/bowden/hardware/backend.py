@@ -25,6 +25,10 @@ class Backend:
     inject
         Fault injection into a simulated suit's devices, ``inject(device, fault, *args)`` (tests and
         benchmarks); None for real hardware.
+    simulation
+        The handle on a simulated suit running in its own process
+        (:class:`bowden.sim.link.suit_process.SimulatedSuitProcess`: its pid, socket paths, plant
+        clock and received-frame log, for tests and benchmarks); None otherwise.
     """
 
     motor: Motor
@@ -34,3 +38,4 @@ class Backend:
     reference_elevation: Callable[[float], float] | None = None
     describe: str = ""
     inject: Callable[..., Any] | None = None
+    simulation: object | None = None

@@ -12,22 +12,37 @@ Inside :func:`realtime` the calling thread (the loop's) may get:
   cell's reader), the loop gets it back within half a millisecond;
 * no garbage collection: what exists is moved to the permanent generation (``gc.freeze``) and
   automatic collection is off for the run, so a collection pause never lands in a cycle. The loop
-  allocates no reference cycles; collection resumes (and runs once) when the block ends.
+  allocates no reference cycles; collection resumes, and runs once, when the block ends;
+* the process's memory locked in RAM (``mlockall(MCL_CURRENT | MCL_FUTURE)``, off by default), so
+  that no page of it is swapped out or faulted in lazily during a cycle. It is only done where the
+  locked-memory limit cannot make a later allocation fail (``CAP_IPC_LOCK`` or an unlimited
+  ``memlock`` limit).
 
-Everything is restored on the way out, also when the block raises. A setting the OS refuses is
-reported in :attr:`RealtimeReport.unavailable` and never raises.
+Everything is restored on the way out, in reverse order, also when the block raises; the one
+collection runs last, back at the thread's normal priority. A setting the OS refuses is reported in
+:attr:`RealtimeReport.unavailable` and never raises. The scheduling policy and the affinity are the
+calling thread's (Linux: pid 0 is the calling thread); the memory lock and the garbage collector are
+the whole process's.
 """
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import gc
 import os
+import platform
 import sys
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 
 from bowden.errors import ParameterError
+
+__all__ = ["RealtimeConfig", "RealtimeReport", "realtime"]
+
+_CAP_IPC_LOCK = 14  # bit of the capability in /proc/<pid>/status CapEff
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -42,13 +57,16 @@ class RealtimeConfig:
         CPUs the loop's thread may run on, or None to leave its affinity alone.
     freeze_gc
         Freeze the heap and turn automatic garbage collection off for the run.
+    lock_memory
+        Lock the process's current and future memory in RAM for the run (``mlockall``).
     switch_interval_s
-        The interpreter's thread switch interval during the run (None: leave it).
+        The interpreter's thread switch interval during the run, s (None: leave it).
     """
 
     priority: int | None = 50
     cpus: frozenset[int] | None = None
     freeze_gc: bool = True
+    lock_memory: bool = False
     switch_interval_s: float | None = 0.0005
 
     def __post_init__(self) -> None:
@@ -56,11 +74,18 @@ class RealtimeConfig:
         if priority is not None and (isinstance(priority, bool) or not isinstance(priority, int)
                                      or not 1 <= priority <= 99):
             raise ParameterError(f"RealtimeConfig.priority must be 1–99 or None, got {priority!r}")
-        if self.cpus is not None and (not self.cpus or not all(
+        if self.cpus is not None and (not isinstance(self.cpus, frozenset) or not self.cpus or not all(
                 isinstance(c, int) and not isinstance(c, bool) and c >= 0 for c in self.cpus)):
-            raise ParameterError(f"RealtimeConfig.cpus must be CPU numbers ≥ 0, got {self.cpus!r}")
+            raise ParameterError(
+                f"RealtimeConfig.cpus must be a non-empty frozenset of CPU numbers ≥ 0, got {self.cpus!r}"
+            )
+        for name in ("freeze_gc", "lock_memory"):
+            value = getattr(self, name)
+            if not isinstance(value, bool):
+                raise ParameterError(f"RealtimeConfig.{name} must be True or False, got {value!r}")
         interval = self.switch_interval_s
-        if interval is not None and not (isinstance(interval, float | int) and 1e-5 <= interval <= 0.1):
+        if interval is not None and (isinstance(interval, bool) or not isinstance(interval, float | int)
+                                     or not 1e-5 <= interval <= 0.1):
             raise ParameterError(
                 f"RealtimeConfig.switch_interval_s must be in [1e-5, 0.1] s, got {interval!r}"
             )
@@ -68,76 +93,173 @@ class RealtimeConfig:
 
 @dataclass(frozen=True)
 class RealtimeReport:
-    """What was applied, and what the OS refused (with why)."""
+    """What was applied, and what the OS refused (with why).
+
+    Parameters
+    ----------
+    applied
+        The settings in effect, e.g. ``("SCHED_FIFO 50", "CPU 1")``.
+    unavailable
+        The settings asked for but not applied, each with the reason.
+    """
 
     applied: tuple[str, ...]
     unavailable: tuple[str, ...]
 
     def describe(self) -> str:
-        """One line for the run summary."""
+        """One line for the run summary: what was applied, then what was not and why."""
         parts = list(self.applied) or ["none"]
         if self.unavailable:
             parts.append("unavailable: " + "; ".join(self.unavailable))
         return ", ".join(parts)
 
 
-def _refusal(error: OSError) -> str:
-    return error.strerror or str(error)
-
-
 @contextmanager
 def realtime(config: RealtimeConfig) -> Iterator[RealtimeReport]:
-    """Apply ``config`` to the calling thread for the duration of the block (see the module)."""
+    """Apply ``config`` to the calling thread for the duration of the block (see the module).
+
+    Parameters
+    ----------
+    config
+        The settings to ask for.
+
+    Yields
+    ------
+    RealtimeReport
+        What was applied and what the OS refused; nothing refused raises.
+    """
     applied: list[str] = []
     unavailable: list[str] = []
-    restore_policy: tuple[int, int] | None = None
-    restore_cpus: set[int] | None = None
-    gc_was_enabled = gc.isenabled()
-
-    if config.priority is not None:
-        if not hasattr(os, "sched_setscheduler"):
-            unavailable.append("SCHED_FIFO: not offered by this OS")
-        else:
-            try:
-                previous = (os.sched_getscheduler(0), os.sched_getparam(0).sched_priority)
-                os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(config.priority))
-            except OSError as error:
-                unavailable.append(f"SCHED_FIFO: {_refusal(error)} (needs root or CAP_SYS_NICE; "
-                                   "see docs/hardware.md)")
-            else:
-                restore_policy = previous
-                applied.append(f"SCHED_FIFO {config.priority}")
-    if config.cpus is not None:
-        if not hasattr(os, "sched_setaffinity"):
-            unavailable.append("CPU affinity: not offered by this OS")
-        else:
-            try:
-                previous_cpus = os.sched_getaffinity(0)
-                os.sched_setaffinity(0, config.cpus)
-            except OSError as error:
-                unavailable.append(f"CPU affinity {sorted(config.cpus)}: {_refusal(error)}")
-            else:
-                restore_cpus = previous_cpus
-                applied.append(f"CPU {', '.join(str(c) for c in sorted(config.cpus))}")
-    previous_interval = sys.getswitchinterval()
-    if config.switch_interval_s is not None:
-        sys.setswitchinterval(config.switch_interval_s)
-        applied.append(f"switch interval {1e3 * config.switch_interval_s:g} ms")
-    if config.freeze_gc:
-        gc.collect()
-        gc.freeze()
-        gc.disable()
-        applied.append("gc frozen, no collection in the loop")
-    try:
-        yield RealtimeReport(tuple(applied), tuple(unavailable))
-    finally:
-        sys.setswitchinterval(previous_interval)
+    with ExitStack() as restore:  # callbacks run last-in first-out, also when the block raises
         if config.freeze_gc:
+            restore.callback(gc.collect)  # last, once the thread is back at its normal priority
+        if config.priority is not None:
+            _fifo(config.priority, restore, applied, unavailable)
+        if config.cpus is not None:
+            _affinity(config.cpus, restore, applied, unavailable)
+        if config.lock_memory:
+            _lock_memory(restore, applied, unavailable)
+        if config.switch_interval_s is not None:
+            restore.callback(sys.setswitchinterval, sys.getswitchinterval())
+            sys.setswitchinterval(config.switch_interval_s)
+            applied.append(f"switch interval {1e3 * config.switch_interval_s:g} ms")
+        if config.freeze_gc:
+            _freeze_gc(restore)
+            applied.append("gc frozen, no collection in the loop")
+        yield RealtimeReport(tuple(applied), tuple(unavailable))
+
+
+def _fifo(priority: int, restore: ExitStack, applied: list[str], unavailable: list[str]) -> None:
+    if not hasattr(os, "sched_setscheduler"):
+        unavailable.append("SCHED_FIFO: not offered by this OS")
+        return
+    try:
+        policy, previous = os.sched_getscheduler(0), os.sched_getparam(0).sched_priority
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except OSError as error:
+        unavailable.append(f"SCHED_FIFO: {_reason(error)} (needs root, CAP_SYS_NICE or an rtprio limit; "
+                           "see docs/hardware.md)")
+        return
+    restore.callback(os.sched_setscheduler, 0, policy, os.sched_param(previous))
+    applied.append(f"SCHED_FIFO {priority}")
+
+
+def _affinity(cpus: frozenset[int], restore: ExitStack, applied: list[str], unavailable: list[str]) -> None:
+    shown = "{" + ", ".join(str(c) for c in sorted(cpus)) + "}"
+    if not hasattr(os, "sched_setaffinity"):
+        unavailable.append(f"CPU {shown}: affinity not offered by this OS")
+        return
+    try:
+        previous = os.sched_getaffinity(0)
+        os.sched_setaffinity(0, cpus)
+    except OSError as error:
+        allowed = ", ".join(str(c) for c in sorted(os.sched_getaffinity(0)))
+        unavailable.append(f"CPU {shown}: {_reason(error)} (this thread may run on {{{allowed}}})")
+        return
+    restore.callback(os.sched_setaffinity, 0, previous)
+    applied.append(f"CPU {shown}")
+
+
+def _freeze_gc(restore: ExitStack) -> None:
+    was_enabled, was_frozen = gc.isenabled(), gc.get_freeze_count() > 0
+    gc.collect()  # garbage made before the run is freed, not frozen
+    gc.freeze()
+    gc.disable()
+
+    def thaw() -> None:
+        if not was_frozen:  # someone else's freeze (before ours) is theirs to undo
             gc.unfreeze()
-            if gc_was_enabled:
-                gc.enable()
-        if restore_cpus is not None:
-            os.sched_setaffinity(0, restore_cpus)
-        if restore_policy is not None:
-            policy, priority = restore_policy
-            os.sched_setscheduler(0, policy, os.sched_param(priority))
+        if was_enabled:
+            gc.enable()
+
+    restore.callback(thaw)
+
+
+def _lock_memory(restore: ExitStack, applied: list[str], unavailable: list[str]) -> None:
+    libc = _libc()
+    if libc is None or not sys.platform.startswith("linux"):
+        unavailable.append("memory lock: mlockall not offered by this OS")
+        return
+    if _locked_kib() > 0:
+        unavailable.append("memory lock: the process already holds locked memory (left as it is)")
+        return
+    limit = _memlock_limit()
+    if limit is not None and not _has_ipc_lock():
+        # With MCL_FUTURE, an allocation past the limit would fail (MemoryError) in the middle of a run.
+        unavailable.append(f"memory lock: the memlock limit is {limit // 1024} KiB (needs CAP_IPC_LOCK or "
+                           "memlock unlimited; see docs/hardware.md)")
+        return
+    current, future = (0x2000, 0x4000) if platform.machine().startswith(("ppc", "powerpc", "sparc",
+                                                                          "alpha")) else (1, 2)
+    if libc.mlockall(current | future) != 0:
+        reason = os.strerror(ctypes.get_errno()).lower()
+        unavailable.append(f"memory lock: {reason} (needs CAP_IPC_LOCK or memlock unlimited; "
+                           "see docs/hardware.md)")
+        return
+    restore.callback(libc.munlockall)
+    applied.append(f"memory locked ({_locked_kib() // 1024} MiB)")
+
+
+def _libc() -> ctypes.CDLL | None:
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name, use_errno=True)
+        libc.mlockall.argtypes = [ctypes.c_int]
+        libc.munlockall.argtypes = []
+    except (OSError, AttributeError):
+        return None
+    return libc
+
+
+def _proc_status(field: str) -> str | None:
+    try:
+        text = Path("/proc/self/status").read_text()
+    except OSError:
+        return None
+    for line in text.splitlines():
+        key, _, value = line.partition(":")
+        if key == field:
+            return value.strip()
+    return None
+
+
+def _locked_kib() -> int:
+    value = _proc_status("VmLck")
+    return int(value.split()[0]) if value else 0
+
+
+def _has_ipc_lock() -> bool:
+    value = _proc_status("CapEff")
+    return value is not None and bool(int(value, 16) >> _CAP_IPC_LOCK & 1)
+
+
+def _memlock_limit() -> int | None:
+    """The soft RLIMIT_MEMLOCK in bytes, or None when unlimited."""
+    import resource
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_MEMLOCK)
+    return None if soft == resource.RLIM_INFINITY else soft
+
+
+def _reason(error: OSError) -> str:
+    return (error.strerror or str(error)).lower()

@@ -160,7 +160,7 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
             imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
             describe=f"simulated suit in its own process (pid {suit.pid}): CAN over bowden_loopback, "
                      f"OSC on {imu.address[0]}:{imu.address[1]}, I²C over a local socket",
-            inject=suit.inject,
+            inject=suit.inject, simulation=suit,
         )
 
 

@@ -10,7 +10,9 @@ Semantics kept from a real bus: a frame sent with no other node on the bus fails
 ("No buffer space available"), which is what socketcan reports when nothing acknowledges; a member
 that left is dropped; a member whose receive queue is full misses the frame (counted), it never
 blocks the sender. Frames carry id, flags and up to 8 data bytes; the receive time stamp is
-``time.time()`` as python-can's interfaces set it.
+``time.time()`` as python-can's interfaces set it. One difference: there is no arbitration, so the
+frames of one sender arrive in the order sent, but frames of two senders may reach a third node (a
+sniffer) in either order when they are sent at the same moment.
 
 Registered as the python-can interface ``bowden_loopback`` (entry point ``can.interface``), so
 ``can.Bus(interface="bowden_loopback", channel=directory)`` opens it.
@@ -34,6 +36,7 @@ ERRNO_NO_BUFFER_SPACE: Final = 105
 SUFFIX: Final = ".canbus"
 _FRAME = struct.Struct("!IBB8s")  # arbitration id, flags, dlc, data (zero-padded)
 _EXTENDED, _REMOTE, _ERROR = 1, 2, 4
+_RACY_NS: Final = 50_000_000  # a listing this soon after the directory's time stamp may miss a node
 _instances = itertools.count()
 
 
@@ -79,17 +82,29 @@ class LoopbackBus(can.BusABC):
         self._socket.bind(str(self._path))
         self._members: list[str] = []
         self._listing_mtime_ns = -1
+        self._listing_racy = True  # taken too soon after a change to trust the time stamp
+        self._departed: set[str] = set()  # socket files nobody listens on any more (a killed node)
         self.dropped_frames = 0  # frames a member missed (its queue was full)
         self.channel_info = f"bowden_loopback {self._directory}"
         super().__init__(channel=str(channel), **kwargs)
 
     def _refresh_members(self) -> None:
+        """List the other nodes again if the directory changed since the last listing.
+
+        A directory's modification time can be coarse (a clock tick on some file systems): a node
+        that joins within the same tick as the last listing leaves it unchanged. So a listing taken
+        less than ``_RACY_NS`` after the time stamp it saw is not trusted, and repeated on the next send.
+        """
         mtime = os.stat(self._directory).st_mtime_ns
-        if mtime != self._listing_mtime_ns:
-            self._listing_mtime_ns = mtime
-            own = self._path.name
-            self._members = [str(self._directory / name) for name in os.listdir(self._directory)
-                             if name.endswith(SUFFIX) and name != own]
+        if mtime == self._listing_mtime_ns and not self._listing_racy:
+            return
+        now = time.time_ns()
+        names = os.listdir(self._directory)
+        self._listing_mtime_ns = mtime
+        self._listing_racy = now - mtime < _RACY_NS
+        own = self._path.name
+        self._members = [str(self._directory / name) for name in names
+                         if name.endswith(SUFFIX) and name != own and name not in self._departed]
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
         """Deliver ``msg`` to every other node; errno 105 when there is none (nothing acknowledges)."""
@@ -99,8 +114,13 @@ class LoopbackBus(can.BusABC):
         for member in list(self._members):
             try:
                 self._socket.sendto(datagram, socket.MSG_DONTWAIT, member)
-            except (FileNotFoundError, ConnectionRefusedError):
+            except FileNotFoundError:
                 self._members.remove(member)  # the node left the bus
+                continue
+            except ConnectionRefusedError:
+                # Its file is still there but nobody reads it: a node that was killed. Not listed again.
+                self._members.remove(member)
+                self._departed.add(os.path.basename(member))
                 continue
             except BlockingIOError:
                 self.dropped_frames += 1

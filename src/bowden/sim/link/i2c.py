@@ -30,7 +30,8 @@ _REQUEST = struct.Struct("!IBBBB")  # request id, op, i2c address, register, len
 _REPLY = struct.Struct("!IH")  # request id, errno (0: done)
 _READ, _WRITE = 0, 1
 _clients = itertools.count()
-DEFAULT_TIMEOUT_S: Final = 0.005  # a local round trip takes ~0.1 ms
+# A local round trip takes ~0.1 ms; a simulated suit that has not answered in 20 ms is stalled or gone.
+DEFAULT_TIMEOUT_S: Final = 0.020
 
 
 class RemoteSMBus:
@@ -41,8 +42,9 @@ class RemoteSMBus:
     server_path
         The server's socket file.
     timeout_s
-        A transfer without a reply within this long fails with ``ETIMEDOUT`` (default 5 ms; the
-        round trip takes about 0.1 ms).
+        A transfer without a reply within this long (s) fails with ``ETIMEDOUT`` (default 20 ms;
+        the round trip takes about 0.1 ms). A reply that comes later is recognised by its request
+        id and dropped.
     """
 
     def __init__(self, server_path: str | os.PathLike[str], *, timeout_s: float = DEFAULT_TIMEOUT_S) -> None:

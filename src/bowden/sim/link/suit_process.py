@@ -9,9 +9,11 @@ run under ``SCHED_FIFO`` (they are the devices' own processors, which a busy hos
 
 Before it says ready, the child compiles and runs everything once (the plant's numba kernels take
 tens of seconds to compile in a fresh installation), so no device is enabled before the suit can
-answer. The parent talks to it over a pipe: start the plant clock, hold the arm down for the IMU
-calibration, tie the arm to the loop's time 0, and inject faults (tests, benchmarks). The child ends
-by itself when the parent goes away.
+answer. The parent talks to it over two Unix socket pairs (requests and their replies; one-way
+notices from the loop, which never waits): start the plant clock, hold the arm down for the IMU
+calibration, tie the arm to the loop's time 0, inject faults and read the motor's received-frame
+log (tests, benchmarks). The child ends by itself when the parent goes away, and then removes the
+socket files itself.
 """
 
 from __future__ import annotations
@@ -30,14 +32,18 @@ import tempfile
 import threading
 import time
 import traceback
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Final, Self
+from typing import TYPE_CHECKING, Any, Final, Self
 
 from bowden.errors import HardwareError, ParameterError
+
+if TYPE_CHECKING:
+    from bowden.sim.peers.ak60_peer import ReceivedFrame
 
 _log = logging.getLogger(__name__)
 
@@ -106,6 +112,9 @@ class SimulatedSuitProcess:
         self._notices: Connection | None = None
         self._lock = threading.Lock()
         self.plant_origin_s = math.nan  # time.monotonic() at plant time 0, once started
+        self._stderr_tail: deque[str] = deque(maxlen=20)
+        self._stderr_reader: threading.Thread | None = None
+        self._ready = False
         self.loop_start_notified = False
 
     @property
@@ -148,9 +157,21 @@ class SimulatedSuitProcess:
             child_requests.close()
             notice_reader.close()
         self._process = process
+        self._stderr_tail.clear()
+        self._ready = False
+        # The child's stderr is drained all along (a full pipe would stall the devices), its last
+        # lines kept for an error message; once it is ready, what it writes is logged.
+        self._stderr_reader = threading.Thread(target=self._drain_stderr, args=(process,),
+                                               name="suit-stderr", daemon=True)
+        self._stderr_reader.start()
         self._requests = Connection(parent_requests.detach())
         self._notices = Connection(notice_writer.detach())
-        self._requests.send(self.settings)
+        try:
+            self._requests.send(self.settings)
+        except Exception as error:  # pickle's errors have no common base
+            self.close()
+            raise ParameterError(f"the simulated suit's settings cannot be sent to its process (the "
+                                 f"reference must be picklable): {type(error).__name__}: {error}") from None
         started = time.monotonic()
         announced = False
         while not self._requests.poll(0.2):
@@ -167,26 +188,48 @@ class SimulatedSuitProcess:
                 raise HardwareError(f"the simulated suit was not ready within {self.ready_timeout_s:g} s")
         try:
             kind, detail = self._requests.recv()
-        except EOFError:
-            kind, detail = "error", f"its process ended{self._child_error()}"
+        except EOFError:  # it closed its end: it is ending
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                process.wait(timeout=10.0)
+            message = self._child_error()
+            self.close()
+            raise HardwareError(f"the simulated suit's process ended before it was ready "
+                                f"(exit code {process.returncode}){message}") from None
         if kind != "ready":
             self.close()
-            raise HardwareError(f"the simulated suit could not start: {detail}")
+            raise HardwareError(f"the simulated suit could not start: {' '.join(str(detail).split())}")
+        self._ready = True
         return self
 
+    def _drain_stderr(self, process: subprocess.Popen[str]) -> None:
+        stream = process.stderr
+        if stream is None:
+            return
+        with contextlib.suppress(OSError, ValueError):  # closed under us
+            for line in stream:
+                text = line.rstrip()
+                if not text:
+                    continue
+                self._stderr_tail.append(text)
+                if self._ready:
+                    _log.warning("simulated suit (pid %d): %s", process.pid, text)
+
     def _child_error(self) -> str:
-        """The last line the child wrote to stderr, if it has ended (for an error message)."""
-        process = self._process
-        if process is None or process.poll() is None or process.stderr is None:
+        """The last line the child wrote to stderr, once it has ended (for a one-line error message)."""
+        process, reader = self._process, self._stderr_reader
+        if process is None or process.poll() is None:
             return ""
-        lines = [line.strip() for line in process.stderr.read().splitlines() if line.strip()]
-        return f": {lines[-1]}" if lines else ""
+        if reader is not None:
+            reader.join(timeout=2.0)  # everything it wrote, up to the end of the pipe
+        return f": {self._stderr_tail[-1].strip()}" if self._stderr_tail else ""
 
     def close(self) -> None:
         """Stop the child (politely, then by force) and remove its socket files."""
         process = self._process
         if process is not None:
-            if process.poll() is None and self._requests is not None:
+            if process.poll() is None and not self._ready:
+                process.kill()  # still preparing (or never will be): nothing to stop politely
+            elif process.poll() is None and self._requests is not None:
                 try:
                     with self._lock:
                         self._requests.send(("stop", None, ()))
@@ -197,9 +240,13 @@ class SimulatedSuitProcess:
             except subprocess.TimeoutExpired:
                 process.kill()
                 process.wait(timeout=5.0)
+            if self._stderr_reader is not None:
+                self._stderr_reader.join(timeout=2.0)
+                self._stderr_reader = None
             if process.stderr is not None:
                 process.stderr.close()
             self._process = None
+            self._ready = False
         for connection in (self._requests, self._notices):
             if connection is not None:
                 connection.close()
@@ -247,7 +294,28 @@ class SimulatedSuitProcess:
         self._notices.send(("loop_started", monotonic_s))
 
     def inject(self, target: str, method: str, *args: Any) -> Any:
-        """Call a fault injection of a device peer in the child (``FAULTS`` lists them)."""
+        """Call a fault injection of a device peer in the child and return its result.
+
+        Parameters
+        ----------
+        target, method
+            A key of ``FAULTS`` and one of its faults: ``motor`` (:class:`~bowden.sim.peers.AK60Peer`:
+            ``mute(bool)``, ``ignore_next(n)``, ``inject_error(code)``, ``override_temperature(°C or
+            None)``, ``replace_next_reply(hex string)``, ``garble_replies(bool)``), ``imu``
+            (:class:`~bowden.sim.peers.NgimuPeer`: ``pause(bool)``, ``send_nan(bool)``,
+            ``hold_arm_down(bool)``), ``adc`` (:class:`~bowden.sim.peers.ADS1115Peer`:
+            ``override_tension_n(N or None)``, ``fail_next(n)``) or ``i2c`` (``unplug()``: the I²C
+            server stops answering for good, every transfer times out).
+        *args
+            The fault's arguments (picklable).
+
+        Raises
+        ------
+        ParameterError
+            For an unknown fault (nothing is sent).
+        HardwareError
+            If the peer refused the arguments or the child is gone.
+        """
         if method not in FAULTS.get(target, ()):
             raise ParameterError(f"no fault injection {target}.{method}; known: {FAULTS}")
         return self._call(target, method, *args)
@@ -255,6 +323,20 @@ class SimulatedSuitProcess:
     def plant_time_s(self) -> float:
         """The plant's current time (s) as the child sees it."""
         return float(self._call("plant", "time"))
+
+    def received_frames(self, since_s: float = -math.inf) -> list[ReceivedFrame]:
+        """The frames the simulated motor heard at or after ``since_s`` (``time.monotonic()``, s).
+
+        Returns
+        -------
+        list of ReceivedFrame
+            Oldest first: wall time (s, ``time.monotonic()``), kind (enter/exit/zero/command) and the
+            torque applied (Nm) for commands.
+        """
+        from bowden.sim.peers.ak60_peer import ReceivedFrame
+
+        rows = self._call("motor", "received", float(since_s))
+        return [ReceivedFrame(time_s=t, kind=kind, torque_nm=torque) for t, kind, torque in rows]
 
 
 # --- the child --------------------------------------------------------------------------------------
@@ -289,14 +371,23 @@ def _child_main(requests: Connection, notices: Connection, parent_pid: int) -> N
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(CHILD_PRIORITY))
         devices = _ChildDevices(settings)
     except BaseException as error:
-        requests.send(("error", f"{type(error).__name__}: {error}"))
         traceback.print_exc()
+        try:
+            requests.send(("error", f"{type(error).__name__}: {error}"))
+        except OSError:  # the parent is gone: nobody else will remove the directory
+            shutil.rmtree(settings.directory, ignore_errors=True)
         return
+    orphaned = True
     try:
         requests.send(("ready", None))
-        devices.serve(requests, notices, parent_pid)
+        orphaned = devices.serve(requests, notices, parent_pid)
+    except OSError:
+        pass  # the parent went away before we were ready
     finally:
         devices.close()
+        if orphaned:
+            # Nobody is left to clean up: the socket files go with the devices.
+            shutil.rmtree(settings.directory, ignore_errors=True)
 
 
 class _ChildDevices:
@@ -328,7 +419,8 @@ class _ChildDevices:
         self.i2c = I2CServer(FakeSMBus(self.adc), directory / "i2c.sock").start()
         self._closers.insert(0, self.i2c.close)
 
-    def serve(self, requests: Connection, notices: Connection, parent_pid: int) -> None:
+    def serve(self, requests: Connection, notices: Connection, parent_pid: int) -> bool:
+        """Answer the parent until it says stop (False) or goes away (True: nobody will clean up)."""
         listening: list[Connection] = [requests, notices]
         while True:
             ready = multiprocessing.connection.wait(listening, timeout=0.1)
@@ -342,20 +434,23 @@ class _ChildDevices:
                     self.follower.plant_time_at_loop_start_s = value - self.plant.origin_s
             if requests not in ready:
                 if os.getppid() != parent_pid:
-                    return  # the parent died: nobody will stop us
+                    return True  # the parent died: nobody will stop us
                 continue
             try:
                 target, method, args = requests.recv()
-            except EOFError:
-                return
+            except (EOFError, OSError):
+                return True
             if target == "stop":
-                return
+                return False
             try:
                 result = self._handle(target, method, args)
+                reply: tuple[str, Any] = ("ok", result)
             except Exception as error:
-                requests.send(("error", f"{type(error).__name__}: {error}"))
-            else:
-                requests.send(("ok", result))
+                reply = ("error", f"{type(error).__name__}: {error}")
+            try:
+                requests.send(reply)
+            except OSError:
+                return True
 
     def _handle(self, target: str, method: str, args: tuple[Any, ...]) -> Any:
         if target == "plant":
@@ -364,6 +459,8 @@ class _ChildDevices:
                 return self.plant.origin_s
             if method == "time":
                 return self.plant.plant_time_s()
+        if target == "motor" and method == "received":
+            return [(f.time_s, f.kind, f.torque_nm) for f in self.motor.commands_since(float(args[0]))]
         if method in FAULTS.get(target, ()):
             if target == "i2c":
                 self.i2c.silent = True

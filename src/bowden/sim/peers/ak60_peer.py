@@ -8,7 +8,7 @@ reply frame (6 or 8 bytes, position wrapped into the ±P field like the real enc
 
 Fault injection for the tests: :meth:`AK60Peer.mute`, :meth:`AK60Peer.ignore_next`,
 :meth:`AK60Peer.inject_error`, :meth:`AK60Peer.override_temperature`, :meth:`AK60Peer.replace_next_reply`,
-:meth:`AK60Peer.garble_replies`.
+:meth:`AK60Peer.garble_replies`, :meth:`AK60Peer.precede_next_reply`.
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import math
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Final, Self
 
@@ -117,6 +117,8 @@ class AK60Peer(StartedInWith):
         self._last_state: MotorState | None = None
         self._applied_torque_nm = 0.0
         self._next_raw_reply: bytes | None = None
+        self._preceding: list[can.Message] = []
+        self._preceding_lock = threading.Lock()
         self._garbled = False
         self._server = StoppableThread(self._serve, f"ak60-peer-{self.motor_id}")
 
@@ -161,6 +163,14 @@ class AK60Peer(StartedInWith):
     def replace_next_reply(self, data: bytes) -> None:
         """Answer the next frame with these raw bytes instead of a proper reply (malformed-frame tests)."""
         self._next_raw_reply = data
+
+    def precede_next_reply(self, frames: Iterable[can.Message]) -> None:
+        """Put these frames on the bus just before the next reply, in order, as if other nodes (or a
+        damaged transceiver) had sent them while the motor was answering: the driver finds them
+        queued ahead of the reply, whatever the timing of the test."""
+        frames = list(frames)
+        with self._preceding_lock:
+            self._preceding.extend(frames)
 
     def garble_replies(self, garbled: bool = True) -> None:
         """Answer every frame with an undecodable reply (right ids, 7 bytes: no firmware sends that),
@@ -223,6 +233,10 @@ class AK60Peer(StartedInWith):
         self._reply(state)
 
     def _reply(self, state: MotorState) -> None:
+        with self._preceding_lock:
+            preceding, self._preceding = self._preceding, []
+        for frame in preceding:
+            self._bus.send(frame)
         raw, self._next_raw_reply = self._next_raw_reply, None
         if raw is None and self._garbled:
             raw = bytes([self.motor_id]) + b"\xff" * 6
