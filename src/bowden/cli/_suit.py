@@ -33,6 +33,7 @@ from bowden.runtime import MonotonicClock
 
 if TYPE_CHECKING:
     from bowden.hardware.ads1115 import ADS1115LoadCell
+    from bowden.hardware.ak60 import AK60Config
 
 __all__ = ["DEFAULT_IMU_PORT", "Backend", "CanSuitOptions", "add_can_arguments", "open_can_backend",
            "open_sim_backend", "require_hardware_extra"]
@@ -176,11 +177,13 @@ def _say(text: str) -> None:
 
 
 @contextmanager
-def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None] = _say) -> Iterator[Backend]:
+def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None] = _say,
+                     mannequin: AK60Config | None = None) -> Iterator[Backend]:
     """The real suit: AK60-6 on ``options.channel``, NGIMU on ``options.imu_port``, optional ADS1115.
 
     The arm must hang still during the calibration (``options.calibration_s``); the load cell is
     tared with the cable slack. On exit the motor leaves motor mode and everything is closed.
+    ``mannequin``: the bench's mannequin motor on the same CAN channel (``Backend.mannequin``).
 
     Raises
     ------
@@ -225,5 +228,13 @@ def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None]
             load_cell = stack.enter_context(ADS1115LoadCell(smbus, calibration=calibration))
             load_cell.tare(0.5)
         motor = stack.enter_context(AK60Motor(bus, config))
+        second = None
+        describe = f"AK60-6 id {options.motor_id} on {where}"
+        if mannequin is not None:
+            # Its own socket on the channel: two drivers reading one would take each other's replies.
+            mannequin_bus = stack.enter_context(can.Bus(interface=options.interface, channel=options.channel,
+                                                        bitrate=CAN_BITRATE))
+            second = stack.enter_context(AK60Motor(mannequin_bus, mannequin))
+            describe += f", mannequin motor id {mannequin.motor_id}"
         yield Backend(motor=motor, imu=imu, clock=MonotonicClock(), load_cell=load_cell,
-                      describe=f"AK60-6 id {options.motor_id} on {where}")
+                      describe=describe, mannequin=second)

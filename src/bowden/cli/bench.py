@@ -1,8 +1,14 @@
-"""``bowden bench simulate -o bench.csv``: run the paper's identification protocol on the simulated bench.
+"""``bowden bench``: the paper's identification protocol on the mannequin bench.
 
-The mannequin bench of :mod:`bowden.sim.bench` (spool speeds ±0.5–6 rad/s, loads 0.5–4 Nm, five
-repetitions, 20°–110°) writes a bench recording in the contract format; the file's extension picks
-the format (``.csv`` or ``.parquet``). ``bowden identify bench.csv -o model.json`` then fits it.
+* ``bowden bench simulate -o bench.csv`` — the fast batch path: the simulated bench of
+  :mod:`bowden.sim.bench` integrated directly (spool speeds ±0.5–6 rad/s, loads 0.5–4 Nm, five
+  repetitions, 20°–110°);
+* ``bowden bench run --backend can|sim -o bench.csv`` — the protocol driven in real time over the
+  devices' wires (:mod:`bowden.runtime.bench`): the real bench (TDU and mannequin motor on CAN,
+  NGIMU, ADS1115) or the simulated one behind its wire peers. Crash-safe and resumable (``--resume``).
+
+Both write a bench recording in the contract format (the extension picks ``.csv`` or ``.parquet``);
+``bowden identify bench.csv -o model.json`` then fits it.
 """
 
 from __future__ import annotations
@@ -17,7 +23,7 @@ _FORMATS = {".csv": "csv", ".parquet": "parquet"}
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    parser = subparsers.add_parser("bench", help="the mannequin bench (simulated)")
+    parser = subparsers.add_parser("bench", help="the mannequin bench: run the identification protocol")
     actions = parser.add_subparsers(title="actions", metavar="ACTION")
     simulate = actions.add_parser(
         "simulate",
@@ -39,12 +45,56 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     simulate.add_argument("--repetitions", type=int, help="repetitions of each speed and load (default 5)")
     simulate.add_argument("--quiet", action="store_true", help="no progress output")
     simulate.set_defaults(handler=run_simulate)
+    _register_run(actions)
     parser.set_defaults(handler=lambda args: _usage(parser))
 
 
 def _usage(parser: argparse.ArgumentParser) -> int:
     parser.print_help()
     return 2
+
+
+def _register_run(actions: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    from bowden.cli._suit import add_can_arguments
+
+    run = actions.add_parser(
+        "run",
+        help="run the identification protocol in real time on a bench (real or simulated)",
+        description="Drive the paper's identification protocol on a mannequin bench: the TDU in MIT-mode "
+        "velocity tracking, the mannequin's motor in torque, strokes bounded by the IMU, every fault a "
+        "safe stop. Strokes are written as they complete; --resume continues an interrupted recording.",
+    )
+    run.add_argument("-o", "--output", type=Path, required=True, help="recording to write (.csv or .parquet)")
+    run.add_argument("--backend", choices=("can", "sim"), default="can",
+                     help="can: the real bench; sim: the simulated bench over its wire peers (default can)")
+    run.add_argument("--resume", action="store_true", help="continue an interrupted recording")
+    run.add_argument("--speeds", type=float, nargs="+", metavar="RAD_S",
+                     help="spool speeds, rad/s (default: 0.5 1 2 3 4 5 6)")
+    run.add_argument("--loads", type=float, nargs="+", metavar="NM",
+                     help="mannequin loads, Nm (default: 0.5 1 2 3 4)")
+    run.add_argument("--repetitions", type=int, help="repetitions of each speed and load (default 5)")
+    run.add_argument("--low-deg", type=float, help="low end of the strokes, degrees (default 20)")
+    run.add_argument("--high-deg", type=float, help="high end of the strokes, degrees (default 110)")
+    run.add_argument("--kp", type=float, help="TDU position gain, Nm/rad (default 30)")
+    run.add_argument("--kd", type=float, help="TDU velocity gain, Nm·s/rad (default 0.6)")
+    run.add_argument("--max-tension", type=float, default=250.0, help="tension limit, N (default 250)")
+    run.add_argument("--pretension", type=float, default=5.0,
+                     help="tension at which the slack counts as taken up, N (default 5)")
+    run.add_argument("--spool-radius", type=float, default=0.035, help="TDU pulley radius, m (default 0.035)")
+    mannequin = run.add_argument_group("mannequin motor (--backend can)")
+    mannequin.add_argument("--mannequin-id", type=int, default=2, help="its CAN id (default 2)")
+    mannequin.add_argument("--mannequin-motor", default="AK80-9",
+                           help="its model, for the MIT field ranges (default AK80-9)")
+    mannequin.add_argument("--mannequin-direction", type=int, choices=(1, -1), default=1,
+                           help="+1 if its positive torque pulls the arm down (default 1)")
+    add_can_arguments(run)
+    run.set_defaults(handler=run_bench_command)
+
+
+def run_bench_command(args: argparse.Namespace) -> int:
+    from bowden.cli._bench_run import run_bench_on_backend
+
+    return run_bench_on_backend(args)
 
 
 def run_simulate(args: argparse.Namespace) -> int:

@@ -360,7 +360,53 @@ class AK60Motor:
             raise ParameterError("command_torque: torque_nm is NaN")
         limit = self.config.torque_limit_nm
         motor_torque = self.config.direction * min(max(torque_nm, -limit), limit)
-        command = MitCommand(torque_nm=motor_torque, kd=self.config.kd)
+        return self._command(MitCommand(torque_nm=motor_torque, kd=self.config.kd))
+
+    def command_mit(
+        self,
+        position_rad: float,
+        velocity_rad_s: float,
+        kp: float,
+        kd: float,
+        torque_nm: float = 0.0,
+    ) -> MotorState | None:
+        """Send an MIT-mode command, τ = kp·(p − position) + kd·(v − velocity) + τ_ff, evaluated by
+        the motor's own loop; non-blocking like :meth:`command_torque` (same return and errors).
+
+        ``position_rad`` is the multi-turn spool position of :attr:`MotorState.position_rad` (suit
+        sign). It is sent relative to the newest reported position, in the encoder field the motor
+        compares it with, so the field's wrap never turns into a jump of the target; a target further
+        than the field's half span from the motor is refused (a trajectory that far ahead is a bug).
+        Velocity tracking (the bench) is ``kp`` > 0 with the target advancing at ``velocity_rad_s``;
+        ``kp`` = 0 is a pure velocity command. The feed-forward torque is clamped like
+        :meth:`command_torque`'s; ``kp``, ``kd`` must lie within the firmware's gain fields.
+        """
+        values = (position_rad, velocity_rad_s, kp, kd, torque_nm)
+        if not all(math.isfinite(v) for v in values):
+            raise ParameterError(f"command_mit: every value must be finite, got {values!r}")
+        limits = self.config.limits
+        if not (0.0 <= kp <= limits.kp_max and 0.0 <= kd <= limits.kd_max):
+            raise ParameterError(f"command_mit: kp must be in [0, {limits.kp_max}] and kd in "
+                                 f"[0, {limits.kd_max}], got kp={kp}, kd={kd}")
+        sign = self.config.direction
+        target = 0.0
+        if kp > 0.0:
+            last, raw = self.last_state, self._last_raw_position
+            if last is None or raw is None:
+                raise ParameterError("command_mit: a position target needs a reported position first "
+                                     "(enable the motor)")
+            offset = sign * (position_rad - last.position_rad)
+            if abs(offset) > limits.position_rad:
+                raise ParameterError(f"command_mit: target {offset:+.2f} rad from the motor's position "
+                                     f"(at most ±{limits.position_rad:g})")
+            target = min(max(raw + offset, -limits.position_rad), limits.position_rad)
+        limit = self.config.torque_limit_nm
+        command = MitCommand(position_rad=target, velocity_rad_s=sign * velocity_rad_s, kp=kp, kd=kd,
+                             torque_nm=sign * min(max(torque_nm, -limit), limit))
+        return self._command(command)
+
+    def _command(self, command: MitCommand) -> MotorState | None:
+        """One non-blocking send of ``command``, then the replies that have arrived (see above)."""
         sent_s = self._clock()
         self._send(pack_command(command, self.config.limits), attempts=1, timeout_s=0.0)
         state = self._poll(self.config.reply_wait_s)

@@ -118,6 +118,24 @@ FIRMWARE_LIMITS: Final[dict[str, AK60Limits]] = {
 }
 DEFAULT_FIRMWARE: Final = "manual-v1.0.8"
 
+# Other AK-series motors speak the same MIT-mode frames with their own field ranges; the bench's
+# mannequin motor is typically an AK80-9. Public drivers disagree on its ranges as on the AK60-6's
+# (velocity ±50 in neurobionics/TMotorCANControl, ±41.87 in IHMC's tMotorCore; torque ±18 in both),
+# so check yours as docs/hardware.md §1 item 5 says.
+MOTOR_LIMITS: Final[dict[str, AK60Limits]] = {
+    "AK60-6": FIRMWARE_LIMITS[DEFAULT_FIRMWARE],
+    "AK80-9": AK60Limits(velocity_rad_s=50.0, torque_nm=18.0),
+}
+
+
+def limits_for_motor(name: str) -> AK60Limits:
+    """The field ranges of the AK-series motor ``name`` (see :data:`MOTOR_LIMITS`)."""
+    try:
+        return MOTOR_LIMITS[name]
+    except KeyError:
+        known = ", ".join(sorted(MOTOR_LIMITS))
+        raise ParameterError(f"unknown AK-series motor {name!r}; known: {known}") from None
+
 
 def limits_for_firmware(name: str) -> AK60Limits:
     """The :class:`AK60Limits` preset called ``name`` (see :data:`FIRMWARE_LIMITS`)."""

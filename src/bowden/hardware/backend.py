@@ -29,6 +29,9 @@ class Backend:
         The handle on a simulated suit running in its own process
         (:class:`bowden.sim.link.suit_process.SimulatedSuitProcess`: its pid, socket paths, plant
         clock and received-frame log, for tests and benchmarks); None otherwise.
+    mannequin
+        On the mannequin bench, the mannequin's own motor (torque > 0 loads the arm down); None on
+        the suit.
     """
 
     motor: Motor
@@ -39,3 +42,4 @@ class Backend:
     describe: str = ""
     inject: Callable[..., Any] | None = None
     simulation: object | None = None
+    mannequin: Any = None

@@ -165,6 +165,50 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
 
 
 @contextmanager
+def open_sim_bench(*, calibration_s: float = 0.3,
+                   announce: Callable[[str], None] | None = None) -> Iterator[Backend]:
+    """The simulated mannequin bench in its own process, behind its wire peers: the TDU (AK60-6, CAN
+    id 1) and the mannequin's motor (AK80-9, id 2) on one CAN bus, the NGIMU on the mannequin's arm,
+    the ADS1115 load cell; driven by the real drivers of this process (``Backend.mannequin`` is the
+    second motor). Everything is closed on exit; the drivers leave motor mode first."""
+    import can
+
+    from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
+    from bowden.hardware.ak60 import AK60Config, AK60Motor
+    from bowden.hardware.ak60_codec import limits_for_motor
+    from bowden.hardware.ngimu import NgimuClient, NgimuConfig
+    from bowden.runtime.clock import MonotonicClock
+    from bowden.sim.link.i2c import RemoteSMBus
+    from bowden.sim.link.suit_process import MANNEQUIN_MOTOR_ID, SimulatedSuitProcess
+
+    with ExitStack() as stack:
+        imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
+        suit = SimulatedSuitProcess(imu_target=imu.address, bench=True)
+        stack.enter_context(suit.start(announce))
+        tdu_bus = stack.enter_context(can.Bus(interface="bowden_loopback", channel=suit.can_channel))
+        mannequin_bus = stack.enter_context(can.Bus(interface="bowden_loopback", channel=suit.can_channel))
+        smbus = stack.enter_context(RemoteSMBus(suit.i2c_path))
+        calibration = LoadCellCalibration(offset_v=0.05, gain_n_per_v=100.0)
+        load_cell = stack.enter_context(ADS1115LoadCell(smbus, ADS1115Config(data_rate=6),
+                                                        calibration=calibration))
+        suit.hold_arm_down()
+        imu.calibrate_arm_down(calibration_s)
+        suit.hold_arm_down(False)
+        suit.start_plant()
+        mannequin_config = AK60Config(motor_id=MANNEQUIN_MOTOR_ID, limits=limits_for_motor("AK80-9"),
+                                      torque_limit_nm=limits_for_motor("AK80-9").torque_nm)
+        yield Backend(
+            motor=stack.enter_context(AK60Motor(tdu_bus, AK60Config())),
+            mannequin=stack.enter_context(AK60Motor(mannequin_bus, mannequin_config)),
+            imu=imu, clock=MonotonicClock(), load_cell=load_cell,
+            describe=f"simulated mannequin bench in its own process (pid {suit.pid}): TDU id 1 and "
+                     f"mannequin id {MANNEQUIN_MOTOR_ID} over bowden_loopback, OSC on "
+                     f"{imu.address[0]}:{imu.address[1]}, I²C over a local socket",
+            inject=suit.inject, simulation=suit,
+        )
+
+
+@contextmanager
 def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, calibration_s: float,
                 announce: Callable[[str], None] | None) -> Iterator[Backend]:
     import can

@@ -6,14 +6,14 @@ while the mannequin's motor applies constant loads (0.5, 1, 2, 3, 4 Nm) in torqu
 stroke raises the arm from 20° to 110° at +v, holds, and lowers it back at −v; the recording holds
 what the real bench logs — the motor's reported torque and encoder velocity, the load cell and the
 IMU, with their noise — in the bench-recording contract (``bowden.contracts.BENCH_*``) with one
-``trial`` number per stroke.
+``trial`` number per stroke. The protocol's numbers are :class:`bowden.protocol.bench.BenchProtocol`
+(re-exported here).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
@@ -22,6 +22,9 @@ from numpy.typing import NDArray
 
 from bowden import contracts as c
 from bowden.errors import ParameterError
+from bowden.protocol.bench import BenchProtocol
+
+__all__ = ["BenchProtocol", "run_bench"]
 from bowden.sim import _kernels as k
 from bowden.sim.parameters import ArmParameters, SuitParameters, check_seed
 from bowden.sim.plant import Plant
@@ -29,79 +32,15 @@ from bowden.sim.plant import Plant
 _RAMP_CHUNK_S = 0.005  # the host updates the spool's velocity target every 5 ms during ramps
 
 
-@dataclass(frozen=True, kw_only=True)
-class BenchProtocol:
-    """The identification protocol (defaults: the paper's).
-
-    Parameters
-    ----------
-    spool_speeds_rad_s
-        Spool speeds, each run raising (+) and lowering (−).
-    loads_nm
-        Mannequin load torques (pull the arm down).
-    repetitions
-        Repetitions of each speed and load.
-    low_rad, high_rad
-        Range of each stroke.
-    hold_s
-        Rest at each end of a stroke.
-    sample_rate_hz
-        Logging rate of the recording.
-    spool_acceleration_rad_s2
-        Acceleration of the trapezoidal spool-velocity profile at the ends of each stroke.
-    position_gain_nm_rad, velocity_gain_nms_rad
-        The motor's trajectory-tracking gains (MIT-mode kp, kd; AK60-6 allows 0–500 and 0–5).
-    mannequin
-        The mannequin's arm.
-    """
-
-    spool_speeds_rad_s: tuple[float, ...] = (0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0)
-    loads_nm: tuple[float, ...] = (0.5, 1.0, 2.0, 3.0, 4.0)
-    repetitions: int = 5
-    low_rad: float = math.radians(20.0)
-    high_rad: float = math.radians(110.0)
-    hold_s: float = 0.3
-    sample_rate_hz: float = 200.0
-    spool_acceleration_rad_s2: float = 30.0
-    position_gain_nm_rad: float = 30.0
-    velocity_gain_nms_rad: float = 0.6
-    mannequin: ArmParameters = field(default_factory=ArmParameters)
-
-    def __post_init__(self) -> None:
-        if not self.spool_speeds_rad_s or not all(0.05 <= v <= 30.0 for v in self.spool_speeds_rad_s):
-            raise ParameterError("BenchProtocol.spool_speeds_rad_s must be speeds in [0.05, 30] rad/s")
-        if not self.loads_nm or not all(0.05 <= t <= 20.0 for t in self.loads_nm):
-            raise ParameterError("BenchProtocol.loads_nm must be load torques in [0.05, 20] Nm")
-        if not 1 <= self.repetitions <= 50:
-            raise ParameterError(f"BenchProtocol.repetitions must be in [1, 50], got {self.repetitions}")
-        if not (0.0 < self.low_rad < self.high_rad < self.mannequin.max_elevation_rad):
-            raise ParameterError(
-                "BenchProtocol needs 0 < low_rad < high_rad < the mannequin's max elevation"
-            )
-        if not 0.0 <= self.hold_s <= 5.0:
-            raise ParameterError(f"BenchProtocol.hold_s must be in [0, 5] s, got {self.hold_s}")
-        if not 20.0 <= self.sample_rate_hz <= 2000.0:
-            raise ParameterError(
-                f"BenchProtocol.sample_rate_hz must be in [20, 2000], got {self.sample_rate_hz}"
-            )
-        if not 1.0 <= self.spool_acceleration_rad_s2 <= 1000.0:
-            raise ParameterError("BenchProtocol.spool_acceleration_rad_s2 must be in [1, 1000] rad/s²")
-        if not (0.0 <= self.position_gain_nm_rad <= 500.0 and 0.0 <= self.velocity_gain_nms_rad <= 5.0):
-            raise ParameterError("BenchProtocol gains must be within the AK60-6 MIT ranges: kp 0–500, kd 0–5")
-
-    @property
-    def n_strokes(self) -> int:
-        return 2 * len(self.spool_speeds_rad_s) * len(self.loads_nm) * self.repetitions
-
-
 class _Bench:
     """State of a bench run: the plant, the recording under construction and the sensor noise."""
 
-    def __init__(self, suit: SuitParameters, protocol: BenchProtocol, seed: int) -> None:
+    def __init__(self, suit: SuitParameters, protocol: BenchProtocol, mannequin: ArmParameters,
+                 seed: int) -> None:
         self.suit = suit
         self.protocol = protocol
         self.rng = np.random.default_rng(seed)
-        self.plant = Plant(suit, protocol.mannequin, elevation_rad=protocol.low_rad, tension_n=5.0)
+        self.plant = Plant(suit, mannequin, elevation_rad=protocol.low_rad, tension_n=5.0)
         self.every = max(1, round(1.0 / (protocol.sample_rate_hz * suit.substep_s)))
         self.parts: list[NDArray[np.float64]] = []
         self.trial = 0
@@ -175,8 +114,10 @@ def run_bench(
     *,
     seed: int = 0,
     progress: Callable[[int, int], None] | Literal[False] = False,
+    mannequin: ArmParameters | None = None,
 ) -> pd.DataFrame:
-    """Run the identification protocol on the simulated mannequin bench.
+    """Run the identification protocol (:class:`~bowden.protocol.bench.BenchProtocol`) on the
+    simulated mannequin bench, whose arm is ``mannequin`` (default :class:`ArmParameters`).
 
     Returns
     -------
@@ -186,7 +127,11 @@ def run_bench(
     check_seed(seed)
     suit = suit if suit is not None else SuitParameters()
     protocol = protocol if protocol is not None else BenchProtocol()
-    bench = _Bench(suit, protocol, seed)
+    mannequin = mannequin if mannequin is not None else ArmParameters()
+    if protocol.high_rad >= mannequin.max_elevation_rad:
+        raise ParameterError("BenchProtocol.high_rad must lie below the mannequin's max elevation "
+                             f"({math.degrees(mannequin.max_elevation_rad):.0f}°)")
+    bench = _Bench(suit, protocol, mannequin, seed)
     done = 0
     for load in protocol.loads_nm:
         for speed in protocol.spool_speeds_rad_s:

@@ -55,7 +55,10 @@ FAULTS: Final = {
     "imu": ("pause", "send_nan", "hold_arm_down"),
     "adc": ("override_tension_n", "fail_next"),
     "i2c": ("unplug",),
+    "mannequin": ("mute", "ignore_next", "inject_error"),
 }
+MANNEQUIN_MOTOR_ID: Final = 2  # the bench's second motor on the suit's bus (TDU: 1)
+BENCH_START_ELEVATION_RAD: Final = math.radians(20.0)
 
 
 @dataclass(frozen=True)
@@ -75,6 +78,10 @@ class SuitProcessSettings:
         The minimum-jerk cycle of the free-running arm.
     imu_rate_hz
         Stream rate of the simulated NGIMU.
+    bench
+        The mannequin bench instead of a participant: the arm is the mannequin's, driven by a second
+        simulated AK-series motor (an AK80-9, id :data:`MANNEQUIN_MOTOR_ID`) on the same bus;
+        ``reference`` and ``cycle`` are unused.
     """
 
     directory: str
@@ -82,6 +89,7 @@ class SuitProcessSettings:
     reference: Any
     cycle: Any
     imu_rate_hz: float = 200.0
+    bench: bool = False
 
 
 class SimulatedSuitProcess:
@@ -98,14 +106,14 @@ class SimulatedSuitProcess:
     """
 
     def __init__(self, *, imu_target: tuple[str, int], reference: Any = None, cycle: Any = None,
-                 ready_timeout_s: float = READY_TIMEOUT_S) -> None:
+                 bench: bool = False, ready_timeout_s: float = READY_TIMEOUT_S) -> None:
         if not imu_target[0].startswith("127.") and imu_target[0] != "::1":
             raise ParameterError(f"the simulated IMU sends to loopback only, got {imu_target[0]!r}")
-        if reference is None and cycle is None:
+        if reference is None and cycle is None and not bench:
             raise ParameterError("SimulatedSuitProcess needs a reference or a cycle for the arm")
         self._directory = Path(tempfile.mkdtemp(prefix="bowden-suit-"))
         self.settings = SuitProcessSettings(directory=str(self._directory), imu_target=imu_target,
-                                            reference=reference, cycle=cycle)
+                                            reference=reference, cycle=cycle, bench=bench)
         self.ready_timeout_s = ready_timeout_s
         self._process: subprocess.Popen[str] | None = None
         self._requests: Connection | None = None
@@ -324,8 +332,9 @@ class SimulatedSuitProcess:
         """The plant's current time (s) as the child sees it."""
         return float(self._call("plant", "time"))
 
-    def received_frames(self, since_s: float = -math.inf) -> list[ReceivedFrame]:
-        """The frames the simulated motor heard at or after ``since_s`` (``time.monotonic()``, s).
+    def received_frames(self, since_s: float = -math.inf, device: str = "motor") -> list[ReceivedFrame]:
+        """The frames the simulated motor (``device`` "mannequin": the bench's mannequin motor) heard
+        at or after ``since_s`` (``time.monotonic()``, s).
 
         Returns
         -------
@@ -335,21 +344,25 @@ class SimulatedSuitProcess:
         """
         from bowden.sim.peers.ak60_peer import ReceivedFrame
 
-        rows = self._call("motor", "received", float(since_s))
+        rows = self._call(device, "received", float(since_s))
         return [ReceivedFrame(time_s=t, kind=kind, torque_nm=torque) for t, kind, torque in rows]
 
 
 # --- the child --------------------------------------------------------------------------------------
 def _warm_up(cycle: Any) -> None:
-    """Compile and run everything the devices use once, so that the first frame is answered in time."""
-    from bowden.sim.arm import PrescribedArm
+    """Compile and run everything the devices use once, so that the first frame is answered in time
+    (``cycle`` None: the bench's mannequin arm)."""
+    from bowden.sim.arm import MannequinArm, PrescribedArm
     from bowden.sim.peers import NgimuPeer, WallTimePlant
     from bowden.sim.suit import SimulatedSuit
 
-    suit = SimulatedSuit(arm=PrescribedArm.following(cycle))
+    arm = PrescribedArm.following(cycle) if cycle is not None else MannequinArm(load_torque_nm=1.0)
+    suit = SimulatedSuit(arm=arm)
     suit.motor.enable()
     suit.motor.command_torque(0.5)
     suit.advance_to(0.05)
+    suit.motor.command_impedance(0.0, 0.5, 30.0, 0.6, 0.0)
+    suit.advance_to(0.1)
     suit.elevation_sensor.read()
     suit.tension_sensor.read()
     imu = NgimuPeer(WallTimePlant(suit), ("127.0.0.1", 9))
@@ -364,7 +377,8 @@ def _child_main(requests: Connection, notices: Connection, parent_pid: int) -> N
     settings = requests.recv()
     try:
         # Compiling takes seconds of CPU: at a real-time priority it would starve the machine.
-        _warm_up(settings.cycle if settings.cycle is not None else settings.reference.cycle)
+        _warm_up(None if settings.bench else
+                 settings.cycle if settings.cycle is not None else settings.reference.cycle)
         # The devices' threads inherit the policy; refused, it is a normal process: it works, only
         # less like separate hardware.
         with contextlib.suppress(AttributeError, OSError):
@@ -396,15 +410,25 @@ class _ChildDevices:
     def __init__(self, settings: SuitProcessSettings) -> None:
         import can
 
-        from bowden.sim.arm import PrescribedArm
+        from bowden.hardware.ak60_codec import limits_for_motor
+        from bowden.sim.arm import ArmDriver, MannequinArm, PrescribedArm
         from bowden.sim.backend import ArmFollowingTheLoop
         from bowden.sim.link.i2c import I2CServer
         from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
+        from bowden.sim.peers.mannequin import MannequinJoint
         from bowden.sim.suit import SimulatedSuit
 
         directory = Path(settings.directory)
-        self.follower = ArmFollowingTheLoop(settings.reference) if settings.reference is not None else None
-        arm = self.follower.arm() if self.follower is not None else PrescribedArm.following(settings.cycle)
+        self.follower = None
+        arm: ArmDriver
+        mannequin_arm: MannequinArm | None = None
+        if settings.bench:
+            arm = mannequin_arm = MannequinArm(initial_elevation_rad=BENCH_START_ELEVATION_RAD)
+        else:
+            if settings.reference is not None:
+                self.follower = ArmFollowingTheLoop(settings.reference)
+            arm = (self.follower.arm() if self.follower is not None
+                   else PrescribedArm.following(settings.cycle))
         self.plant = WallTimePlant(SimulatedSuit(arm=arm))
         if self.follower is not None:
             self.follower.plant = self.plant
@@ -413,6 +437,16 @@ class _ChildDevices:
         self._closers.append(self.bus.shutdown)
         self.motor = AK60Peer(self.bus, self.plant).start()
         self._closers.insert(0, self.motor.close)
+        self.mannequin: AK60Peer | None = None
+        if mannequin_arm is not None:
+            # Its own node on the bus (two peers reading one node would take each other's frames).
+            mannequin_bus = can.Bus(interface="bowden_loopback", channel=str(directory / "can"))
+            self._closers.append(mannequin_bus.shutdown)
+            limits = limits_for_motor("AK80-9")
+            joint = MannequinJoint(self.plant, mannequin_arm, torque_limit_nm=limits.torque_nm)
+            self.mannequin = AK60Peer(mannequin_bus, joint, motor_id=MANNEQUIN_MOTOR_ID,
+                                      limits=limits).start()
+            self._closers.insert(0, self.mannequin.close)
         self.imu = NgimuPeer(self.plant, settings.imu_target, rate_hz=settings.imu_rate_hz).start()
         self._closers.insert(0, self.imu.close)
         self.adc = ADS1115Peer(self.plant, offset_v=0.05, volts_per_newton=0.01)
@@ -459,13 +493,19 @@ class _ChildDevices:
                 return self.plant.origin_s
             if method == "time":
                 return self.plant.plant_time_s()
-        if target == "motor" and method == "received":
-            return [(f.time_s, f.kind, f.torque_nm) for f in self.motor.commands_since(float(args[0]))]
+        if target in ("motor", "mannequin") and method == "received":
+            peer = self.motor if target == "motor" else self.mannequin
+            if peer is None:
+                raise ParameterError("no mannequin motor on this simulated suit")
+            return [(f.time_s, f.kind, f.torque_nm) for f in peer.commands_since(float(args[0]))]
         if method in FAULTS.get(target, ()):
             if target == "i2c":
                 self.i2c.silent = True
                 return None
-            device = {"motor": self.motor, "imu": self.imu, "adc": self.adc}[target]
+            devices = {"motor": self.motor, "imu": self.imu, "adc": self.adc, "mannequin": self.mannequin}
+            device = devices[target]
+            if device is None:
+                raise ParameterError(f"no {target} on this simulated suit")
             if method == "replace_next_reply":
                 args = (bytes.fromhex(args[0]),)
             return getattr(device, method)(*args)

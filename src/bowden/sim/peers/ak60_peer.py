@@ -19,7 +19,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Final, Self
+from typing import Final, Protocol, Self
 
 import can
 
@@ -37,12 +37,22 @@ from bowden.hardware.ak60_codec import (
 )
 from bowden.hardware.lifecycle import StartedInWith, StoppableThread
 from bowden.hardware.protocols import MotorState
-from bowden.sim.peers.wall_time import WallTimePlant
 
 ENTER: Final = "enter"
 EXIT: Final = "exit"
 ZERO: Final = "zero"
 COMMAND: Final = "command"
+
+
+class MotorPlant(Protocol):
+    """What the peer drives: the suit's spool (:class:`WallTimePlant`) or the bench's mannequin joint."""
+
+    def enable_motor(self) -> MotorState: ...
+
+    def command_motor(self, torque_nm: float) -> MotorState: ...
+
+    def command_motor_mit(self, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
+                          torque_nm: float) -> MotorState: ...
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,7 +73,8 @@ class AK60Peer(StartedInWith):
     bus
         The peer's own bus (e.g. ``can.Bus(interface="virtual", channel=...)``); the caller owns it.
     plant
-        The shared simulated suit.
+        What the motor drives: the shared simulated suit (:class:`WallTimePlant`), or the bench's
+        mannequin joint (:class:`~bowden.sim.peers.mannequin.MannequinJoint`).
     motor_id
         CAN id it answers to.
     limits
@@ -83,7 +94,7 @@ class AK60Peer(StartedInWith):
     def __init__(
         self,
         bus: can.BusABC,
-        plant: WallTimePlant,
+        plant: MotorPlant,
         *,
         motor_id: int = 1,
         limits: AK60Limits | None = None,
@@ -218,17 +229,25 @@ class AK60Peer(StartedInWith):
             except MalformedFrameError:
                 return  # the firmware ignores frames it cannot read
             torque = 0.0
+            last = self._last_state
+            gains = command.kp > 0.0 or command.kd > 0.0
             if self.in_motor_mode:
                 torque = command.torque_nm
-                last = self._last_state
-                if last is not None and (command.kp > 0.0 or command.kd > 0.0):
-                    position = last.position_rad - self._zero_rad
-                    torque += command.kp * (command.position_rad - position)
+                if last is not None and gains:
+                    # What the motor's own loop applies now (for the log; the plant evaluates it at
+                    # every step below). The target is in the wrapped field: rebase it on the plant.
+                    error = command.position_rad - self._field_position(last.position_rad)
+                    torque += command.kp * error
                     torque += command.kd * (command.velocity_rad_s - last.velocity_rad_s)
                 torque = min(max(torque, -self.limits.torque_nm), self.limits.torque_nm)
             self.received.append(ReceivedFrame(now, COMMAND, torque))
             self._applied_torque_nm = torque
-            state = self._plant.command_motor(torque)
+            if self.in_motor_mode and gains and last is not None:
+                target = last.position_rad + command.position_rad - self._field_position(last.position_rad)
+                state = self._plant.command_motor_mit(target, command.velocity_rad_s, command.kp,
+                                                      command.kd, command.torque_nm)
+            else:
+                state = self._plant.command_motor(torque)
         self._last_state = state
         self._reply(state)
 
@@ -243,10 +262,7 @@ class AK60Peer(StartedInWith):
         if raw is not None:
             self._send(raw)
             return
-        span = 2.0 * self.limits.position_rad
-        # The encoder count wraps in the field like the real motor's, so the driver must count turns.
-        half = self.limits.position_rad
-        wrapped = (state.position_rad - self._zero_rad + half) % span - half
+        wrapped = self._field_position(state.position_rad)
         temperature = state.temperature_c
         if not math.isfinite(temperature):
             temperature = self._default_temperature_c
@@ -262,6 +278,12 @@ class AK60Peer(StartedInWith):
             error_code=error,
         )
         self._send(pack_reply(reply, self.limits, length=self.reply_length))
+
+    def _field_position(self, plant_position_rad: float) -> float:
+        """The encoder field's reading of a plant position: it wraps in ±P like the real motor's, so
+        the driver must count turns."""
+        half = self.limits.position_rad
+        return (plant_position_rad - self._zero_rad + half) % (2.0 * half) - half
 
     def _send(self, data: bytes) -> None:
         self._bus.send(can.Message(arbitration_id=self.reply_arbitration_id, data=data, is_extended_id=False))

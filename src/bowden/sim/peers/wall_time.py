@@ -12,7 +12,7 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 from bowden.errors import HardwareError
 from bowden.hardware.protocols import (
@@ -23,6 +23,8 @@ from bowden.hardware.protocols import (
     TensionSample,
     TensionSensor,
 )
+
+_T = TypeVar("_T")
 
 
 class Plant(Protocol):
@@ -93,6 +95,12 @@ class WallTimePlant:
             self.plant.advance_to(target)
             self._plant_time_s = target
 
+    def call(self, action: Callable[[Plant], _T]) -> _T:
+        """``action(plant)`` on the plant integrated to now, under the lock (other device faces)."""
+        with self._lock:
+            self._sync()
+            return action(self.plant)
+
     def enable_motor(self) -> MotorState:
         """Motor mode on in the plant; its state now."""
         with self._lock:
@@ -113,6 +121,19 @@ class WallTimePlant:
         if state is None:  # a simulated motor answers at once: None would be a bug in the plant
             raise HardwareError("the simulated motor returned no state")
         return state
+
+    def command_motor_mit(self, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
+                          torque_nm: float) -> MotorState:
+        """Apply an MIT-mode command from now on, evaluated at every plant step as the motor's own
+        loop does (``position_rad`` in the plant's spool coordinate); the motor state now."""
+        with self._lock:
+            self._sync()
+            motor = self.plant.motor
+            command = getattr(motor, "command_impedance", None)
+            if command is None:
+                raise HardwareError("this simulated motor takes torque commands only")
+            state: MotorState = command(position_rad, velocity_rad_s, kp, kd, torque_nm)
+            return state
 
     def elevation(self) -> ElevationSample | None:
         """The arm's elevation now (ground truth of the simulated IMU)."""

@@ -1,0 +1,118 @@
+"""``bowden bench run``: open the bench (real or simulated), run the protocol, report.
+
+Private to the CLI (leading underscore: the subcommand discovery skips it); :mod:`bowden.cli.bench`
+registers the command. Exit codes as ``bowden run``'s: 0 the protocol is complete, 3 a watchdog
+stopped the bench safely (the strokes recorded are kept; ``--resume`` continues), 1 nothing ran
+(bad options, a device that does not answer), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from contextlib import AbstractContextManager
+from typing import Any
+
+from bowden.errors import ParameterError
+from bowden.hardware.backend import Backend
+from bowden.protocol.bench import BenchProtocol, BenchStroke
+from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig, BenchSafety
+from bowden.runtime.bench_recording import BenchRecordingWriter
+from bowden.runtime.slack import SlackTakeUp
+
+EXIT_FAULT = 3
+
+
+def _say(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def bench_config(args: argparse.Namespace) -> BenchRunConfig:
+    """The run's configuration from the command line (validated: bad numbers are one line)."""
+    overrides: dict[str, object] = {}
+    if args.speeds:
+        overrides["spool_speeds_rad_s"] = tuple(args.speeds)
+    if args.loads:
+        overrides["loads_nm"] = tuple(args.loads)
+    if args.repetitions is not None:
+        overrides["repetitions"] = args.repetitions
+    if args.low_deg is not None:
+        overrides["low_rad"] = math.radians(args.low_deg)
+    if args.high_deg is not None:
+        overrides["high_rad"] = math.radians(args.high_deg)
+    if args.kp is not None:
+        overrides["position_gain_nm_rad"] = args.kp
+    if args.kd is not None:
+        overrides["velocity_gain_nms_rad"] = args.kd
+    protocol = BenchProtocol(**overrides)  # type: ignore[arg-type]
+    slack = SlackTakeUp(pretension_n=args.pretension)
+    if slack.max_pull_n(args.spool_radius) <= slack.pretension_n:
+        raise ParameterError(f"--pretension {args.pretension:g} N cannot be reached by the slack take-up "
+                             f"(at most {slack.max_pull_n(args.spool_radius):.1f} N on this pulley)")
+    return BenchRunConfig(protocol=protocol, spool_radius_m=args.spool_radius, slack=slack,
+                          safety=BenchSafety(max_tension_n=args.max_tension))
+
+
+def _open(args: argparse.Namespace) -> AbstractContextManager[Backend]:
+    if args.backend == "sim":
+        from bowden.sim.backend import open_sim_bench
+
+        return open_sim_bench(announce=_say)
+    from bowden.cli._suit import CanSuitOptions, open_can_backend, require_hardware_extra
+    from bowden.hardware.ak60 import AK60Config
+    from bowden.hardware.ak60_codec import limits_for_motor
+
+    options = CanSuitOptions.from_args(args)
+    if options.i2c_bus is None:
+        raise ParameterError("bowden bench run --backend can needs the load cell (--i2c-bus N): "
+                             "identification fits torque against the measured tension")
+    require_hardware_extra("bowden bench run", options)
+    limits = limits_for_motor(args.mannequin_motor)
+    mannequin = AK60Config(motor_id=args.mannequin_id, limits=limits, direction=args.mannequin_direction,
+                           torque_limit_nm=limits.torque_nm)
+    if mannequin.motor_id == options.motor_id:
+        raise ParameterError(f"--mannequin-id {args.mannequin_id} is the TDU's id (--motor-id): "
+                             "each motor needs its own CAN id")
+    return open_can_backend(options, announce=_say, mannequin=mannequin)
+
+
+def run_bench_on_backend(args: argparse.Namespace) -> int:
+    config = bench_config(args)
+    total = config.protocol.n_strokes
+    with BenchRecordingWriter(args.output, config.protocol_fingerprint(), resume=args.resume) as writer:
+        done = writer.resume_point.strokes_done
+        if done:
+            _say(f"resuming {args.output}: {done} of {total} strokes recorded, "
+                 f"going on with stroke {done + 1}")
+        live = sys.stderr.isatty()
+
+        def progress(stroke: BenchStroke, strokes: int) -> None:
+            line = (f"stroke {stroke.index + 1} of {strokes}: {stroke.spool_velocity_rad_s:+g} rad/s, "
+                    f"load {stroke.load_nm:g} Nm, repetition {stroke.repetition + 1}")
+            print(("\r" + line + "   ") if live else line, end="" if live else "\n", file=sys.stderr,
+                  flush=True)
+
+        with _open(args) as backend:
+            if backend.load_cell is None or backend.mannequin is None:
+                raise ParameterError("the bench needs a load cell and the mannequin's motor")
+            _say(f"bench: {backend.describe}")
+            tdu: Any = backend.motor  # an AK60Motor on the bench (command_mit; checked by the run's use)
+            devices = BenchDevices(tdu=tdu, mannequin=backend.mannequin, imu=backend.imu,
+                                   load_cell=backend.load_cell, clock=backend.clock)
+            report = BenchRun(devices, config, writer, progress=progress).run()
+        if live:
+            print(file=sys.stderr)
+        for error in report.exit_errors:
+            _say(f"warning: {error}")
+        if report.complete:
+            path = writer.finish()
+            print(f"wrote {report.strokes_total} strokes to {path}; identify them with "
+                  f"`bowden identify {path} -o model.json`")
+            return 0
+    recorded = f"{report.strokes_done} of {report.strokes_total} strokes are recorded in {args.output}"
+    if report.fault == "interrupted":
+        _say(f"bowden: interrupted; both motors are out of motor mode. {recorded}; add --resume to go on")
+        return 130
+    _say(f"bowden: bench stopped safely: {report.fault}. {recorded}; fix the cause and add --resume to go on")
+    return EXIT_FAULT

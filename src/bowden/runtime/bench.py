@@ -1,0 +1,593 @@
+"""The identification protocol on a mannequin bench, in a fixed-rate loop over the devices' wires.
+
+Paper, "Data acquisition": the tendon driver unit (TDU, the suit's AK60-6) moves the spool at a
+quasi-constant velocity across the arm's range while the mannequin's own motor loads the arm with a
+constant torque; the load cell, the IMU on the mannequin's arm and both motors are recorded. Here:
+
+* the TDU tracks a trajectory in MIT mode (``kp``, ``kd`` of the protocol; the target advances at
+  the commanded velocity, with trapezoidal ramps at the protocol's acceleration), the mannequin
+  motor is commanded in torque (its load ramps when it changes);
+* a stroke ends by the IMU: it brakes where the spool's stopping distance, seen at the arm through
+  the elevation-per-spool ratio measured during the stroke, ends it at the range's end;
+* before the first stroke, and after a resume, the cable's slack is taken up (:mod:`bowden.runtime.slack`)
+  and the arm is brought to the start of the next stroke (logged, not recorded);
+* every cycle is watched, and any fault brings both motors to zero torque and out of motor mode
+  within ``ramp_down_s`` plus a cycle: stale IMU, elevation out of the range with its margin, tension
+  over the limit, a silent or failing motor, transmit failures, an IMU that does not follow the
+  spool, a mannequin that does not hold its load, a load cell that reads nothing while the TDU pulls,
+  a stroke that does not end in time.
+
+Strokes are written by :class:`~bowden.runtime.bench_recording.BenchRecordingWriter` as they complete,
+so a stop loses at most the stroke under way, and a resumed run skips what is on disk.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from bowden.errors import BowdenError, HardwareError, ParameterError, TransmitError
+from bowden.hardware.protocols import Clock, ElevationSensor, MotorState, TensionSensor
+from bowden.protocol.bench import BenchProtocol, BenchStroke
+from bowden.runtime.bench_recording import LOG_COLUMNS, RECORDING_COLUMNS, BenchRecordingWriter
+from bowden.runtime.slack import SlackTakeUp, take_up_slack
+
+_log = logging.getLogger(__name__)
+
+PHASE_HOLD, PHASE_STROKE, PHASE_POSITION, PHASE_TAKE_UP = 0, 1, 2, 3
+_MIN_TRAVEL_FOR_RATIO_RAD = 0.3  # spool travel before the elevation/spool ratio is trusted for braking
+# Braking starts this much earlier than the stopping distance says: the IMU's sample age, a cycle,
+# and the arm's lag behind the spool through the elastic cable (the simulated bench overshot 8° at
+# 4 rad/s without it).
+_BRAKE_LEAD_S = 0.05
+
+
+class BenchMotor(Protocol):
+    """What the bench needs of an AK-series driver (:class:`bowden.hardware.ak60.AK60Motor`)."""
+
+    last_state: MotorState | None
+    unanswered_commands: int
+    oldest_unanswered_send_s: float
+
+    def enable(self) -> MotorState: ...
+
+    def disable(self) -> None: ...
+
+    def command_torque(self, torque_nm: float) -> MotorState | None: ...
+
+    def command_mit(self, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
+                    torque_nm: float = 0.0) -> MotorState | None: ...
+
+
+@dataclass(frozen=True, kw_only=True)
+class BenchSafety:
+    """The bench's watchdogs (s, rad, N). Defaults put every fault at zero torque within 100 ms.
+
+    Parameters
+    ----------
+    imu_max_age_s, motor_max_silence_s, motor_min_unanswered, max_transmit_failures
+        As :class:`bowden.runtime.safety.SafetyConfig`: a stale IMU sample, replies missing to
+        commands actually sent (either motor), consecutive failed sends.
+    max_tension_n
+        A load-cell reading above this stops the bench.
+    range_margin_rad
+        The elevation may overshoot the protocol's range by this much; beyond it the bench stops.
+    max_temperature_c
+        Either motor hotter than this stops the bench.
+    imu_follow_spool_rad, imu_follow_min_rad
+        Once the spool has moved ``imu_follow_spool_rad`` in a stroke, the elevation must have changed
+        by ``imu_follow_min_rad`` (an IMU fallen off or not on the arm).
+    load_hold_fraction, load_hold_window_s
+        The mannequin motor must report at least this fraction of its load command (after its ramp);
+        less for the window means it cannot hold the load.
+    load_cell_check_pull_n, load_cell_min_n, load_cell_window_s
+        While the TDU pulls more than ``load_cell_check_pull_n`` (its torque over the pulley radius),
+        the load cell must read at least ``load_cell_min_n`` within the window.
+    ramp_down_s
+        Both torques ramp to zero over this long, then both motors leave motor mode.
+    """
+
+    imu_max_age_s: float = 0.04
+    motor_max_silence_s: float = 0.03
+    motor_min_unanswered: int = 5
+    max_transmit_failures: int = 3
+    max_tension_n: float = 250.0
+    range_margin_rad: float = math.radians(10.0)
+    max_temperature_c: float = 80.0
+    imu_follow_spool_rad: float = 1.5
+    imu_follow_min_rad: float = math.radians(2.0)
+    load_hold_fraction: float = 0.5
+    load_hold_window_s: float = 0.2
+    load_cell_check_pull_n: float = 20.0
+    load_cell_min_n: float = 2.0
+    load_cell_window_s: float = 0.2
+    ramp_down_s: float = 0.03
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ParameterError(f"BenchSafety.{name} must be positive and finite, got {value!r}")
+        if self.ramp_down_s > 0.1:
+            raise ParameterError(f"BenchSafety.ramp_down_s must be at most 0.1 s, got {self.ramp_down_s}")
+        if self.load_hold_fraction >= 1.0:
+            raise ParameterError("BenchSafety.load_hold_fraction must be below 1")
+
+
+@dataclass(frozen=True, kw_only=True)
+class BenchRunConfig:
+    """How the bench runs the protocol.
+
+    Parameters
+    ----------
+    protocol
+        The identification protocol (speeds, loads, repetitions, range, hold, acceleration, gains,
+        recording rate).
+    rate_hz
+        The loop's rate; rows are recorded at ``protocol.sample_rate_hz`` (a divisor of it).
+    spool_radius_m
+        The TDU's pulley radius (the motor's pull without a load cell: torque / radius).
+    slack
+        The slack take-up before the first stroke (:class:`~bowden.runtime.slack.SlackTakeUp`).
+    take_up_load_nm
+        The mannequin's load while the slack is taken up (it holds the arm down as the cable tightens).
+    load_ramp_s
+        A change of the mannequin's load is ramped over this long.
+    position_speed_rad_s
+        Spool speed of the unrecorded move that brings the arm to the start of a stroke.
+    stroke_timeout_factor
+        A stroke that takes longer than this times its expected duration (plus 2 s) is a fault.
+    safety
+        :class:`BenchSafety`.
+    """
+
+    protocol: BenchProtocol = field(default_factory=BenchProtocol)
+    rate_hz: float = 400.0
+    spool_radius_m: float = 0.035
+    slack: SlackTakeUp = field(default_factory=SlackTakeUp)
+    take_up_load_nm: float = 0.3
+    load_ramp_s: float = 0.3
+    position_speed_rad_s: float = 1.0
+    stroke_timeout_factor: float = 3.0
+    safety: BenchSafety = field(default_factory=BenchSafety)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.rate_hz) and 50.0 <= self.rate_hz <= 2000.0):
+            raise ParameterError(f"BenchRunConfig.rate_hz must be in [50, 2000], got {self.rate_hz}")
+        ratio = self.rate_hz / self.protocol.sample_rate_hz
+        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9:
+            raise ParameterError(f"the recording rate ({self.protocol.sample_rate_hz:g} Hz) must divide the "
+                                 f"loop rate ({self.rate_hz:g} Hz)")
+        for name in ("spool_radius_m", "take_up_load_nm", "load_ramp_s", "position_speed_rad_s",
+                     "stroke_timeout_factor"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ParameterError(f"BenchRunConfig.{name} must be positive, got {value!r}")
+
+    def protocol_fingerprint(self) -> dict[str, object]:
+        """The numbers a resumed recording must share with the one it continues."""
+        p = self.protocol
+        return {"spool_speeds_rad_s": list(p.spool_speeds_rad_s), "loads_nm": list(p.loads_nm),
+                "repetitions": p.repetitions, "low_rad": p.low_rad, "high_rad": p.high_rad,
+                "hold_s": p.hold_s, "sample_rate_hz": p.sample_rate_hz,
+                "spool_acceleration_rad_s2": p.spool_acceleration_rad_s2,
+                "position_gain_nm_rad": p.position_gain_nm_rad,
+                "velocity_gain_nms_rad": p.velocity_gain_nms_rad}
+
+
+@dataclass(frozen=True)
+class BenchDevices:
+    """The bench's devices: the TDU, the mannequin's motor, the IMU on its arm, the load cell, a clock."""
+
+    tdu: BenchMotor
+    mannequin: BenchMotor
+    imu: ElevationSensor
+    load_cell: TensionSensor
+    clock: Clock
+
+
+@dataclass
+class BenchReport:
+    """How a bench run ended."""
+
+    strokes_done: int
+    strokes_total: int
+    fault: str | None = None
+    safe_at_s: float = math.nan  # clock time both motors were out of motor mode after a fault
+    exit_errors: list[str] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        return self.fault is None and self.strokes_done == self.strokes_total
+
+
+class BenchFault(BowdenError):
+    """A watchdog of the bench fired (the message names it); both motors are already safe."""
+
+
+Progress = Callable[[BenchStroke, int], None]
+
+
+class BenchRun:
+    """Runs the protocol's strokes from ``writer.resume_point`` on, recording each as it completes."""
+
+    def __init__(self, devices: BenchDevices, config: BenchRunConfig, writer: BenchRecordingWriter, *,
+                 progress: Progress | None = None) -> None:
+        self.devices = devices
+        self.config = config
+        self.writer = writer
+        self.progress = progress
+        self.period_s = 1.0 / config.rate_hz
+        self.record_every = round(config.rate_hz / config.protocol.sample_rate_hz)
+        self.strokes = config.protocol.strokes()
+        self._deadline = math.nan
+        self._cycle = 0
+        self._time_offset_s = 0.0
+        self._origin_s = math.nan
+        self._rows: list[tuple[float, ...]] = []
+        self._log_rows: list[tuple[float, ...]] = []
+        self._target_rad = math.nan  # the TDU's position target (multi-turn spool, rad)
+        self._velocity_rad_s = 0.0  # the TDU's velocity target
+        self._load_command_nm = 0.0
+        self._load_from_nm = 0.0
+        self._load_to_nm = 0.0
+        self._load_ramp_start_s = -math.inf
+        self._transmit_failures = 0
+        self._tdu_state: MotorState | None = None
+        self._mannequin_state: MotorState | None = None
+        self._low_load_since = math.nan
+        self._deaf_cell_since = math.nan
+        self._tension_n = math.nan
+        self._elevation_rad = math.nan
+        self._elevation_velocity = 0.0
+        self._stroke: BenchStroke | None = None
+        self._phase = PHASE_HOLD
+        self._ends: dict[float, tuple[float, float]] = {}  # range end → (elevation, spool) at rest there
+
+    # --- the run ---------------------------------------------------------------------------------
+    def run(self) -> BenchReport:
+        """Enable both motors, take up the slack, run the remaining strokes, leave both safe.
+
+        A fault brings both motors to the safe state and is reported (never raised); a device that
+        does not answer when enabled raises :class:`~bowden.errors.HardwareError` with nothing enabled.
+        """
+        done = self.writer.resume_point.strokes_done
+        report = BenchReport(strokes_done=done, strokes_total=len(self.strokes))
+        self._time_offset_s = self.writer.resume_point.last_time_s + (1.0 if done else 0.0)
+        self._enable()
+        try:
+            self._start_clock()
+            self._take_up_slack()
+            for stroke in self.strokes[done:]:
+                self._stroke = stroke
+                self._rows, self._log_rows = [], []
+                self._position_for(stroke)
+                self._hold(stroke)
+                self._run_stroke(stroke)
+                self.writer.write_stroke(np.array(self._rows), np.array(self._log_rows), stroke.index + 1)
+                report.strokes_done = stroke.index + 1
+                if self.progress is not None:
+                    self.progress(stroke, len(self.strokes))
+            self._stroke = None
+            self._finish_load()
+        except BenchFault as fault:
+            report.fault = str(fault)
+            report.safe_at_s = self._safe_stop(report.exit_errors)
+            return report
+        except BaseException as error:  # a bug, Ctrl-C, a full disk: the motors first
+            report.safe_at_s = self._safe_stop(report.exit_errors)
+            if isinstance(error, KeyboardInterrupt):
+                report.fault = "interrupted"
+                return report
+            raise
+        report.safe_at_s = self._safe_stop(report.exit_errors)
+        return report
+
+    def _enable(self) -> None:
+        tdu, mannequin = self.devices.tdu, self.devices.mannequin
+        try:
+            self._mannequin_state = mannequin.enable()
+        except HardwareError as error:
+            raise HardwareError(f"the mannequin's motor does not answer: {error}") from None
+        try:
+            self._mannequin_state = mannequin.command_torque(0.0) or self._mannequin_state
+            self._tdu_state = tdu.enable()
+        except HardwareError as error:
+            _quietly(mannequin.disable)
+            raise HardwareError(f"the TDU's motor does not answer: {error}") from None
+        self._target_rad = self._tdu_state.position_rad
+
+    def _start_clock(self) -> None:
+        now = self.devices.clock.now()
+        self._origin_s = now
+        self._deadline = now
+
+    # --- phases ----------------------------------------------------------------------------------
+    def _take_up_slack(self) -> None:
+        self._phase = PHASE_TAKE_UP
+        slack = self.config.slack
+
+        def cycle(velocity_rad_s: float, kd: float) -> float:
+            self._cycle_once(velocity_rad_s=velocity_rad_s, kp=0.0, kd=kd)
+            return self._tension_n
+
+        self._set_load(self.config.take_up_load_nm)  # the arm held against the cable as it tightens
+        take_up_slack(slack, cycle, period_s=self.period_s, fail=BenchFault)
+        state = self._tdu_state
+        self._target_rad = state.position_rad if state is not None else self._target_rad
+        self._velocity_rad_s = 0.0
+
+    def _position_for(self, stroke: BenchStroke) -> None:
+        """Bring the arm to the start of ``stroke`` (logged, not recorded) if it is not there."""
+        p = self.config.protocol
+        start = p.low_rad if stroke.raising else p.high_rad
+        self._set_load(stroke.load_nm)
+        self._dwell(self.config.load_ramp_s, PHASE_POSITION)  # the new load settles first
+        tolerance = self.config.safety.range_margin_rad / 2.0
+        if abs(self._elevation_rad - start) <= tolerance:
+            self._remember_end(start)
+            return
+        direction = 1.0 if start > self._elevation_rad else -1.0
+        self._move(direction * self.config.position_speed_rad_s, start, PHASE_POSITION)
+        self._dwell(self.config.protocol.hold_s, PHASE_POSITION)
+        self._remember_end(start)
+
+    def _hold(self, stroke: BenchStroke) -> None:
+        self._set_load(stroke.load_nm)
+        self._dwell(self.config.protocol.hold_s, PHASE_HOLD)
+
+    def _run_stroke(self, stroke: BenchStroke) -> None:
+        p = self.config.protocol
+        self._move(stroke.spool_velocity_rad_s, p.high_rad if stroke.raising else p.low_rad, PHASE_STROKE)
+        self._dwell(0.0, PHASE_HOLD)  # one cycle at rest ends the stroke's record
+        self._remember_end(p.high_rad if stroke.raising else p.low_rad)
+
+    def _remember_end(self, end_rad: float) -> None:
+        """Where the spool stands with the arm at rest at ``end_rad``'s end of the range."""
+        if abs(self._elevation_rad - end_rad) <= self.config.safety.range_margin_rad:
+            self._ends[end_rad] = (self._elevation_rad, self._spool_position())
+
+    def _spool_stop(self, stop_rad: float) -> float | None:
+        """The spool position that puts the arm at ``stop_rad``, from where it rested at that end
+        (corrected by the range's elevation-per-spool ratio once both ends are known); None before."""
+        end = self._ends.get(stop_rad)
+        if end is None:
+            return None
+        elevation, spool = end
+        if len(self._ends) == 2:
+            (e1, q1), (e2, q2) = self._ends.values()
+            if abs(q2 - q1) > _MIN_TRAVEL_FOR_RATIO_RAD and abs(e2 - e1) > 0.0:
+                spool += (stop_rad - elevation) * (q2 - q1) / (e2 - e1)
+        return spool
+
+    def _finish_load(self) -> None:
+        self._set_load(0.0)
+        self._dwell(self.config.load_ramp_s, PHASE_HOLD)
+
+    def _dwell(self, duration_s: float, phase: int) -> None:
+        self._phase = phase
+        self._velocity_rad_s = 0.0
+        end = self._deadline + duration_s
+        while True:
+            self._cycle_once()
+            if self._deadline >= end:
+                return
+
+    def _move(self, velocity_rad_s: float, stop_rad: float, phase: int) -> None:
+        """Spool at ``velocity_rad_s`` (trapezoidal) until the arm stops at ``stop_rad``."""
+        p, safety = self.config.protocol, self.config.safety
+        self._phase = phase
+        direction = 1.0 if velocity_rad_s > 0.0 else -1.0
+        speed = abs(velocity_rad_s)
+        step = p.spool_acceleration_rad_s2 * self.period_s
+        start_spool = self._spool_position()
+        start_elevation = self._elevation_rad
+        span = abs(stop_rad - start_elevation)
+        expected_s = 2.0 * span / (0.5 * speed) + speed / p.spool_acceleration_rad_s2
+        timeout_s = self.config.stroke_timeout_factor * expected_s + 2.0
+        started = self._deadline
+        braking = False
+        while True:
+            travelled = self._spool_position() - start_spool
+            moved = self._elevation_rad - start_elevation
+            if abs(travelled) >= safety.imu_follow_spool_rad and abs(moved) < safety.imu_follow_min_rad:
+                raise BenchFault(f"the IMU does not follow the arm: the spool turned {abs(travelled):.1f} "
+                                 f"rad but the elevation changed {math.degrees(abs(moved)):.1f}° "
+                                 "(is it on the arm?)")
+            if not braking:
+                v = abs(self._velocity_rad_s)
+                stopping_spool = v * v / (2.0 * p.spool_acceleration_rad_s2) + v * _BRAKE_LEAD_S
+                spool_stop = self._spool_stop(stop_rad)
+                if spool_stop is not None:
+                    # The spool position at which the arm rested at this end before (through the
+                    # taut cable): brake so that the spool itself stops there.
+                    braking = direction * (spool_stop - self._spool_position()) <= stopping_spool
+                else:  # first visit of this end: the elevation/spool ratio of the stroke so far
+                    ratio = moved / travelled if abs(travelled) >= _MIN_TRAVEL_FOR_RATIO_RAD else 0.0
+                    braking = direction * (stop_rad - self._elevation_rad) <= abs(ratio) * stopping_spool
+            if braking:
+                self._velocity_rad_s = direction * max(abs(self._velocity_rad_s) - step, 0.0)
+                if self._velocity_rad_s == 0.0:
+                    return
+            else:
+                self._velocity_rad_s = direction * min(abs(self._velocity_rad_s) + step, speed)
+            if self._deadline - started > timeout_s:
+                raise BenchFault(f"the arm did not reach {math.degrees(stop_rad):.0f}° within "
+                                 f"{timeout_s:.1f} s "
+                                 f"(at {math.degrees(self._elevation_rad):.1f}°)")
+            self._cycle_once()
+
+    # --- one cycle -------------------------------------------------------------------------------
+    def _cycle_once(self, *, velocity_rad_s: float | None = None, kp: float | None = None,
+                    kd: float | None = None) -> None:
+        clock = self.devices.clock
+        self._deadline += self.period_s
+        clock.sleep_until(self._deadline)
+        now = clock.now()
+        self._sense(now)
+        p = self.config.protocol
+        velocity = self._velocity_rad_s if velocity_rad_s is None else velocity_rad_s
+        self._target_rad += velocity * self.period_s
+        self._load_command_nm = self._load_now(now)
+        try:
+            state = self.devices.mannequin.command_torque(self._load_command_nm)
+            self._mannequin_state = state or self._mannequin_state
+            if kp is not None and kp == 0.0:
+                state = self.devices.tdu.command_mit(0.0, velocity, 0.0, kd or 0.0)
+            else:
+                state = self.devices.tdu.command_mit(self._target_rad, velocity, p.position_gain_nm_rad,
+                                                     p.velocity_gain_nms_rad)
+            self._tdu_state = state or self._tdu_state
+            self._transmit_failures = 0
+        except TransmitError as error:
+            self._transmit_failures += 1
+            if self._transmit_failures >= self.config.safety.max_transmit_failures:
+                raise BenchFault(f"CAN transmit failed {self._transmit_failures} times in a row: "
+                                 f"{error}") from None
+        if kp is not None and kp == 0.0 and self._tdu_state is not None:
+            self._target_rad = self._tdu_state.position_rad  # velocity mode: the target follows
+        self._check_motors(now)
+        self._record(now, velocity)
+        self._cycle += 1
+
+    def _sense(self, now: float) -> None:
+        safety, p = self.config.safety, self.config.protocol
+        sample = self.devices.imu.read()
+        if sample is None or now - sample.time_s > safety.imu_max_age_s:
+            age = "no sample" if sample is None else f"{1e3 * (now - sample.time_s):.0f} ms old"
+            raise BenchFault(f"IMU stale ({age}, limit {1e3 * safety.imu_max_age_s:.0f} ms)")
+        if not math.isfinite(sample.elevation_rad):
+            raise BenchFault("IMU sent a non-finite elevation")
+        self._elevation_rad = sample.elevation_rad
+        velocity = sample.elevation_velocity_rad_s
+        self._elevation_velocity = velocity if math.isfinite(velocity) else 0.0
+        low, high = p.low_rad - safety.range_margin_rad, p.high_rad + safety.range_margin_rad
+        if self._phase in (PHASE_TAKE_UP, PHASE_POSITION):
+            low = -math.pi  # the arm may hang below the range until it is brought to a stroke's start
+        if not low <= sample.elevation_rad <= high:
+            raise BenchFault(f"elevation {math.degrees(sample.elevation_rad):.1f}° left the bench's range "
+                             f"({math.degrees(low):.0f}°–{math.degrees(high):.0f}°)")
+        cell = self.devices.load_cell
+        failure = getattr(cell, "failure", None)
+        if failure is not None:
+            raise BenchFault(f"load cell lost: {failure}")
+        reading = cell.read()
+        if reading is None or now - reading.time_s > 0.25:
+            raise BenchFault("load cell: no reading for 250 ms")
+        self._tension_n = reading.tension_n
+        if reading.tension_n > safety.max_tension_n:
+            raise BenchFault(f"tension {reading.tension_n:.0f} N over the limit "
+                             f"({safety.max_tension_n:.0f} N)")
+        pull = self._pull_n()
+        if pull > safety.load_cell_check_pull_n and reading.tension_n < safety.load_cell_min_n:
+            if math.isnan(self._deaf_cell_since):
+                self._deaf_cell_since = now
+            elif now - self._deaf_cell_since > safety.load_cell_window_s:
+                raise BenchFault(f"the load cell reads {reading.tension_n:.1f} N while the TDU pulls about "
+                                 f"{pull:.0f} N: check its wiring and calibration")
+        else:
+            self._deaf_cell_since = math.nan
+
+    def _check_motors(self, now: float) -> None:
+        safety = self.config.safety
+        for name, motor, state in (("TDU", self.devices.tdu, self._tdu_state),
+                                   ("mannequin motor", self.devices.mannequin, self._mannequin_state)):
+            unanswered = motor.unanswered_commands
+            if unanswered >= safety.motor_min_unanswered and \
+                    now - motor.oldest_unanswered_send_s > safety.motor_max_silence_s:
+                raise BenchFault(f"{name}: no reply to {unanswered} commands in "
+                                 f"{1e3 * (now - motor.oldest_unanswered_send_s):.0f} ms")
+            if state is not None and state.error_code:
+                raise BenchFault(f"{name} reports error code {state.error_code}")
+            if state is not None and state.temperature_c > safety.max_temperature_c:
+                raise BenchFault(f"{name} at {state.temperature_c:.0f} °C "
+                                 f"(limit {safety.max_temperature_c:.0f})")
+        command = self._load_command_nm
+        held = self._mannequin_state.torque_nm if self._mannequin_state is not None else 0.0
+        ramping = now - self._load_ramp_start_s < self.config.load_ramp_s + safety.load_hold_window_s
+        if command > 0.2 and not ramping and held < safety.load_hold_fraction * command:
+            if math.isnan(self._low_load_since):
+                self._low_load_since = now
+            elif now - self._low_load_since > safety.load_hold_window_s:
+                raise BenchFault(f"the mannequin's motor does not hold its load: {held:.2f} Nm of "
+                                 f"{command:.2f} Nm commanded")
+        else:
+            self._low_load_since = math.nan
+
+    def _record(self, now: float, velocity: float) -> None:
+        if self._cycle % self.record_every:
+            return
+        t = now - self._origin_s + self._time_offset_s
+        tdu, man = self._tdu_state, self._mannequin_state
+        trial = self._stroke.index if self._stroke is not None else -1
+        nan = math.nan
+        if self._phase in (PHASE_HOLD, PHASE_STROKE) and self._stroke is not None and tdu is not None:
+            self._rows.append((t, tdu.torque_nm, tdu.velocity_rad_s, self._tension_n, self._elevation_rad,
+                               trial))
+        self._log_rows.append((
+            t, trial, self._phase, self._target_rad, velocity, tdu.position_rad if tdu else nan,
+            self._load_command_nm, man.torque_nm if man else nan, man.position_rad if man else nan,
+            man.velocity_rad_s if man else nan,
+        ))
+
+    # --- helpers ---------------------------------------------------------------------------------
+    def _set_load(self, load_nm: float) -> None:
+        if load_nm == self._load_to_nm:
+            return
+        self._load_from_nm = self._load_command_nm
+        self._load_to_nm = load_nm
+        self._load_ramp_start_s = self.devices.clock.now()
+
+    def _load_now(self, now: float) -> float:
+        fraction = min(max((now - self._load_ramp_start_s) / self.config.load_ramp_s, 0.0), 1.0)
+        return self._load_from_nm + fraction * (self._load_to_nm - self._load_from_nm)
+
+    def _spool_position(self) -> float:
+        return self._tdu_state.position_rad if self._tdu_state is not None else 0.0
+
+    def _pull_n(self) -> float:
+        """The TDU's pull on the cable estimated from its torque (N), for checks without the load cell."""
+        torque = self._tdu_state.torque_nm if self._tdu_state is not None else 0.0
+        return torque / self.config.spool_radius_m
+
+    def _safe_stop(self, errors: list[str]) -> float:
+        """Ramp both torques to zero over ``ramp_down_s``, then leave motor mode; the clock time after."""
+        clock, tdu, mannequin = self.devices.clock, self.devices.tdu, self.devices.mannequin
+        ramp = self.config.safety.ramp_down_s
+        tdu_from = self._tdu_state.torque_nm if self._tdu_state is not None else 0.0
+        load_from = self._load_command_nm
+        start = clock.now()
+        deadline = start
+        while True:
+            deadline += self.period_s
+            fraction = max(1.0 - (deadline - start) / ramp, 0.0)
+            for motor, torque in ((tdu, tdu_from * fraction), (mannequin, load_from * fraction)):
+                with contextlib.suppress(HardwareError, OSError):  # the exit frame below is what matters
+                    motor.command_torque(torque)
+            if fraction == 0.0:
+                break
+            clock.sleep_until(deadline)
+        for name, motor in (("TDU", tdu), ("mannequin motor", mannequin)):
+            try:
+                motor.disable()
+            except (HardwareError, OSError) as error:
+                errors.append(f"{name}: could not leave motor mode: {error}")
+        return clock.now()
+
+
+def _quietly(action: Callable[[], None]) -> None:
+    try:
+        action()
+    except (HardwareError, OSError) as error:
+        _log.warning("bench: %s", error)
+
+
+__all__ = [
+    "LOG_COLUMNS", "RECORDING_COLUMNS", "BenchDevices", "BenchFault", "BenchReport", "BenchRun",
+    "BenchRunConfig", "BenchSafety",
+]

@@ -1,0 +1,227 @@
+"""The bench recording written stroke by stroke: crash-safe and resumable.
+
+``bowden bench run`` writes the bench-recording contract (``contracts.BENCH_COLUMNS`` and ``trial``,
+one trial per stroke) that ``bowden identify`` reads as it is, and beside it a device log with what
+the contract leaves out (the mannequin motor, the commands, the phase of each stroke).
+
+A stroke's rows are appended to both files only when the stroke is complete, then flushed to disk
+(``fsync``), and only then is the journal (``<recording>.journal``, JSON, replaced atomically)
+told the stroke is done and how long the files are. A crash or a safe stop at any moment therefore
+leaves complete strokes on disk; resuming truncates whatever a crash left after the last journalled
+stroke and goes on with the next stroke. The journal also keeps the protocol, so a resume with other
+numbers is refused rather than mixed into one recording.
+
+A ``.parquet`` recording is written as CSV while the run goes on (``<name>.parquet.partial.csv``:
+Parquet cannot be appended to) and converted once the protocol is complete.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bowden._atomic_file import write_text_atomically
+from bowden.contracts import BENCH_COLUMNS, BENCH_TRIAL
+from bowden.errors import OutputFileError, RecordingError
+
+RECORDING_COLUMNS = (*BENCH_COLUMNS, BENCH_TRIAL)
+LOG_COLUMNS = (
+    "time_s", "trial", "phase", "spool_target_rad", "spool_velocity_target_rad_s", "spool_position_rad",
+    "mannequin_torque_command_nm", "mannequin_torque_nm", "mannequin_position_rad",
+    "mannequin_velocity_rad_s",
+)
+_JOURNAL_VERSION = 1
+
+
+@dataclass(frozen=True)
+class ResumePoint:
+    """Where a recording stands: strokes complete, and the time (s) its last sample was taken at."""
+
+    strokes_done: int
+    last_time_s: float
+
+
+class BenchRecordingWriter:
+    """Appends complete strokes to a bench recording and its device log (a context manager).
+
+    Parameters
+    ----------
+    path
+        The recording (``.csv`` or ``.parquet``); the device log is ``<stem>.log.csv`` beside it.
+    protocol
+        The protocol's numbers (JSON-serialisable), kept in the journal and compared on resume.
+    resume
+        Continue a recording whose journal says it is incomplete; without it an existing recording
+        is refused (nothing is overwritten).
+    """
+
+    def __init__(self, path: str | Path, protocol: dict[str, Any], *, resume: bool = False) -> None:
+        self.path = Path(path)
+        suffix = self.path.suffix.lower()
+        if suffix not in (".csv", ".parquet"):
+            raise OutputFileError(f"cannot tell the format of {self.path}: use a .csv or .parquet extension")
+        if not self.path.absolute().parent.is_dir():
+            raise OutputFileError(f"cannot write the bench recording to {self.path}: "
+                                  f"{self.path.absolute().parent} is not a directory")
+        self._parquet = suffix == ".parquet"
+        self.data_path = self.path.with_name(self.path.name + ".partial.csv") if self._parquet else self.path
+        self.log_path = self.path.with_name(self.path.stem + ".log.csv")
+        self.journal_path = self.path.with_name(self.path.name + ".journal")
+        self.protocol = protocol
+        self._data: TextIO | None = None
+        self._log: TextIO | None = None
+        self.resume_point = self._open(resume)
+
+    # --- opening ---------------------------------------------------------------------------------
+    def _open(self, resume: bool) -> ResumePoint:
+        journal = self._read_journal()
+        if journal is None:
+            existing = [p for p in (self.path, self.data_path, self.log_path) if p.exists()]
+            if existing:
+                raise OutputFileError(f"{existing[0]} exists and has no journal of an unfinished bench run: "
+                                      "choose another file name (nothing is overwritten)")
+            if resume:
+                raise OutputFileError(f"nothing to resume: {self.journal_path} does not exist")
+            self._start_files()
+            return ResumePoint(0, 0.0)
+        if not resume:
+            state = "complete" if journal.get("complete") else "unfinished"
+            raise OutputFileError(f"{self.path} is an {state} bench recording: "
+                                  + ("choose another file name" if journal.get("complete")
+                                     else "add --resume to continue it, or choose another file name"))
+        if journal.get("complete"):
+            raise OutputFileError(f"{self.path} is already complete ({journal['strokes_done']} strokes)")
+        if journal.get("protocol") != self.protocol:
+            raise OutputFileError(f"cannot resume {self.path} with another protocol: it was started with "
+                                  f"{journal.get('protocol')}, this run has {self.protocol}")
+        for path, size in ((self.data_path, journal["data_bytes"]), (self.log_path, journal["log_bytes"])):
+            try:
+                if path.stat().st_size < size:
+                    raise RecordingError(f"{path} is shorter than its journal says ({path.stat().st_size} "
+                                         f"< {size} bytes): it was changed after the run stopped")
+                with path.open("r+b") as handle:  # drop what a crash left after the last stroke
+                    handle.truncate(size)
+            except FileNotFoundError:
+                raise RecordingError(f"{path} is missing: the journal says it holds "
+                                     f"{journal['strokes_done']} strokes") from None
+        self._data = self.data_path.open("a", encoding="utf-8", newline="")
+        self._log = self.log_path.open("a", encoding="utf-8", newline="")
+        return ResumePoint(int(journal["strokes_done"]), float(journal["last_time_s"]))
+
+    def _read_journal(self) -> dict[str, Any] | None:
+        try:
+            text = self.journal_path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return None
+        except OSError as error:
+            raise RecordingError(f"cannot read {self.journal_path}: {error.strerror or error}") from None
+        try:
+            journal: dict[str, Any] = json.loads(text)
+            if journal.get("version") != _JOURNAL_VERSION:
+                raise ValueError(f"version {journal.get('version')!r}")
+            for key in ("strokes_done", "data_bytes", "log_bytes", "last_time_s"):
+                if not isinstance(journal.get(key), int | float):
+                    raise ValueError(f"no {key}")
+        except (ValueError, AttributeError) as error:
+            raise RecordingError(f"{self.journal_path} is not a bench-run journal ({error})") from None
+        return journal
+
+    def _start_files(self) -> None:
+        try:
+            self._data = self.data_path.open("x", encoding="utf-8", newline="")
+            self._log = self.log_path.open("x", encoding="utf-8", newline="")
+            self._data.write(",".join(RECORDING_COLUMNS) + "\n")
+            self._log.write(",".join(LOG_COLUMNS) + "\n")
+        except OSError as error:
+            self.close()
+            raise OutputFileError(f"cannot create the bench recording {self.path}: "
+                                  f"{error.strerror or error}") from None
+        self._sync(0, 0.0, complete=False)
+
+    # --- writing ---------------------------------------------------------------------------------
+    def write_stroke(self, rows: NDArray[np.float64], log_rows: NDArray[np.float64],
+                     strokes_done: int) -> None:
+        """Append one complete stroke (``rows``: RECORDING_COLUMNS, ``log_rows``: LOG_COLUMNS) and
+        journal that ``strokes_done`` strokes are now on disk.
+
+        Raises
+        ------
+        OutputFileError
+            If the disk refuses the data; the strokes journalled before stay valid.
+        """
+        if rows.ndim != 2 or rows.shape[1] != len(RECORDING_COLUMNS) or rows.shape[0] == 0:
+            raise RecordingError(f"a stroke needs rows of {len(RECORDING_COLUMNS)} columns, got {rows.shape}")
+        if log_rows.ndim != 2 or log_rows.shape[1] != len(LOG_COLUMNS):
+            raise RecordingError(f"a stroke's log needs {len(LOG_COLUMNS)} columns, got {log_rows.shape}")
+        try:
+            _append(self._require(self._data), rows, integer_columns=(len(RECORDING_COLUMNS) - 1,))
+            _append(self._require(self._log), log_rows, integer_columns=(1, 2))
+        except OSError as error:
+            raise OutputFileError(f"cannot write the bench recording {self.path}: "
+                                  f"{error.strerror or error}") from None
+        self._sync(strokes_done, float(rows[-1, 0]), complete=False)
+
+    def finish(self) -> Path:
+        """Mark the recording complete (a ``.parquet`` one is converted now); returns its path."""
+        journal = self._read_journal()
+        assert journal is not None
+        self.close()
+        if self._parquet:
+            import pandas as pd
+
+            try:
+                pd.read_csv(self.data_path).to_parquet(self.path, index=False)
+            except (OSError, ValueError, ImportError) as error:
+                raise OutputFileError(f"cannot write {self.path} (the CSV {self.data_path} is kept): "
+                                      f"{error}") from None
+            self.data_path.unlink()
+        journal["complete"] = True
+        write_text_atomically(self.journal_path, json.dumps(journal, indent=1) + "\n", durable=True)
+        return self.path
+
+    def _sync(self, strokes_done: int, last_time_s: float, *, complete: bool) -> None:
+        data, log = self._require(self._data), self._require(self._log)
+        try:
+            for handle in (data, log):
+                handle.flush()
+                os.fsync(handle.fileno())
+            journal = {
+                "version": _JOURNAL_VERSION, "recording": self.path.name, "protocol": self.protocol,
+                "strokes_done": strokes_done, "last_time_s": last_time_s, "complete": complete,
+                "data_bytes": data.tell(), "log_bytes": log.tell(),
+            }
+            write_text_atomically(self.journal_path, json.dumps(journal, indent=1) + "\n", durable=True)
+        except OSError as error:
+            raise OutputFileError(f"cannot write the bench recording {self.path}: "
+                                  f"{error.strerror or error}") from None
+
+    @staticmethod
+    def _require(handle: TextIO | None) -> TextIO:
+        if handle is None:
+            raise RecordingError("the bench recording is closed")
+        return handle
+
+    def close(self) -> None:
+        """Close the files (what is journalled stays; nothing else is written)."""
+        for handle in (self._data, self._log):
+            if handle is not None and not handle.closed:
+                handle.close()
+        self._data = self._log = None
+
+    def __enter__(self) -> BenchRecordingWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _append(handle: TextIO, rows: NDArray[np.float64], integer_columns: Sequence[int]) -> None:
+    formats = ["%d" if i in integer_columns else "%.9g" for i in range(rows.shape[1])]
+    np.savetxt(handle, rows, fmt=formats, delimiter=",")
