@@ -46,6 +46,7 @@ _MIN_TRAVEL_FOR_RATIO_RAD = 0.3  # spool travel before the elevation/spool ratio
 # and the arm's lag behind the spool through the elastic cable (the simulated bench overshot 8° at
 # 4 rad/s without it).
 _BRAKE_LEAD_S = 0.05
+_HOST_STALL_S = 0.01  # a cycle this late is a stall of the host
 
 
 class BenchMotor(Protocol):
@@ -135,7 +136,8 @@ class BenchRunConfig:
     slack
         The slack take-up before the first stroke (:class:`~bowden.runtime.slack.SlackTakeUp`).
     take_up_load_nm
-        The mannequin's load while the slack is taken up (it holds the arm down as the cable tightens).
+        The mannequin's least load while the slack is taken up (it holds the arm down as the cable
+        tightens; the next stroke's load if that is larger).
     load_ramp_s
         A change of the mannequin's load is ramped over this long.
     position_speed_rad_s
@@ -198,7 +200,8 @@ class BenchReport:
     strokes_done: int
     strokes_total: int
     fault: str | None = None
-    safe_at_s: float = math.nan  # clock time both motors were out of motor mode after a fault
+    fault_at_s: float = math.nan  # clock time the fault was found
+    safe_at_s: float = math.nan  # clock time both motors were out of motor mode (the end of the run)
     exit_errors: list[str] = field(default_factory=list)
 
     @property
@@ -247,7 +250,8 @@ class BenchRun:
         self._elevation_velocity = 0.0
         self._stroke: BenchStroke | None = None
         self._phase = PHASE_HOLD
-        self._ends: dict[float, tuple[float, float]] = {}  # range end → (elevation, spool) at rest there
+        self._ends: dict[float, tuple[float, float]] = {}
+        self._stall_end_s = -math.inf  # range end → (elevation, spool) at rest there
 
     # --- the run ---------------------------------------------------------------------------------
     def run(self) -> BenchReport:
@@ -277,6 +281,7 @@ class BenchRun:
             self._finish_load()
         except BenchFault as fault:
             report.fault = str(fault)
+            report.fault_at_s = self.devices.clock.now()
             report.safe_at_s = self._safe_stop(report.exit_errors)
             return report
         except BaseException as error:  # a bug, Ctrl-C, a full disk: the motors first
@@ -316,7 +321,10 @@ class BenchRun:
             self._cycle_once(velocity_rad_s=velocity_rad_s, kp=0.0, kd=kd)
             return self._tension_n
 
-        self._set_load(self.config.take_up_load_nm)  # the arm held against the cable as it tightens
+        # The mannequin holds the arm against the cable as it tightens, with the next stroke's load if
+        # larger (a light load at the top of the range balances less than the pretension).
+        upcoming = self.strokes[self.writer.resume_point.strokes_done:]
+        self._set_load(max([self.config.take_up_load_nm] + [s.load_nm for s in upcoming[:1]]))
         take_up_slack(slack, cycle, period_s=self.period_s, fail=BenchFault)
         state = self._tdu_state
         self._target_rad = state.position_rad if state is not None else self._target_rad
@@ -429,6 +437,11 @@ class BenchRun:
         self._deadline += self.period_s
         clock.sleep_until(self._deadline)
         now = clock.now()
+        if now - self._deadline > _HOST_STALL_S:
+            # The host stalled (a stroke's fsync, the scheduler): no burst of catch-up cycles, and
+            # replies missing across the stall are not the motors' fault.
+            self._deadline = now
+            self._stall_end_s = now
         self._sense(now)
         p = self.config.protocol
         velocity = self._velocity_rad_s if velocity_rad_s is None else velocity_rad_s
@@ -498,10 +511,9 @@ class BenchRun:
         for name, motor, state in (("TDU", self.devices.tdu, self._tdu_state),
                                    ("mannequin motor", self.devices.mannequin, self._mannequin_state)):
             unanswered = motor.unanswered_commands
-            if unanswered >= safety.motor_min_unanswered and \
-                    now - motor.oldest_unanswered_send_s > safety.motor_max_silence_s:
-                raise BenchFault(f"{name}: no reply to {unanswered} commands in "
-                                 f"{1e3 * (now - motor.oldest_unanswered_send_s):.0f} ms")
+            silent_s = now - max(motor.oldest_unanswered_send_s, self._stall_end_s)
+            if unanswered >= safety.motor_min_unanswered and silent_s > safety.motor_max_silence_s:
+                raise BenchFault(f"{name}: no reply to {unanswered} commands in {1e3 * silent_s:.0f} ms")
             if state is not None and state.error_code:
                 raise BenchFault(f"{name} reports error code {state.error_code}")
             if state is not None and state.temperature_c > safety.max_temperature_c:

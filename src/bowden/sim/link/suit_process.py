@@ -19,6 +19,7 @@ socket files itself.
 from __future__ import annotations
 
 import contextlib
+import gc
 import logging
 import math
 import multiprocessing.connection
@@ -52,10 +53,10 @@ CHILD_PRIORITY: Final = 40
 FAULTS: Final = {
     "motor": ("mute", "ignore_next", "inject_error", "override_temperature", "replace_next_reply",
               "garble_replies"),
-    "imu": ("pause", "send_nan", "hold_arm_down"),
+    "imu": ("pause", "send_nan", "hold_arm_down", "freeze"),
     "adc": ("override_tension_n", "fail_next"),
     "i2c": ("unplug",),
-    "mannequin": ("mute", "ignore_next", "inject_error"),
+    "mannequin": ("mute", "ignore_next", "inject_error", "limit_torque"),
 }
 MANNEQUIN_MOTOR_ID: Final = 2  # the bench's second motor on the suit's bus (TDU: 1)
 BENCH_START_ELEVATION_RAD: Final = math.radians(20.0)
@@ -391,6 +392,12 @@ def _child_main(requests: Connection, notices: Connection, parent_pid: int) -> N
         except OSError:  # the parent is gone: nobody else will remove the directory
             shutil.rmtree(settings.directory, ignore_errors=True)
         return
+    # The motors' received-frame logs grow to hundreds of thousands of objects; a full collection
+    # over them stalls every device for tens of ms (measured: a simulated motor silent for 32 ms).
+    # So only the young generations are collected, by the serve loop, between requests.
+    gc.collect()
+    gc.freeze()
+    gc.disable()
     orphaned = True
     try:
         requests.send(("ready", None))
@@ -438,12 +445,14 @@ class _ChildDevices:
         self.motor = AK60Peer(self.bus, self.plant).start()
         self._closers.insert(0, self.motor.close)
         self.mannequin: AK60Peer | None = None
+        self.mannequin_joint: MannequinJoint | None = None
         if mannequin_arm is not None:
             # Its own node on the bus (two peers reading one node would take each other's frames).
             mannequin_bus = can.Bus(interface="bowden_loopback", channel=str(directory / "can"))
             self._closers.append(mannequin_bus.shutdown)
             limits = limits_for_motor("AK80-9")
-            joint = MannequinJoint(self.plant, mannequin_arm, torque_limit_nm=limits.torque_nm)
+            self.mannequin_joint = joint = MannequinJoint(self.plant, mannequin_arm,
+                                                          torque_limit_nm=limits.torque_nm)
             self.mannequin = AK60Peer(mannequin_bus, joint, motor_id=MANNEQUIN_MOTOR_ID,
                                       limits=limits).start()
             self._closers.insert(0, self.mannequin.close)
@@ -458,6 +467,7 @@ class _ChildDevices:
         listening: list[Connection] = [requests, notices]
         while True:
             ready = multiprocessing.connection.wait(listening, timeout=0.1)
+            gc.collect(1)  # young objects only: short, and cycles among them are freed
             if notices in ready:
                 try:
                     kind, value = notices.recv()
@@ -501,6 +511,11 @@ class _ChildDevices:
         if method in FAULTS.get(target, ()):
             if target == "i2c":
                 self.i2c.silent = True
+                return None
+            if method == "limit_torque":  # the mannequin's motor too weak for its load
+                if self.mannequin_joint is None:
+                    raise ParameterError("no mannequin motor on this simulated suit")
+                self.mannequin_joint.torque_limit_nm = float(args[0])
                 return None
             devices = {"motor": self.motor, "imu": self.imu, "adc": self.adc, "mannequin": self.mannequin}
             device = devices[target]

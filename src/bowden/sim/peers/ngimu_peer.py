@@ -104,6 +104,7 @@ class NgimuPeer(StartedInWith):
         self._paused = threading.Event()
         self._nan = threading.Event()
         self._arm_down = threading.Event()
+        self._frozen: tuple[float, float] | None = None
         self._streamer = StoppableThread(self._stream, "ngimu-peer")
         self.sent = 0
 
@@ -137,6 +138,15 @@ class NgimuPeer(StartedInWith):
             self._arm_down.set()
         else:
             self._arm_down.clear()
+
+    def freeze(self, frozen: bool = True) -> None:
+        """Keep sending the arm's current orientation, still, whatever the plant does (an IMU that
+        came off the arm and lies on the table); False follows the arm again."""
+        if frozen:
+            sample = self._plant.elevation()
+            self._frozen = (sample.elevation_rad if sample is not None else 0.0, 0.0)
+        else:
+            self._frozen = None
 
     def datagrams(self, elevation_rad: float, elevation_velocity_rad_s: float) -> tuple[bytes, bytes]:
         """The two bundles (``/sensors``, ``/quaternion``) for one arm state."""
@@ -172,8 +182,11 @@ class NgimuPeer(StartedInWith):
                 deadline = self._time_source()  # fell behind: keep the rate, do not burst
             if self._paused.is_set():
                 continue
+            frozen = self._frozen
             if self._arm_down.is_set():
                 elevation, velocity = 0.0, 0.0
+            elif frozen is not None:
+                elevation, velocity = frozen
             else:
                 sample = self._plant.elevation()
                 if sample is None:

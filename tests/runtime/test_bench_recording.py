@@ -1,0 +1,91 @@
+"""The bench recording written stroke by stroke: what a crash leaves, what a resume does, and that
+``bowden identify``'s reader takes the file as it is."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bowden.errors import OutputFileError, RecordingError
+from bowden.identify.recording import read_bench_recording
+from bowden.runtime.bench_recording import LOG_COLUMNS, RECORDING_COLUMNS, BenchRecordingWriter
+
+PROTOCOL = {"spool_speeds_rad_s": [1.0], "loads_nm": [1.0], "repetitions": 1}
+
+
+def stroke(trial: int, start_s: float, n: int = 50) -> tuple[np.ndarray, np.ndarray]:
+    t = start_s + np.arange(n) * 0.005
+    elevation = np.linspace(0.35, 1.9, n) if trial % 2 == 0 else np.linspace(1.9, 0.35, n)
+    tension = 20.0 + 10.0 * np.sin(t)
+    rows = np.column_stack([t, 0.1 + 0.04 * tension, np.full(n, 2.0), tension, elevation, np.full(n, trial)])
+    log = np.column_stack([t, np.full(n, trial), np.ones(n), *(np.zeros((7, n)))])
+    return rows, log
+
+
+def test_strokes_are_on_disk_as_they_complete_and_identify_reads_them(tmp_path):
+    path = tmp_path / "bench.csv"
+    with BenchRecordingWriter(path, PROTOCOL) as writer:
+        for k in range(2):
+            writer.write_stroke(*stroke(k, k * 0.3), strokes_done=k + 1)
+        journal = json.loads(writer.journal_path.read_text())
+        assert journal["strokes_done"] == 2 and journal["data_bytes"] == path.stat().st_size
+        writer.finish()
+    frame = pd.read_csv(path)
+    assert tuple(frame.columns) == RECORDING_COLUMNS
+    assert list(frame["trial"].unique()) == [0, 1]
+    assert tuple(pd.read_csv(tmp_path / "bench.log.csv").columns) == LOG_COLUMNS
+    recording = read_bench_recording([path])
+    assert recording.n_samples == 100
+
+
+def test_a_crash_mid_write_is_cut_back_to_the_last_complete_stroke_on_resume(tmp_path):
+    path = tmp_path / "bench.csv"
+    writer = BenchRecordingWriter(path, PROTOCOL)
+    writer.write_stroke(*stroke(0, 0.0), strokes_done=1)
+    writer.close()
+    with path.open("a") as handle:  # what a crash in the middle of the next stroke leaves
+        handle.write("0.31,0.9,2.0,21.0,0.4,1\n0.315,0.9,")
+    with pytest.raises(OutputFileError, match="--resume"):
+        BenchRecordingWriter(path, PROTOCOL)
+    resumed = BenchRecordingWriter(path, PROTOCOL, resume=True)
+    assert resumed.resume_point.strokes_done == 1
+    assert resumed.resume_point.last_time_s == pytest.approx(49 * 0.005)
+    resumed.write_stroke(*stroke(1, 1.0), strokes_done=2)
+    resumed.finish()
+    frame = pd.read_csv(path)
+    assert len(frame) == 100 and frame["time_s"].is_monotonic_increasing
+    with pytest.raises(OutputFileError, match="already complete"):
+        BenchRecordingWriter(path, PROTOCOL, resume=True)
+
+
+def test_refusals_name_the_problem(tmp_path):
+    path = tmp_path / "bench.csv"
+    path.write_text("someone else's file\n")
+    with pytest.raises(OutputFileError, match="no journal"):
+        BenchRecordingWriter(path, PROTOCOL)
+    with pytest.raises(OutputFileError, match="format"):
+        BenchRecordingWriter(tmp_path / "bench.txt", PROTOCOL)
+    with pytest.raises(OutputFileError, match="nothing to resume"):
+        BenchRecordingWriter(tmp_path / "new.csv", PROTOCOL, resume=True)
+    writer = BenchRecordingWriter(tmp_path / "a.csv", PROTOCOL)
+    writer.write_stroke(*stroke(0, 0.0), strokes_done=1)
+    writer.close()
+    with pytest.raises(OutputFileError, match="another protocol"):
+        BenchRecordingWriter(tmp_path / "a.csv", {**PROTOCOL, "repetitions": 5}, resume=True)
+    (tmp_path / "a.csv").write_text("time_s\n")  # shortened behind the journal's back
+    with pytest.raises(RecordingError, match="shorter than its journal"):
+        BenchRecordingWriter(tmp_path / "a.csv", PROTOCOL, resume=True)
+
+
+def test_parquet_is_written_once_the_protocol_is_complete(tmp_path):
+    pytest.importorskip("pyarrow")
+    path = tmp_path / "bench.parquet"
+    with BenchRecordingWriter(path, PROTOCOL) as writer:
+        writer.write_stroke(*stroke(0, 0.0), strokes_done=1)
+        assert not path.exists() and writer.data_path.exists()
+        writer.finish()
+    assert not writer.data_path.exists()
+    assert len(pd.read_parquet(path)) == 50
