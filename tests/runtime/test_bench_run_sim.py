@@ -28,8 +28,10 @@ SAFE_WITHIN_S = 0.1
 HOST_SLACK_S = 0.05
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def bench() -> Iterator[object]:
+    # A fresh bench per test: the simulated mannequin's arm carries no weight, so after a safe stop it
+    # rests wherever the fault left it (above the range, say), where the next run refuses to start.
     with open_sim_bench() as backend:
         yield backend
 
@@ -63,7 +65,7 @@ def exited(backend, since_s: float) -> dict[str, float]:
 
 
 def test_bench_run_identifies_the_lines_bench_simulate_gives(tmp_path, capsys):
-    options = ["--speeds", "1", "2", "--loads", "1", "2", "--repetitions", "1"]
+    options = ["--speeds", "1", "4", "--loads", "1", "3", "--repetitions", "1"]
     wire, batch = tmp_path / "wire.csv", tmp_path / "batch.csv"
     assert main(["bench", "run", "--backend", "sim", "-o", str(wire), *options]) == 0
     assert main(["bench", "simulate", "-o", str(batch), "--quiet", *options]) == 0
@@ -74,14 +76,12 @@ def test_bench_run_identifies_the_lines_bench_simulate_gives(tmp_path, capsys):
     for direction in ("raising", "lowering"):
         a = getattr(models[wire], direction)
         b = getattr(models[batch], direction)
+        # Measured: slopes within 0.1 %, torque within 1 % over 20–80 N, intercepts within 0.006 Nm.
         assert a.slope_m == pytest.approx(b.slope_m, rel=0.02)
-        # The issue asks for 2 %; measured: slopes within 0.5 %, but the wire bench's intercepts sit
-        # about 0.012–0.03 Nm off the batch bench's (host-rate MIT commands are the likely cause), so
-        # the predicted torque is within 3 % at 40–80 N (≈5 % at 20 N on the lowering line), not yet 2 %.
-        for tension in (40.0, 80.0):
+        for tension in (20.0, 40.0, 80.0):
             assert a.intercept_nm + a.slope_m * tension == pytest.approx(
-                b.intercept_nm + b.slope_m * tension, rel=0.03)
-        assert a.intercept_nm == pytest.approx(b.intercept_nm, abs=0.04)  # measured up to 0.029 Nm
+                b.intercept_nm + b.slope_m * tension, rel=0.02)
+        assert a.intercept_nm == pytest.approx(b.intercept_nm, abs=0.015)
 
 
 def test_a_stopped_run_resumes_where_it_stopped(bench, tmp_path):

@@ -40,7 +40,11 @@ from bowden.runtime.slack import SlackTakeUp, take_up_slack
 
 _log = logging.getLogger(__name__)
 
-PHASE_HOLD, PHASE_STROKE, PHASE_POSITION, PHASE_TAKE_UP = 0, 1, 2, 3
+PHASE_HOLD, PHASE_STROKE, PHASE_POSITION, PHASE_TAKE_UP, PHASE_SETTLE = 0, 1, 2, 3, 4
+_SETTLE_S = 0.2  # after a stroke, before its end is measured (the arm comes to rest)
+_POSITION_ATTEMPTS = 4
+_FIRST_SAMPLE_WAIT_S = 0.5
+_TAKE_UP_LIFT_RAD = math.radians(3.0)
 _MIN_TRAVEL_FOR_RATIO_RAD = 0.3  # spool travel before the elevation/spool ratio is trusted for braking
 # Braking starts this much earlier than the stopping distance says: the IMU's sample age, a cycle,
 # and the arm's lag behind the spool through the elastic cable (the simulated bench overshot 8° at
@@ -130,7 +134,12 @@ class BenchRunConfig:
         The identification protocol (speeds, loads, repetitions, range, hold, acceleration, gains,
         recording rate).
     rate_hz
-        The loop's rate; rows are recorded at ``protocol.sample_rate_hz`` (a divisor of it).
+        The loop's rate; rows are recorded at ``protocol.sample_rate_hz`` (a divisor of it). The
+        motor holds each MIT position target until the next command and answers with the torque it
+        applied just before it, so its reported torque is always sampled at the same point of the
+        tracking error's sawtooth (kp·v/rate): at 400 Hz that biased both identified intercepts
+        towards zero by 0.016–0.026 Nm on the simulated bench, at 1 kHz by ≤ 0.003 Nm (raising).
+        Two motors at 1 kHz use about half of the 1 Mbit/s bus.
     spool_radius_m
         The TDU's pulley radius (the motor's pull without a load cell: torque / radius).
     slack
@@ -149,7 +158,7 @@ class BenchRunConfig:
     """
 
     protocol: BenchProtocol = field(default_factory=BenchProtocol)
-    rate_hz: float = 400.0
+    rate_hz: float = 1000.0
     spool_radius_m: float = 0.035
     slack: SlackTakeUp = field(default_factory=SlackTakeUp)
     take_up_load_nm: float = 0.3
@@ -250,7 +259,9 @@ class BenchRun:
         self._elevation_velocity = 0.0
         self._stroke: BenchStroke | None = None
         self._phase = PHASE_HOLD
-        self._ends: dict[float, tuple[float, float]] = {}
+        # (range end, load) → (elevation, spool) with the arm at rest there: the cable stretches with the
+        # load, so each load has its own.
+        self._ends: dict[tuple[float, float, float], tuple[float, float]] = {}
         self._stall_end_s = -math.inf  # range end → (elevation, spool) at rest there
 
     # --- the run ---------------------------------------------------------------------------------
@@ -283,15 +294,26 @@ class BenchRun:
             report.fault = str(fault)
             report.fault_at_s = self.devices.clock.now()
             report.safe_at_s = self._safe_stop(report.exit_errors)
+            self._keep_partial_log()
             return report
         except BaseException as error:  # a bug, Ctrl-C, a full disk: the motors first
             report.safe_at_s = self._safe_stop(report.exit_errors)
+            self._keep_partial_log()
             if isinstance(error, KeyboardInterrupt):
                 report.fault = "interrupted"
                 return report
             raise
         report.safe_at_s = self._safe_stop(report.exit_errors)
         return report
+
+    def _keep_partial_log(self) -> None:
+        """The device log of the stroke under way when the run stopped (the stroke is not recorded)."""
+        rows, self._log_rows = self._log_rows, []
+        if rows:
+            try:
+                self.writer.write_log(np.array(rows))
+            except BowdenError as error:
+                _log.error("bench: %s", error)
 
     def _enable(self) -> None:
         tdu, mannequin = self.devices.tdu, self.devices.mannequin
@@ -308,7 +330,14 @@ class BenchRun:
         self._target_rad = self._tdu_state.position_rad
 
     def _start_clock(self) -> None:
-        now = self.devices.clock.now()
+        clock = self.devices.clock
+        now = clock.now()
+        waited_until = now + _FIRST_SAMPLE_WAIT_S
+        while self.devices.imu.read() is None:  # the first sample after the calibration
+            if clock.now() > waited_until:
+                raise BenchFault(f"no IMU sample within {_FIRST_SAMPLE_WAIT_S:g} s of enabling the motors")
+            clock.sleep_until(clock.now() + 0.001)
+        now = clock.now()
         self._origin_s = now
         self._deadline = now
 
@@ -317,8 +346,17 @@ class BenchRun:
         self._phase = PHASE_TAKE_UP
         slack = self.config.slack
 
+        start_elevation = math.nan
+
         def cycle(velocity_rad_s: float, kd: float) -> float:
+            nonlocal start_elevation
             self._cycle_once(velocity_rad_s=velocity_rad_s, kp=0.0, kd=kd)
+            if math.isnan(start_elevation):
+                start_elevation = self._elevation_rad
+            if self._elevation_rad - start_elevation > _TAKE_UP_LIFT_RAD:
+                # The cable is taut and lifts the arm: near the top of the range a light load balances
+                # less than the pretension.
+                return math.inf
             return self._tension_n
 
         # The mannequin holds the arm against the cable as it tightens, with the next stroke's load if
@@ -337,13 +375,16 @@ class BenchRun:
         self._set_load(stroke.load_nm)
         self._dwell(self.config.load_ramp_s, PHASE_POSITION)  # the new load settles first
         tolerance = self.config.safety.range_margin_rad / 2.0
-        if abs(self._elevation_rad - start) <= tolerance:
-            self._remember_end(start)
-            return
-        direction = 1.0 if start > self._elevation_rad else -1.0
-        self._move(direction * self.config.position_speed_rad_s, start, PHASE_POSITION)
-        self._dwell(self.config.protocol.hold_s, PHASE_POSITION)
-        self._remember_end(start)
+        speed = self.config.position_speed_rad_s
+        for _ in range(_POSITION_ATTEMPTS):  # the arm may settle past the mark (sheath, stretch)
+            if abs(self._elevation_rad - start) <= tolerance:
+                return
+            direction = 1.0 if start > self._elevation_rad else -1.0
+            self._move(direction * speed, start, PHASE_POSITION)
+            self._dwell(_SETTLE_S, PHASE_POSITION)
+            speed /= 2.0
+        raise BenchFault(f"the arm could not be brought to {math.degrees(start):.0f}° for the next stroke "
+                         f"(it rests at {math.degrees(self._elevation_rad):.1f}°)")
 
     def _hold(self, stroke: BenchStroke) -> None:
         self._set_load(stroke.load_nm)
@@ -351,24 +392,30 @@ class BenchRun:
 
     def _run_stroke(self, stroke: BenchStroke) -> None:
         p = self.config.protocol
-        self._move(stroke.spool_velocity_rad_s, p.high_rad if stroke.raising else p.low_rad, PHASE_STROKE)
+        end = p.high_rad if stroke.raising else p.low_rad
+        self._move(stroke.spool_velocity_rad_s, end, PHASE_STROKE)
         self._dwell(0.0, PHASE_HOLD)  # one cycle at rest ends the stroke's record
-        self._remember_end(p.high_rad if stroke.raising else p.low_rad)
+        self._dwell(_SETTLE_S, PHASE_SETTLE)  # logged, not recorded: the next stroke's hold follows
+        self._remember_end(end, 1.0 if stroke.raising else -1.0)
 
-    def _remember_end(self, end_rad: float) -> None:
-        """Where the spool stands with the arm at rest at ``end_rad``'s end of the range."""
+    def _remember_end(self, end_rad: float, direction: float) -> None:
+        """Where the spool stands with the arm at rest at ``end_rad``'s end of the range, reached by
+        a stroke in ``direction`` (the sheath's friction makes the cable's stretch depend on it)."""
         if abs(self._elevation_rad - end_rad) <= self.config.safety.range_margin_rad:
-            self._ends[end_rad] = (self._elevation_rad, self._spool_position())
+            self._ends[(end_rad, self._load_to_nm, direction)] = (self._elevation_rad, self._spool_position())
 
-    def _spool_stop(self, stop_rad: float) -> float | None:
-        """The spool position that puts the arm at ``stop_rad``, from where it rested at that end
-        (corrected by the range's elevation-per-spool ratio once both ends are known); None before."""
-        end = self._ends.get(stop_rad)
+    def _spool_stop(self, stop_rad: float, direction: float) -> float | None:
+        """The spool position that puts the arm at ``stop_rad``, from where it rested there after a
+        stroke in ``direction`` under this load (corrected by the elevation-per-spool ratio of the
+        range once both ends are known); None before."""
+        load = self._load_to_nm
+        end = self._ends.get((stop_rad, load, direction))
         if end is None:
             return None
         elevation, spool = end
-        if len(self._ends) == 2:
-            (e1, q1), (e2, q2) = self._ends.values()
+        ends = [value for (_, end_load, _), value in self._ends.items() if end_load == load]
+        if len(ends) == 2:
+            (e1, q1), (e2, q2) = ends
             if abs(q2 - q1) > _MIN_TRAVEL_FOR_RATIO_RAD and abs(e2 - e1) > 0.0:
                 spool += (stop_rad - elevation) * (q2 - q1) / (e2 - e1)
         return spool
@@ -410,14 +457,21 @@ class BenchRun:
             if not braking:
                 v = abs(self._velocity_rad_s)
                 stopping_spool = v * v / (2.0 * p.spool_acceleration_rad_s2) + v * _BRAKE_LEAD_S
-                spool_stop = self._spool_stop(stop_rad)
+                # (A positioning move goes by the elevation: it starts from wherever the arm rests.)
+                spool_stop = self._spool_stop(stop_rad, direction) if phase == PHASE_STROKE else None
                 if spool_stop is not None:
                     # The spool position at which the arm rested at this end before (through the
                     # taut cable): brake so that the spool itself stops there.
                     braking = direction * (spool_stop - self._spool_position()) <= stopping_spool
-                else:  # first visit of this end: the elevation/spool ratio of the stroke so far
+                else:
+                    # First visit of this end (or a positioning move): the elevation/spool ratio of
+                    # the move so far. A stroke aims half the range margin short, as the arm lags the
+                    # spool through the sheath and catches up when it stops (10° past the end
+                    # measured); a positioning move is slow and tries again if it misses.
                     ratio = moved / travelled if abs(travelled) >= _MIN_TRAVEL_FOR_RATIO_RAD else 0.0
-                    braking = direction * (stop_rad - self._elevation_rad) <= abs(ratio) * stopping_spool
+                    short = safety.range_margin_rad / 2.0 if phase == PHASE_STROKE else 0.0
+                    remaining = direction * (stop_rad - self._elevation_rad) - short
+                    braking = remaining <= abs(ratio) * stopping_spool
             if braking:
                 self._velocity_rad_s = direction * max(abs(self._velocity_rad_s) - step, 0.0)
                 if self._velocity_rad_s == 0.0:

@@ -168,6 +168,20 @@ class BenchRecordingWriter:
                                   f"{error.strerror or error}") from None
         self._sync(strokes_done, float(rows[-1, 0]), complete=False)
 
+    def write_log(self, log_rows: NDArray[np.float64]) -> None:
+        """Append the log of a stroke that did not complete (a fault, an interruption): kept for the
+        diagnosis, and by a resume; the recording itself gets only complete strokes."""
+        if log_rows.ndim != 2 or log_rows.shape[1] != len(LOG_COLUMNS) or log_rows.shape[0] == 0:
+            return
+        journal = self._read_journal()
+        assert journal is not None
+        try:
+            _append(self._require(self._log), log_rows, integer_columns=(1, 2))
+        except OSError as error:
+            raise OutputFileError(f"cannot write the bench log {self.log_path}: "
+                                  f"{error.strerror or error}") from None
+        self._sync(int(journal["strokes_done"]), float(journal["last_time_s"]), complete=False)
+
     def finish(self) -> Path:
         """Mark the recording complete (a ``.parquet`` one is converted now); returns its path."""
         journal = self._read_journal()
