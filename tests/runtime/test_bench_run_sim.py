@@ -110,7 +110,9 @@ FAULTS = {
     "tension limit": ("adc", "override_tension_n", (400.0,), (None,), "over the limit", True),
     "imu off the arm": ("imu", "freeze", (True,), (False,), "does not follow", False),
     "mannequin too weak": ("mannequin", "limit_torque", (0.2,), (18.0,), "does not hold its load", False),
+    "load cell reads zero": ("adc", "override_tension_n", (0.0,), (None,), "while the TDU pulls", False),
 }
+LOADS_NM = {"load cell reads zero": 4.0}  # the TDU must pull more than 20 N for the check to apply
 
 
 @pytest.mark.parametrize("name", sorted(FAULTS))
@@ -123,8 +125,9 @@ def test_every_fault_reaches_the_safe_state(bench, tmp_path, name):
             injected[0] = time.monotonic()
             bench.inject(device, fault, *args)
 
+    protocol = BenchProtocol(spool_speeds_rad_s=(2.0,), loads_nm=(LOADS_NM.get(name, 1.0),), repetitions=1)
     try:
-        report = run_bench(bench, tmp_path, after_stroke=inject, name=f"{name}.csv")
+        report = run_bench(bench, tmp_path, protocol=protocol, after_stroke=inject, name=f"{name}.csv")
     finally:
         bench.inject(device, fault, *undo)
     assert report.fault is not None and words in report.fault, report.fault

@@ -312,7 +312,9 @@ class SimulatedSuitProcess:
             ``mute(bool)``, ``ignore_next(n)``, ``inject_error(code)``, ``override_temperature(°C or
             None)``, ``replace_next_reply(hex string)``, ``garble_replies(bool)``), ``imu``
             (:class:`~bowden.sim.peers.NgimuPeer`: ``pause(bool)``, ``send_nan(bool)``,
-            ``hold_arm_down(bool)``), ``adc`` (:class:`~bowden.sim.peers.ADS1115Peer`:
+            ``hold_arm_down(bool)``, ``freeze(bool)``), ``mannequin`` (the bench's second motor, an
+            :class:`~bowden.sim.peers.AK60Peer`: ``mute``, ``ignore_next``, ``inject_error``, and
+            ``limit_torque(Nm)``: too weak for its load), ``adc`` (:class:`~bowden.sim.peers.ADS1115Peer`:
             ``override_tension_n(N or None)``, ``fail_next(n)``) or ``i2c`` (``unplug()``: the I²C
             server stops answering for good, every transfer times out).
         *args
