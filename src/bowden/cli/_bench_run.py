@@ -11,7 +11,8 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from contextlib import AbstractContextManager
+from collections.abc import Iterator
+from contextlib import AbstractContextManager, contextmanager
 from typing import Any
 
 from bowden.errors import ParameterError
@@ -77,10 +78,23 @@ def _open(args: argparse.Namespace) -> AbstractContextManager[Backend]:
     return open_can_backend(options, announce=_say, mannequin=mannequin)
 
 
+@contextmanager
+def _discard_if_unused(writer: BenchRecordingWriter) -> Iterator[None]:
+    """A run that fails before any stroke (a device that does not open) leaves no empty recording
+    behind, so the next attempt needs no --resume."""
+    try:
+        yield
+    except BaseException:
+        writer.discard_if_empty()
+        raise
+
+
 def run_bench_on_backend(args: argparse.Namespace) -> int:
     config = bench_config(args)
     total = config.protocol.n_strokes
-    with BenchRecordingWriter(args.output, config.protocol_fingerprint(), resume=args.resume) as writer:
+    opener = _open(args)  # checks the options; the devices open below
+    with BenchRecordingWriter(args.output, config.protocol_fingerprint(), resume=args.resume) as writer, \
+            _discard_if_unused(writer):
         done = writer.resume_point.strokes_done
         if done:
             _say(f"resuming {args.output}: {done} of {total} strokes recorded, "
@@ -93,7 +107,7 @@ def run_bench_on_backend(args: argparse.Namespace) -> int:
             print(("\r" + line + "   ") if live else line, end="" if live else "\n", file=sys.stderr,
                   flush=True)
 
-        with _open(args) as backend:
+        with opener as backend:
             if backend.load_cell is None or backend.mannequin is None:
                 raise ParameterError("the bench needs a load cell and the mannequin's motor")
             _say(f"bench: {backend.describe}")

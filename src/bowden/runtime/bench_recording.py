@@ -222,6 +222,20 @@ class BenchRecordingWriter:
             raise RecordingError("the bench recording is closed")
         return handle
 
+    def discard_if_empty(self) -> bool:
+        """Remove the files this writer created if nothing but their headers was written (the bench
+        never ran: a device did not open); True if removed. A resumed recording is never removed."""
+        journal = self._read_journal()
+        if journal is None or self.resume_point.strokes_done or journal["strokes_done"]:
+            return False
+        headers = (len(",".join(RECORDING_COLUMNS)) + 1, len(",".join(LOG_COLUMNS)) + 1)
+        if (journal["data_bytes"], journal["log_bytes"]) != headers:
+            return False
+        self.close()
+        for path in (self.data_path, self.log_path, self.journal_path):
+            path.unlink(missing_ok=True)
+        return True
+
     def close(self) -> None:
         """Close the files (what is journalled stays; nothing else is written)."""
         for handle in (self._data, self._log):

@@ -1,0 +1,40 @@
+"""``bowden bench run`` refuses bad options in one line, before anything opens."""
+
+from __future__ import annotations
+
+from bowden.cli import main
+
+
+def test_the_real_bench_needs_its_load_cell(tmp_path, capsys):
+    assert main(["bench", "run", "--backend", "can", "-o", str(tmp_path / "b.csv")]) == 1
+    assert "needs the load cell (--i2c-bus N)" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []  # nothing written: the next attempt needs no --resume
+
+
+def test_a_bench_that_does_not_open_leaves_no_recording(tmp_path, capsys):
+    code = main(["bench", "run", "--backend", "can", "--interface", "virtual",
+                 "--channel", "nothing-here", "--i2c-bus", "99", "--calibration-s", "0.05", "--imu-port", "0", "-o", str(tmp_path / "b.csv")])
+    assert code == 1
+    assert "bowden: error:" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_mannequin_needs_its_own_can_id(tmp_path, capsys):
+    code = main(["bench", "run", "--backend", "can", "--i2c-bus", "1", "--motor-id", "2",
+                 "--mannequin-id", "2", "-o", str(tmp_path / "b.csv")])
+    assert code == 1
+    assert "each motor needs its own CAN id" in capsys.readouterr().err
+
+
+def test_an_unreachable_pretension_is_refused(tmp_path, capsys):
+    code = main(["bench", "run", "--backend", "sim", "--pretension", "50", "-o", str(tmp_path / "b.csv")])
+    assert code == 1
+    assert "cannot be reached by the slack take-up" in capsys.readouterr().err
+    assert not (tmp_path / "b.csv").exists()
+
+
+def test_an_unknown_mannequin_motor_is_named(tmp_path, capsys):
+    code = main(["bench", "run", "--backend", "can", "--i2c-bus", "1", "--mannequin-motor", "AK99",
+                 "-o", str(tmp_path / "b.csv")])
+    assert code == 1
+    assert "unknown AK-series motor 'AK99'" in capsys.readouterr().err
