@@ -13,7 +13,8 @@ def test_the_real_bench_needs_its_load_cell(tmp_path, capsys):
 
 def test_a_bench_that_does_not_open_leaves_no_recording(tmp_path, capsys):
     code = main(["bench", "run", "--backend", "can", "--interface", "virtual",
-                 "--channel", "nothing-here", "--i2c-bus", "99", "--calibration-s", "0.05", "--imu-port", "0", "-o", str(tmp_path / "b.csv")])
+                 "--channel", "nothing-here", "--i2c-bus", "99", "--calibration-s", "0.05",
+                 "--imu-port", "0", "-o", str(tmp_path / "b.csv")])
     assert code == 1
     assert "bowden: error:" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
@@ -29,7 +30,7 @@ def test_the_mannequin_needs_its_own_can_id(tmp_path, capsys):
 def test_an_unreachable_pretension_is_refused(tmp_path, capsys):
     code = main(["bench", "run", "--backend", "sim", "--pretension", "50", "-o", str(tmp_path / "b.csv")])
     assert code == 1
-    assert "cannot be reached by the slack take-up" in capsys.readouterr().err
+    assert "the pretension (50 N) cannot be reached" in capsys.readouterr().err
     assert not (tmp_path / "b.csv").exists()
 
 

@@ -47,10 +47,7 @@ def bench_config(args: argparse.Namespace) -> BenchRunConfig:
     if args.kd is not None:
         overrides["velocity_gain_nms_rad"] = args.kd
     protocol = BenchProtocol(**overrides)  # type: ignore[arg-type]
-    slack = SlackTakeUp(pretension_n=args.pretension)
-    if slack.max_pull_n(args.spool_radius) <= slack.pretension_n:
-        raise ParameterError(f"--pretension {args.pretension:g} N cannot be reached by the slack take-up "
-                             f"(at most {slack.max_pull_n(args.spool_radius):.1f} N on this pulley)")
+    slack = SlackTakeUp(pretension_n=args.pretension, pulley_radius_m=args.spool_radius)
     return BenchRunConfig(protocol=protocol, spool_radius_m=args.spool_radius, slack=slack,
                           safety=BenchSafety(max_tension_n=args.max_tension))
 

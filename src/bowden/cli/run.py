@@ -52,6 +52,7 @@ from bowden.model import CompensationModel
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row
 from bowden.runtime.loop import StepController
 from bowden.runtime.signals import stop_on_signals
+from bowden.runtime.slack import SlackTakeUp
 from bowden.web.reference import TrialReference
 from bowden.web.trial_setup import TrialSetup
 from bowden.web.validation import participant_id
@@ -82,6 +83,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--support", help="support fraction 0-1, or 'pretension' (default: the --condition's, else 0.5)"
     )
     parser.add_argument("--duration", type=float, default=30.0, help="run length in s (default 30)")
+    parser.add_argument("--slack-take-up", choices=("on", "off"),
+                        help="reel the cable in slowly to a small pretension before assisting "
+                        "(default: on with --backend can, off on the simulated suit, which starts taut)")
+    parser.add_argument("--slack-timeout", type=float, default=SlackTakeUp().timeout_s,
+                        help="longest slack take-up, s, before it is a fault (default 10)")
     parser.add_argument("--rate", type=float, default=500.0, help="control rate in Hz (default 500)")
     parser.add_argument("--record", type=Path, help="study store (SQLite) to record every cycle into")
     parser.add_argument("--participant", default="P00", help="pseudonymous participant id (default P00)")
@@ -197,6 +203,7 @@ def run_trial(
     reference: TrialReference,
     setup: TrialSetup | None = None,
     server: ServerThread | None = None,
+    slack: SlackTakeUp | None = None,
 ) -> LoopReport:
     """Run one trial of ``controller`` on ``backend`` (SIGINT/SIGTERM stop it safely).
 
@@ -211,7 +218,8 @@ def run_trial(
         motor=backend.motor,
         elevation_sensor=backend.imu,
         clock=backend.clock,
-        config=LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args)),
+        config=LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args),
+                          slack=slack),
         tension_sensor=backend.load_cell,
         reference_elevation=backend.reference_elevation or shown,
     )
@@ -236,6 +244,14 @@ def run_trial(
         return loop.run()
 
 
+def slack_take_up(args: argparse.Namespace, model: CompensationModel) -> SlackTakeUp | None:
+    """The slack take-up of ``--slack-take-up`` (on by default on the real suit), or None."""
+    choice = args.slack_take_up or ("on" if args.backend == "can" else "off")
+    if choice == "off":
+        return None
+    return SlackTakeUp(timeout_s=args.slack_timeout, pulley_radius_m=model.pulley_radius_m)
+
+
 def run(args: argparse.Namespace) -> int:
     support, condition = support_and_condition(args.support, args.condition)
     participant = participant_id(args.participant, "--participant")
@@ -255,6 +271,7 @@ def run(args: argparse.Namespace) -> int:
     LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args))
     reference = run_reference(args)
     model = run_model(args)
+    slack = slack_take_up(args, model)
     subject = wearer(args)
     controller = controller_for(model, support, subject, args.hand_load)
     setup = trial = None
@@ -284,6 +301,7 @@ def run(args: argparse.Namespace) -> int:
                 reference=reference,
                 setup=setup,
                 server=server,
+                slack=slack,
             )
             error = ""
             if recorder is not None:
@@ -311,6 +329,10 @@ def run(args: argparse.Namespace) -> int:
     exit_error = getattr(backend.motor, "exit_error", None) if backend is not None else None
     if exit_error:
         print(f"motor: {exit_error}")
+    if slack is not None:
+        taken = (f"in {report.slack_take_up_s:.2f} s" if report.slack_take_up_s == report.slack_take_up_s
+                 else "not completed")
+        print(f"slack take-up: {taken}")
     print(f"loop timing: {report.timing.describe()}")
     print(f"health: {report.describe_health()}")
     if report.realtime:

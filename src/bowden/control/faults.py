@@ -28,6 +28,7 @@ class Fault(IntFlag):
     HOST_STALL = 1 << 15  # the loop itself was not scheduled for longer than the tolerated bound
     LOAD_CELL_LOST = 1 << 16  # the load cell stopped delivering: the tension limit cannot be watched
     RECORDER_FAILED = 1 << 17  # the trial recording cannot keep up or cannot write
+    SLACK_NOT_TAKEN_UP = 1 << 18  # no tension within the slack take-up's time: a cable not attached?
 
 
 class Limit(IntFlag):

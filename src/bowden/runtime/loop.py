@@ -38,6 +38,7 @@ from bowden.hardware.ak60_codec import MotorErrorCode
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, MotorState, TensionSensor
 from bowden.runtime.realtime import RealtimeConfig, realtime
 from bowden.runtime.safety import LoopState, SafetyConfig, ramp_torque_nm
+from bowden.runtime.slack import SlackTakeUp
 from bowden.runtime.timing import LoopTiming, TimingSummary
 
 _log = logging.getLogger(__name__)
@@ -72,11 +73,17 @@ class LoopConfig:
         Run length (s) after which the loop ramps down and stops; None runs until stopped.
     safety
         Watchdog thresholds and the safe-state ramp.
+    slack
+        Take up the cable's slack before assisting (:mod:`bowden.runtime.slack`): the first cycles
+        reel in slowly in velocity mode, watched like every cycle, until the cable's pull (load
+        cell, or motor torque over the pulley radius) reaches the pretension; then the controller
+        takes over. Needs a motor with ``command_mit`` (the AK60 driver); None: assist at once.
     """
 
     rate_hz: float = 500.0
     duration_s: float | None = None
     safety: SafetyConfig = field(default_factory=SafetyConfig)
+    slack: SlackTakeUp | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 1.0 <= self.rate_hz <= 2000.0):
@@ -108,6 +115,7 @@ class LoopReport:
     transmit_failures: int = 0
     degraded: tuple[str, ...] = ()  # states the run went on in (load cell lost, recording off)
     realtime: str = ""  # the real-time settings applied, or why not
+    slack_take_up_s: float = math.nan  # loop time the slack was taken up (NaN: no take-up, or never)
 
     @property
     def clean(self) -> bool:
@@ -254,6 +262,13 @@ class ControlLoop:
         ramp_s = safety.ramp_down_s
         isfinite = math.isfinite
         disabled = False
+        slack = self.config.slack
+        command_mit = getattr(motor, "command_mit", None)
+        if slack is not None and command_mit is None:
+            _log.warning("slack take-up skipped: this motor has no velocity mode")
+            slack = None
+        taking_up = slack is not None
+        slack_time = _NAN
 
         reply: MotorState | None = motor.enable()
         t0 = clock.now()
@@ -369,6 +384,11 @@ class ControlLoop:
                     new_fault, reason = Fault.LOAD_CELL_LOST, f"{cell_problem}: the tension limit is blind"
                 elif recording_problem is not None and stop_on_recorder_failure:
                     new_fault, reason = Fault.RECORDER_FAILED, f"recording failed: {recording_problem}"
+                elif taking_up and slack is not None and t > slack.timeout_s:
+                    new_fault = Fault.SLACK_NOT_TAKEN_UP
+                    reason = (f"slack take-up: the cable did not tighten to {slack.pretension_n:g} N in "
+                              f"{slack.timeout_s:g} s (pull {slack.pull_n(tension, motor_torque):.1f} N): "
+                              "is it attached?")
                 elif self._stop_reason is not None:
                     new_fault, reason = Fault.STOP_REQUESTED, self._stop_reason
                 elif t >= duration - 1e-9:  # 1 ns: a cycle landing on the end, up to rounding
@@ -400,7 +420,16 @@ class ControlLoop:
 
             desired_tension = moment_arm = _NAN
             flags = int(fault) | degraded_flags
-            if state is LoopState.RUNNING:
+            if taking_up and slack is not None and state is LoopState.RUNNING \
+                    and slack.pull_n(tension, motor_torque) >= slack.pretension_n:
+                taking_up = False
+                slack_time = t
+                self._event(t, "slack", f"slack taken up in {t:.2f} s "
+                            f"({slack.pull_n(tension, motor_torque):.1f} N)")
+            if taking_up and state is LoopState.RUNNING:
+                # Reeling in: the motor's own velocity loop commands the torque (at most kd·v).
+                torque = motor_torque if isfinite(motor_torque) else 0.0
+            elif state is LoopState.RUNNING:
                 command = controller.step(t, elevation, velocity, motor_velocity, motor_torque)
                 torque = command.torque_nm
                 desired_tension = command.tension_n
@@ -414,7 +443,10 @@ class ControlLoop:
                     zero_time = t
 
             try:
-                new_reply = motor.command_torque(torque)
+                if taking_up and state is LoopState.RUNNING and slack is not None and command_mit is not None:
+                    new_reply = command_mit(0.0, slack.velocity_rad_s, 0.0, slack.kd_nms_rad)
+                else:
+                    new_reply = motor.command_torque(torque)
             except TransmitError as error:
                 transmit_failures += 1
                 consecutive_transmit_failures += 1
@@ -494,6 +526,7 @@ class ControlLoop:
             worst_host_stall_s=worst_stall,
             transmit_failures=transmit_failures,
             degraded=tuple(degraded),
+            slack_take_up_s=slack_time,
         )
 
     def _disable_motor(self) -> bool:

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 from bowden.errors import ParameterError
 
+_REACH_MARGIN = 1.5  # kd·v/radius over the pretension (measured: friction ate 30 % on the simulated suit)
+
 
 @dataclass(frozen=True, kw_only=True)
 class SlackTakeUp:
@@ -33,25 +35,42 @@ class SlackTakeUp:
         Tension at which the cable counts as taut.
     timeout_s
         Longest take-up before it is a fault.
+    pulley_radius_m
+        Turns the motor's torque into the cable's pull when no load cell is connected (N = Nm / m).
     """
 
     velocity_rad_s: float = 0.5
     kd_nms_rad: float = 1.0
     pretension_n: float = 5.0
     timeout_s: float = 10.0
+    pulley_radius_m: float = 0.035
 
     def __post_init__(self) -> None:
-        for name in ("velocity_rad_s", "kd_nms_rad", "pretension_n", "timeout_s"):
+        for name in ("velocity_rad_s", "kd_nms_rad", "pretension_n", "timeout_s", "pulley_radius_m"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value > 0.0):
                 raise ParameterError(f"SlackTakeUp.{name} must be positive and finite, got {value!r}")
         if self.velocity_rad_s > 3.0:
             raise ParameterError(f"SlackTakeUp.velocity_rad_s must be at most 3 rad/s (a slow reel-in), "
                                  f"got {self.velocity_rad_s}")
+        # The motor's and the sheath's friction take their share of kd·v: ask for half again as much.
+        if self.max_pull_n(self.pulley_radius_m) < _REACH_MARGIN * self.pretension_n:
+            raise ParameterError(f"SlackTakeUp: the pretension ({self.pretension_n:g} N) cannot be reached: "
+                                 f"kd·v/radius = {self.max_pull_n(self.pulley_radius_m):.1f} N, less than "
+                                 f"{_REACH_MARGIN:g}× the pretension (raise kd or the velocity)")
 
-    def max_pull_n(self, spool_radius_m: float) -> float:
-        """The largest tension the take-up can reach on a pulley of ``spool_radius_m`` (N)."""
-        return self.kd_nms_rad * self.velocity_rad_s / spool_radius_m
+    def max_pull_n(self, spool_radius_m: float | None = None) -> float:
+        """The largest tension the take-up can reach on a pulley of ``spool_radius_m`` (N; default
+        :attr:`pulley_radius_m`)."""
+        radius = self.pulley_radius_m if spool_radius_m is None else spool_radius_m
+        return self.kd_nms_rad * self.velocity_rad_s / radius
+
+    def pull_n(self, tension_n: float, motor_torque_nm: float) -> float:
+        """The cable's pull now: the load cell's reading if there is one, else the motor's torque
+        over the pulley radius."""
+        if math.isfinite(tension_n):
+            return tension_n
+        return motor_torque_nm / self.pulley_radius_m if math.isfinite(motor_torque_nm) else math.nan
 
 
 def take_up_slack(
