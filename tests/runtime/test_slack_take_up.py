@@ -77,3 +77,18 @@ def test_bowden_run_says_when_the_slack_was_taken_up(capsys):
     out = capsys.readouterr().out
     assert code == 0, out
     assert "slack take-up: in " in out
+
+
+def test_serve_starts_its_trials_the_same_way(tmp_path):
+    pytest.importorskip("starlette")
+    from bowden.cli import build_parser
+    from bowden.cli.serve import serve_config
+
+    def config(*extra: str):
+        args = build_parser().parse_args(["serve", "--store", str(tmp_path / "s.db"), *extra])
+        return serve_config(args)
+
+    assert config().slack is None  # the simulated suit starts taut
+    slack = config("--slack-take-up", "on", "--slack-timeout", "4").slack
+    assert slack is not None and slack.timeout_s == 4.0
+    assert slack.pulley_radius_m == pytest.approx(config().model.pulley_radius_m)

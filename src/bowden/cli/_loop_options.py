@@ -13,6 +13,7 @@ import argparse
 from bowden.runtime import SafetyConfig
 from bowden.runtime.realtime import RealtimeConfig
 from bowden.runtime.safety import FAULT_POLICIES
+from bowden.runtime.slack import SlackTakeUp
 
 DEFAULT_RT_PRIORITY = 50
 
@@ -36,6 +37,13 @@ def add_safety_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--on-recorder-failure", choices=FAULT_POLICIES,
                        default=defaults.on_recorder_failure,
                        help="stop (default) or continue without recording")
+    start = parser.add_argument_group("starting a trial")
+    start.add_argument("--slack-take-up", choices=("on", "off"),
+                       help="reel the cable in slowly to a small pretension before assisting "
+                       "(default: on with --backend can, off on the simulated suit, which starts taut)")
+    start.add_argument("--slack-timeout", type=float, default=SlackTakeUp().timeout_s,
+                       help="longest slack take-up before it is a fault "
+                       f"(default {SlackTakeUp().timeout_s:g} s)")
     timing = parser.add_argument_group("real-time settings of the loop thread")
     timing.add_argument("--rt-priority", type=int, default=DEFAULT_RT_PRIORITY,
                         help="SCHED_FIFO priority 1-99 where the OS allows it "
@@ -51,6 +59,14 @@ def safety_config(args: argparse.Namespace) -> SafetyConfig:
                         host_stall_max_s=args.host_stall_ms / 1e3,
                         on_load_cell_lost=args.on_load_cell_lost,
                         on_recorder_failure=args.on_recorder_failure)
+
+
+def slack_config(args: argparse.Namespace, pulley_radius_m: float) -> SlackTakeUp | None:
+    """The slack take-up of ``--slack-take-up`` (on by default on the real suit), or None."""
+    choice = args.slack_take_up or ("on" if args.backend == "can" else "off")
+    if choice == "off":
+        return None
+    return SlackTakeUp(timeout_s=args.slack_timeout, pulley_radius_m=pulley_radius_m)
 
 
 def realtime_config(args: argparse.Namespace) -> RealtimeConfig:

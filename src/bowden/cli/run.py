@@ -26,7 +26,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config
+from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
 from bowden.cli._run_plan import (
     controller_for,
     record_participant,
@@ -83,11 +83,6 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--support", help="support fraction 0-1, or 'pretension' (default: the --condition's, else 0.5)"
     )
     parser.add_argument("--duration", type=float, default=30.0, help="run length in s (default 30)")
-    parser.add_argument("--slack-take-up", choices=("on", "off"),
-                        help="reel the cable in slowly to a small pretension before assisting "
-                        "(default: on with --backend can, off on the simulated suit, which starts taut)")
-    parser.add_argument("--slack-timeout", type=float, default=SlackTakeUp().timeout_s,
-                        help="longest slack take-up, s, before it is a fault (default 10)")
     parser.add_argument("--rate", type=float, default=500.0, help="control rate in Hz (default 500)")
     parser.add_argument("--record", type=Path, help="study store (SQLite) to record every cycle into")
     parser.add_argument("--participant", default="P00", help="pseudonymous participant id (default P00)")
@@ -244,14 +239,6 @@ def run_trial(
         return loop.run()
 
 
-def slack_take_up(args: argparse.Namespace, model: CompensationModel) -> SlackTakeUp | None:
-    """The slack take-up of ``--slack-take-up`` (on by default on the real suit), or None."""
-    choice = args.slack_take_up or ("on" if args.backend == "can" else "off")
-    if choice == "off":
-        return None
-    return SlackTakeUp(timeout_s=args.slack_timeout, pulley_radius_m=model.pulley_radius_m)
-
-
 def run(args: argparse.Namespace) -> int:
     support, condition = support_and_condition(args.support, args.condition)
     participant = participant_id(args.participant, "--participant")
@@ -271,7 +258,7 @@ def run(args: argparse.Namespace) -> int:
     LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args))
     reference = run_reference(args)
     model = run_model(args)
-    slack = slack_take_up(args, model)
+    slack = slack_config(args, model.pulley_radius_m)
     subject = wearer(args)
     controller = controller_for(model, support, subject, args.hand_load)
     setup = trial = None

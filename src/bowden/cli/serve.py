@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config
+from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
 from bowden.cli._suit import (
     CanSuitOptions,
     add_can_arguments,
@@ -125,8 +125,9 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
     else:
         k = args.friction_k if args.friction_k is not None else _sim_friction_k()
         model = CompensationModel.from_friction(k=k)
+    slack = slack_config(args, model.pulley_radius_m)
     return ServeConfig(store_path=args.store, model=model, backend=backend, host=args.host, port=args.port,
-                       rate_hz=args.rate_hz, safety=safety, realtime=realtime)
+                       rate_hz=args.rate_hz, safety=safety, realtime=realtime, slack=slack)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -23,6 +23,7 @@ from bowden.errors import BowdenError, ParameterError
 from bowden.model import CompensationModel
 from bowden.runtime import SafetyConfig
 from bowden.runtime.realtime import RealtimeConfig
+from bowden.runtime.slack import SlackTakeUp
 from bowden.web.app import create_app
 from bowden.web.live import LiveHub
 from bowden.web.questionnaire_store import QuestionnaireStore
@@ -54,6 +55,8 @@ class ServeConfig:
         Watchdog thresholds of the trials' loops.
     realtime
         Real-time settings of the trials' loop thread (None: leave its scheduling alone).
+    slack
+        The slack take-up that starts each trial (None: assist at once).
     token
         The session token; None draws a fresh one.
     """
@@ -66,6 +69,7 @@ class ServeConfig:
     rate_hz: float = 500.0
     safety: SafetyConfig = field(default_factory=SafetyConfig)
     realtime: RealtimeConfig | None = None
+    slack: SlackTakeUp | None = None
     token: str | None = None
 
     def __post_init__(self) -> None:
@@ -108,6 +112,7 @@ def build_server(config: ServeConfig) -> WebServer:
         rate_hz=config.rate_hz,
         safety=config.safety,
         realtime=config.realtime,
+        slack=config.slack,
     )
     app = create_app(
         manager=manager, questionnaires=questionnaires, token=token, allowed_hosts=config.allowed_hosts

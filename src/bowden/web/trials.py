@@ -40,6 +40,7 @@ from bowden.runtime import (
     TrialInfo,
 )
 from bowden.runtime.realtime import RealtimeConfig
+from bowden.runtime.slack import SlackTakeUp
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, SampleTap, Stamped, Thinning
 from bowden.web.samples import FLAGS, STATE, TIME, console_samples, display_samples, fault_names
 from bowden.web.suits import OpenSuit, SuitBackend
@@ -81,6 +82,8 @@ class TrialManager:
         Control rate.
     safety
         Watchdog thresholds of the trials' loops.
+    slack
+        The slack take-up that starts each trial (:class:`~bowden.runtime.slack.SlackTakeUp`), or None.
     display_rate_hz
         Rate of the samples sent to browsers (≥ the display's frame rate is enough).
     health_period_s
@@ -97,6 +100,7 @@ class TrialManager:
         rate_hz: float = 500.0,
         safety: SafetyConfig | None = None,
         realtime: RealtimeConfig | None = None,
+        slack: SlackTakeUp | None = None,
         display_rate_hz: float = 100.0,
         health_period_s: float = 0.25,
     ) -> None:
@@ -107,6 +111,7 @@ class TrialManager:
         self.rate_hz = rate_hz
         self.safety = safety if safety is not None else SafetyConfig()
         self.realtime = realtime
+        self.slack = slack
         self.health_period_s = health_period_s
         self._thinning = Thinning(display_rate_hz)
         self._trial: _Trial | None = None
@@ -286,7 +291,8 @@ class TrialManager:
             motor=suit.motor,
             elevation_sensor=suit.elevation_sensor,
             clock=suit.clock,
-            config=LoopConfig(rate_hz=self.rate_hz, duration_s=setup.duration_s, safety=self.safety),
+            config=LoopConfig(rate_hz=self.rate_hz, duration_s=setup.duration_s, safety=self.safety,
+                              slack=self.slack),
             tension_sensor=suit.tension_sensor,
             record=record,
             reference_elevation=setup.reference.elevation_rad,
