@@ -29,8 +29,8 @@ def _say(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
 
-def bench_config(args: argparse.Namespace) -> BenchRunConfig:
-    """The run's configuration from the command line (validated: bad numbers are one line)."""
+def bench_protocol(args: argparse.Namespace) -> BenchProtocol:
+    """The protocol of ``bowden bench simulate`` or ``run`` from its options (validated)."""
     overrides: dict[str, object] = {}
     if args.speeds:
         overrides["spool_speeds_rad_s"] = tuple(args.speeds)
@@ -38,15 +38,20 @@ def bench_config(args: argparse.Namespace) -> BenchRunConfig:
         overrides["loads_nm"] = tuple(args.loads)
     if args.repetitions is not None:
         overrides["repetitions"] = args.repetitions
-    if args.low_deg is not None:
+    if getattr(args, "low_deg", None) is not None:
         overrides["low_rad"] = math.radians(args.low_deg)
-    if args.high_deg is not None:
+    if getattr(args, "high_deg", None) is not None:
         overrides["high_rad"] = math.radians(args.high_deg)
-    if args.kp is not None:
+    if getattr(args, "kp", None) is not None:
         overrides["position_gain_nm_rad"] = args.kp
-    if args.kd is not None:
+    if getattr(args, "kd", None) is not None:
         overrides["velocity_gain_nms_rad"] = args.kd
-    protocol = BenchProtocol(**overrides)  # type: ignore[arg-type]
+    return BenchProtocol(**overrides)  # type: ignore[arg-type]
+
+
+def bench_config(args: argparse.Namespace) -> BenchRunConfig:
+    """The run's configuration from the command line (validated: bad numbers are one line)."""
+    protocol = bench_protocol(args)
     slack = SlackTakeUp(pretension_n=args.pretension, pulley_radius_m=args.spool_radius)
     return BenchRunConfig(protocol=protocol, spool_radius_m=args.spool_radius, slack=slack,
                           safety=BenchSafety(max_tension_n=args.max_tension))
@@ -73,6 +78,19 @@ def _open(args: argparse.Namespace) -> AbstractContextManager[Backend]:
         raise ParameterError(f"--mannequin-id {args.mannequin_id} is the TDU's id (--motor-id): "
                              "each motor needs its own CAN id")
     return open_can_backend(options, announce=_say, mannequin=mannequin)
+
+
+@contextmanager
+def _realtime(args: argparse.Namespace) -> Iterator[str]:
+    """The loop thread's real-time settings on the real bench (as ``bowden run``'s); none on the
+    simulated one, whose devices share this machine."""
+    if args.backend != "can":
+        yield ""
+        return
+    from bowden.runtime.realtime import RealtimeConfig, realtime
+
+    with realtime(RealtimeConfig()) as report:
+        yield report.describe()
 
 
 @contextmanager
@@ -111,7 +129,10 @@ def run_bench_on_backend(args: argparse.Namespace) -> int:
             tdu: Any = backend.motor  # an AK60Motor on the bench (command_mit; checked by the run's use)
             devices = BenchDevices(tdu=tdu, mannequin=backend.mannequin, imu=backend.imu,
                                    load_cell=backend.load_cell, clock=backend.clock)
-            report = BenchRun(devices, config, writer, progress=progress).run()
+            with _realtime(args) as settings:
+                if settings:
+                    _say(f"real-time settings: {settings}")
+                report = BenchRun(devices, config, writer, progress=progress).run()
         if live:
             print(file=sys.stderr)
         for error in report.exit_errors:

@@ -98,7 +98,8 @@ def run_bench_command(args: argparse.Namespace) -> int:
 
 
 def run_simulate(args: argparse.Namespace) -> int:
-    from bowden.sim.bench import BenchProtocol, run_bench
+    from bowden.cli._bench_run import bench_protocol
+    from bowden.sim.bench import run_bench
 
     output: Path = args.output
     fmt = _FORMATS.get(output.suffix.lower())
@@ -107,14 +108,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     if not output.absolute().parent.is_dir():  # before a minute of simulation, not after it
         raise OutputFileError(f"cannot write the bench recording to {output}: "
                               f"{output.absolute().parent} is not a directory")
-    overrides: dict[str, object] = {}
-    if args.speeds:
-        overrides["spool_speeds_rad_s"] = tuple(args.speeds)
-    if args.loads:
-        overrides["loads_nm"] = tuple(args.loads)
-    if args.repetitions is not None:
-        overrides["repetitions"] = args.repetitions
-    protocol = BenchProtocol(**overrides)  # type: ignore[arg-type]
+    protocol = bench_protocol(args)
 
     # A line redrawn in place on a terminal; in a log (not a terminal) only every tenth of the way.
     live = sys.stderr.isatty()

@@ -130,20 +130,19 @@ MOTOR_LIMITS: Final[dict[str, AK60Limits]] = {
 
 def limits_for_motor(name: str) -> AK60Limits:
     """The field ranges of the AK-series motor ``name`` (see :data:`MOTOR_LIMITS`)."""
-    try:
-        return MOTOR_LIMITS[name]
-    except KeyError:
-        known = ", ".join(sorted(MOTOR_LIMITS))
-        raise ParameterError(f"unknown AK-series motor {name!r}; known: {known}") from None
+    return _preset(MOTOR_LIMITS, name, "AK-series motor")
 
 
 def limits_for_firmware(name: str) -> AK60Limits:
     """The :class:`AK60Limits` preset called ``name`` (see :data:`FIRMWARE_LIMITS`)."""
+    return _preset(FIRMWARE_LIMITS, name, "AK60 firmware variant")
+
+
+def _preset(table: dict[str, AK60Limits], name: str, what: str) -> AK60Limits:
     try:
-        return FIRMWARE_LIMITS[name]
+        return table[name]
     except KeyError:
-        known = ", ".join(sorted(FIRMWARE_LIMITS))
-        raise ParameterError(f"unknown AK60 firmware variant {name!r}; known: {known}") from None
+        raise ParameterError(f"unknown {what} {name!r}; known: {', '.join(sorted(table))}") from None
 
 
 def float_to_uint(value: float, low: float, high: float, bits: int) -> int:

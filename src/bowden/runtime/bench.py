@@ -7,10 +7,11 @@ constant torque; the load cell, the IMU on the mannequin's arm and both motors a
 * the TDU tracks a trajectory in MIT mode (``kp``, ``kd`` of the protocol; the target advances at
   the commanded velocity, with trapezoidal ramps at the protocol's acceleration), the mannequin
   motor is commanded in torque (its load ramps when it changes);
-* a stroke ends by the IMU: it brakes where the spool's stopping distance, seen at the arm through
-  the elevation-per-spool ratio measured during the stroke, ends it at the range's end;
-* before the first stroke, and after a resume, the cable's slack is taken up (:mod:`bowden.runtime.slack`)
-  and the arm is brought to the start of the next stroke (logged, not recorded);
+* a stroke ends by the IMU: the first visit of a range end (per load and direction) brakes on the
+  elevation-per-spool ratio measured so far, aiming short; later ones where the spool stood when the
+  arm came to rest there (docs/identification.md, "On your bench");
+* every run starts by taking up the cable's slack (:mod:`bowden.runtime.slack`); before each stroke
+  the arm is brought to its start if it rests elsewhere (logged, not recorded);
 * every cycle is watched, and any fault brings both motors to zero torque and out of motor mode
   within ``ramp_down_s`` plus a cycle: stale IMU, elevation out of the range with its margin, tension
   over the limit, a silent or failing motor, transmit failures, an IMU that does not follow the
@@ -256,7 +257,6 @@ class BenchRun:
         self._deaf_cell_since = math.nan
         self._tension_n = math.nan
         self._elevation_rad = math.nan
-        self._elevation_velocity = 0.0
         self._stroke: BenchStroke | None = None
         self._phase = PHASE_HOLD
         # (range end, load) → (elevation, spool) with the arm at rest there: the cable stretches with the
@@ -531,8 +531,6 @@ class BenchRun:
         if not math.isfinite(sample.elevation_rad):
             raise BenchFault("IMU sent a non-finite elevation")
         self._elevation_rad = sample.elevation_rad
-        velocity = sample.elevation_velocity_rad_s
-        self._elevation_velocity = velocity if math.isfinite(velocity) else 0.0
         low, high = p.low_rad - safety.range_margin_rad, p.high_rad + safety.range_margin_rad
         if self._phase in (PHASE_TAKE_UP, PHASE_POSITION):
             low = -math.pi  # the arm may hang below the range until it is brought to a stroke's start
