@@ -9,7 +9,9 @@ to both motors out of motor mode, with slack for a busy host like the other watc
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import time
 from collections.abc import Callable, Iterator
 
@@ -138,8 +140,18 @@ def test_every_fault_reaches_the_safe_state(bench, tmp_path, name):
     heard = exited(bench, report.fault_at_s - 0.2)
     muted = device == "mannequin" and fault == "mute"  # hears nothing; its driver still sends the exit
     assert set(heard) == ({"motor"} if muted else {"motor", "mannequin"}), heard
+    note_latency(name, {device: time_s - start for device, time_s in heard.items()},
+                 report.fault_at_s - start)
     for time_s in heard.values():
         assert time_s - start <= SAFE_WITHIN_S + detection + HOST_SLACK_S, (heard, report)
+
+
+def note_latency(name: str, exits: dict[str, float], detected_s: float) -> None:
+    """Append the measured times to $BOWDEN_FAULT_LATENCIES (as the suit's watchdog tests do)."""
+    path = os.environ.get("BOWDEN_FAULT_LATENCIES")
+    if path:
+        with open(path, "a", encoding="utf-8") as out:
+            out.write(json.dumps({"bench fault": name, "detected_s": detected_s, "exit_s": exits}) + "\n")
 
 
 def test_a_mannequin_on_another_id_is_one_line_and_nothing_moves(bench, tmp_path):

@@ -161,7 +161,9 @@ def test_serve_backend_can_runs_console_trials_on_the_wire(wire_suit: WireSuit, 
 
     trial, rows, events = stored(store, trial_id)
     assert trial[:5] == ("P01", "support_50", "V3", 0.5, "operator stop (console)") and trial[5] is not None
-    assert events == [("safe_stop", "operator stop (console)")]
+    # Each trial takes up the slack first (a `slack` event, unless the stop came before it was done).
+    assert [kind for kind, _ in events[:-1]] in ([], ["slack"])
+    assert events[-1] == ("safe_stop", "operator stop (console)")
     assert len(rows) == result["cycles"] == result["committed_rows"]  # every cycle is in the store
     assert_ramped_down(rows)
     assert rows[-1][5] & int(Fault.STOP_REQUESTED)
@@ -247,7 +249,9 @@ def test_run_serve_shows_the_run_and_the_console_stops_it(wire_suit: WireSuit, t
     trial_row, rows, events = stored(store, result["trial_id"])
     assert len(rows) == result["cycles"] == result["committed_rows"]
     assert trial_row[:5] == ("P07", "support_50", "V2", 0.5, "operator stop (console)")
-    assert events == [("safe_stop", "STOP_REQUESTED: operator stop (console)")]
+    # The real suit starts each trial by taking up the slack (a `slack` event once it is done).
+    assert [kind for kind, _ in events[:-1]] in ([], ["slack"])
+    assert events[-1] == ("safe_stop", "STOP_REQUESTED: operator stop (console)")
     assert_ramped_down(rows)
     assert all(r[1] is not None for r in rows)  # the reference the display showed
     assert max(math.degrees(r[2]) for r in rows) > 30.0
