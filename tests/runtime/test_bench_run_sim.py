@@ -25,7 +25,7 @@ from bowden.runtime.bench import BenchDevices, BenchReport, BenchRun, BenchRunCo
 from bowden.runtime.bench_recording import BenchRecordingWriter
 from bowden.sim.backend import open_sim_bench
 
-# Detection + 30 ms ramp + a cycle ≤ 100 ms; the slack covers a host the test shares with CI.
+# Detection + 30 ms ramp + a cycle ≤ 100 ms (measured: 30–72 ms); the slack covers a busy host.
 SAFE_WITHIN_S = 0.1
 HOST_SLACK_S = 0.05
 
@@ -134,16 +134,16 @@ def test_every_fault_reaches_the_safe_state(bench, tmp_path, name):
         bench.inject(device, fault, *undo)
     assert report.fault is not None and words in report.fault, report.fault
     assert report.strokes_done == 1  # the complete stroke is kept
+    # From the injection, detection included (a stale IMU 40 ms, a silent motor 30 ms); faults seen
+    # only over a window (0.2 s of a weak load, 1.5 rad of spool) from the moment they were seen.
     start = injected[0] if from_injection else report.fault_at_s
-    # Detection of a stale IMU takes its 40 ms; of a silent motor 5 commands and 30 ms.
-    detection = 0.04 if from_injection else 0.0
     heard = exited(bench, report.fault_at_s - 0.2)
     muted = device == "mannequin" and fault == "mute"  # hears nothing; its driver still sends the exit
     assert set(heard) == ({"motor"} if muted else {"motor", "mannequin"}), heard
     note_latency(name, {device: time_s - start for device, time_s in heard.items()},
                  report.fault_at_s - start)
     for time_s in heard.values():
-        assert time_s - start <= SAFE_WITHIN_S + detection + HOST_SLACK_S, (heard, report)
+        assert time_s - start <= SAFE_WITHIN_S + HOST_SLACK_S, (heard, report)
 
 
 def note_latency(name: str, exits: dict[str, float], detected_s: float) -> None:

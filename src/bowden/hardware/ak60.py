@@ -66,6 +66,7 @@ from bowden.hardware.protocols import MotorState
 _log = logging.getLogger(__name__)
 ERRNO_NO_BUFFER_SPACE = 105  # ENOBUFS on Linux: the CAN controller's transmit queue is full
 MAX_REPLY_WAIT_S = 0.0005
+_REPLY_GAP_S = 0.005  # replies on a bus come within a fraction of a millisecond of each other
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -237,6 +238,8 @@ class AK60Motor:
         self.last_malformed: str | None = None
         self.last_receive_error: str | None = None
         self.exit_error: str | None = None
+        self._exit_replies_expected = 0
+        self._exit_deadline_s = -math.inf
         self._foreign_ids: set[int] = set()  # ids of foreign frames carrying our id in byte 0
 
     # --- Motor protocol ---------------------------------------------------------------------------
@@ -285,16 +288,38 @@ class AK60Motor:
         TransmitError
             The exit frame could not be sent (after ``send_attempts``).
         """
+        self.request_exit()
+        self.await_exit()
+
+    def request_exit(self) -> None:
+        """Send the exit frame now without waiting for its reply (:meth:`await_exit` waits); a caller
+        stopping several motors sends every exit first, so that a silent one delays no other.
+
+        Raises
+        ------
+        TransmitError
+            The exit frame could not be sent (after ``send_attempts``).
+        """
         # Replies to the last torque commands may still be on their way: the exit's reply is the one
-        # after them (the motor answers in order), so wait for all of them, within the timeout.
-        expected = self.unanswered_commands + 1
+        # after them (the motor answers in order).
+        self._exit_replies_expected = self.unanswered_commands + 1
         self._send(EXIT_MOTOR_MODE)
         self._enabled = False
-        deadline = self._clock() + self.config.special_reply_timeout_s
+        self._exit_deadline_s = self._clock() + self.config.special_reply_timeout_s
+
+    def await_exit(self) -> None:
+        """Read the replies up to the exit's, within ``special_reply_timeout_s`` of the request.
+
+        The count can be one too many (a reply taken in the poll right after its own command is still
+        counted pending), so once replies flow a short quiet gap ends the wait.
+        """
+        expected, self._exit_replies_expected = self._exit_replies_expected, 0
         received = 0
         while received < expected:
+            remaining = max(self._exit_deadline_s - self._clock(), 0.0)
             try:
-                self._await_state(max(deadline - self._clock(), 0.0), "exit motor mode")
+                self._await_state(remaining if received == 0 else min(remaining, _REPLY_GAP_S),
+                                  "exit motor mode")
             except HardwareError as error:
                 if received == 0:
                     _log.warning("AK60 id %d: no valid reply to exit motor mode (%s)",

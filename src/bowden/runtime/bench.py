@@ -65,6 +65,10 @@ class BenchMotor(Protocol):
 
     def disable(self) -> None: ...
 
+    def request_exit(self) -> None: ...
+
+    def await_exit(self) -> None: ...
+
     def command_torque(self, torque_nm: float) -> MotorState | None: ...
 
     def command_mit(self, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
@@ -636,11 +640,16 @@ class BenchRun:
             if fraction == 0.0:
                 break
             clock.sleep_until(deadline)
+        # Every exit frame goes out before any reply is waited for: a silent motor delays no other.
+        sent = []
         for name, motor in (("TDU", tdu), ("mannequin motor", mannequin)):
             try:
-                motor.disable()
+                motor.request_exit()
+                sent.append(motor)
             except (HardwareError, OSError) as error:
                 errors.append(f"{name}: could not leave motor mode: {error}")
+        for motor in sent:
+            motor.await_exit()
         return clock.now()
 
 
