@@ -17,6 +17,7 @@ Parquet cannot be appended to) and converted once the protocol is complete.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from collections.abc import Sequence
@@ -164,9 +165,25 @@ class BenchRecordingWriter:
             _append(self._require(self._data), rows, integer_columns=(len(RECORDING_COLUMNS) - 1,))
             _append(self._require(self._log), log_rows, integer_columns=(1, 2))
         except OSError as error:
+            self._cut_back()
             raise OutputFileError(f"cannot write the bench recording {self.path}: "
                                   f"{error.strerror or error}") from None
         self._sync(strokes_done, float(rows[-1, 0]), complete=False)
+
+    def _cut_back(self) -> None:
+        """After a failed write, cut both files back to their journalled length, so that the
+        recording on disk stays whole strokes (``bowden identify`` reads it as it is)."""
+        journal = self._read_journal()
+        if journal is None:
+            return
+        for handle, size in ((self._data, journal["data_bytes"]), (self._log, journal["log_bytes"])):
+            if handle is None or handle.closed:
+                continue
+            with contextlib.suppress(OSError, ValueError):
+                handle.flush()
+            with contextlib.suppress(OSError, ValueError):
+                handle.seek(size)
+                handle.truncate(size)
 
     def write_log(self, log_rows: NDArray[np.float64]) -> None:
         """Append the log of a stroke that did not complete (a fault, an interruption): kept for the

@@ -1,0 +1,189 @@
+"""What a bench run is given and what it reports: the devices, the watchdogs, the configuration.
+
+The run itself is :class:`bowden.runtime.bench.BenchRun`; these types are its contract (the CLI and
+the tests build them).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Protocol
+
+from bowden.errors import BowdenError, ParameterError
+from bowden.hardware.protocols import Clock, ElevationSensor, MotorState, TensionSensor
+from bowden.protocol.bench import BenchProtocol
+from bowden.runtime.slack import SlackTakeUp
+
+
+class BenchMotor(Protocol):
+    """What the bench needs of an AK-series driver (:class:`bowden.hardware.ak60.AK60Motor`)."""
+
+    last_state: MotorState | None
+    unanswered_commands: int
+    oldest_unanswered_send_s: float
+
+    def enable(self) -> MotorState: ...
+
+    def disable(self) -> None: ...
+
+    def request_exit(self) -> None: ...
+
+    def await_exit(self) -> None: ...
+
+    def command_torque(self, torque_nm: float) -> MotorState | None: ...
+
+    def command_mit(self, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
+                    torque_nm: float = 0.0) -> MotorState | None: ...
+
+
+@dataclass(frozen=True, kw_only=True)
+class BenchSafety:
+    """The bench's watchdogs (s, rad, N). Defaults put every fault at zero torque within 100 ms.
+
+    Parameters
+    ----------
+    imu_max_age_s, motor_max_silence_s, motor_min_unanswered, max_transmit_failures
+        As :class:`bowden.runtime.safety.SafetyConfig`: a stale IMU sample, replies missing to
+        commands actually sent (either motor), consecutive failed sends.
+    max_tension_n
+        A load-cell reading above this stops the bench.
+    range_margin_rad
+        The elevation may overshoot the protocol's range by this much; beyond it the bench stops.
+    max_temperature_c
+        Either motor hotter than this stops the bench.
+    imu_follow_spool_rad, imu_follow_min_rad
+        Once the spool has moved ``imu_follow_spool_rad`` in a stroke, the elevation must have changed
+        by ``imu_follow_min_rad`` (an IMU fallen off or not on the arm).
+    load_hold_fraction, load_hold_window_s
+        The mannequin motor must report at least this fraction of its load command (after its ramp);
+        less for the window means it cannot hold the load.
+    load_cell_check_pull_n, load_cell_min_n, load_cell_window_s
+        While the TDU pulls more than ``load_cell_check_pull_n`` (its torque over the pulley radius),
+        the load cell must read at least ``load_cell_min_n`` within the window.
+    ramp_down_s
+        Both torques ramp to zero over this long, then both motors leave motor mode.
+    """
+
+    imu_max_age_s: float = 0.04
+    motor_max_silence_s: float = 0.03
+    motor_min_unanswered: int = 5
+    max_transmit_failures: int = 3
+    max_tension_n: float = 250.0
+    range_margin_rad: float = math.radians(10.0)
+    max_temperature_c: float = 80.0
+    imu_follow_spool_rad: float = 1.5
+    imu_follow_min_rad: float = math.radians(2.0)
+    load_hold_fraction: float = 0.5
+    load_hold_window_s: float = 0.2
+    load_cell_check_pull_n: float = 20.0
+    load_cell_min_n: float = 2.0
+    load_cell_window_s: float = 0.2
+    ramp_down_s: float = 0.03
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ParameterError(f"BenchSafety.{name} must be positive and finite, got {value!r}")
+        if self.ramp_down_s > 0.1:
+            raise ParameterError(f"BenchSafety.ramp_down_s must be at most 0.1 s, got {self.ramp_down_s}")
+        if self.load_hold_fraction >= 1.0:
+            raise ParameterError("BenchSafety.load_hold_fraction must be below 1")
+
+
+@dataclass(frozen=True, kw_only=True)
+class BenchRunConfig:
+    """How the bench runs the protocol.
+
+    Parameters
+    ----------
+    protocol
+        The identification protocol (speeds, loads, repetitions, range, hold, acceleration, gains,
+        recording rate).
+    rate_hz
+        The loop's rate; rows are recorded at ``protocol.sample_rate_hz`` (a divisor of it). The
+        motor holds each MIT position target until the next command and answers with the torque it
+        applied just before it, so its reported torque is always sampled at the same point of the
+        tracking error's sawtooth (kp·v/rate): at 400 Hz that biased both identified intercepts
+        towards zero by 0.016–0.026 Nm on the simulated bench, at 1 kHz by ≤ 0.003 Nm (raising).
+        Two motors at 1 kHz use about half of the 1 Mbit/s bus.
+    spool_radius_m
+        The TDU's pulley radius (the motor's pull without a load cell: torque / radius).
+    slack
+        The slack take-up before the first stroke (:class:`~bowden.runtime.slack.SlackTakeUp`).
+    take_up_load_nm
+        The mannequin's least load while the slack is taken up (it holds the arm down as the cable
+        tightens; the next stroke's load if that is larger).
+    load_ramp_s
+        A change of the mannequin's load is ramped over this long.
+    position_speed_rad_s
+        Spool speed of the unrecorded move that brings the arm to the start of a stroke.
+    stroke_timeout_factor
+        A stroke that takes longer than this times its expected duration (plus 2 s) is a fault.
+    safety
+        :class:`BenchSafety`.
+    """
+
+    protocol: BenchProtocol = field(default_factory=BenchProtocol)
+    rate_hz: float = 1000.0
+    spool_radius_m: float = 0.035
+    slack: SlackTakeUp = field(default_factory=SlackTakeUp)
+    take_up_load_nm: float = 0.3
+    load_ramp_s: float = 0.3
+    position_speed_rad_s: float = 1.0
+    stroke_timeout_factor: float = 3.0
+    safety: BenchSafety = field(default_factory=BenchSafety)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.rate_hz) and 50.0 <= self.rate_hz <= 2000.0):
+            raise ParameterError(f"BenchRunConfig.rate_hz must be in [50, 2000], got {self.rate_hz}")
+        ratio = self.rate_hz / self.protocol.sample_rate_hz
+        if ratio < 1.0 - 1e-9 or abs(ratio - round(ratio)) > 1e-9:
+            raise ParameterError(f"the recording rate ({self.protocol.sample_rate_hz:g} Hz) must divide the "
+                                 f"loop rate ({self.rate_hz:g} Hz)")
+        for name in ("spool_radius_m", "take_up_load_nm", "load_ramp_s", "position_speed_rad_s",
+                     "stroke_timeout_factor"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ParameterError(f"BenchRunConfig.{name} must be positive, got {value!r}")
+
+    def protocol_fingerprint(self) -> dict[str, object]:
+        """The numbers a resumed recording must share with the one it continues."""
+        p = self.protocol
+        return {"spool_speeds_rad_s": list(p.spool_speeds_rad_s), "loads_nm": list(p.loads_nm),
+                "repetitions": p.repetitions, "low_rad": p.low_rad, "high_rad": p.high_rad,
+                "hold_s": p.hold_s, "sample_rate_hz": p.sample_rate_hz,
+                "spool_acceleration_rad_s2": p.spool_acceleration_rad_s2,
+                "position_gain_nm_rad": p.position_gain_nm_rad,
+                "velocity_gain_nms_rad": p.velocity_gain_nms_rad}
+
+
+@dataclass(frozen=True)
+class BenchDevices:
+    """The bench's devices: the TDU, the mannequin's motor, the IMU on its arm, the load cell, a clock."""
+
+    tdu: BenchMotor
+    mannequin: BenchMotor
+    imu: ElevationSensor
+    load_cell: TensionSensor
+    clock: Clock
+
+
+@dataclass
+class BenchReport:
+    """How a bench run ended."""
+
+    strokes_done: int
+    strokes_total: int
+    fault: str | None = None
+    fault_at_s: float = math.nan  # clock time the fault was found
+    safe_at_s: float = math.nan  # clock time both motors were out of motor mode (the end of the run)
+    exit_errors: list[str] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        return self.fault is None and self.strokes_done == self.strokes_total
+
+
+class BenchFault(BowdenError):
+    """A watchdog of the bench fired (the message names it); both motors are already safe."""
