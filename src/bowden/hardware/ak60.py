@@ -307,8 +307,9 @@ class AK60Motor:
         self._enabled = False
         self._exit_deadline_s = self._clock() + self.config.special_reply_timeout_s
 
-    def await_exit(self) -> None:
-        """Read the replies up to the exit's, within ``special_reply_timeout_s`` of the request.
+    def await_exit(self) -> bool:
+        """Read the replies up to the exit's, within ``special_reply_timeout_s`` of the request;
+        True if the motor answered (False: the exit frame may not have reached it).
 
         The count can be one too many (a reply taken in the poll right after its own command is still
         counted pending), so once replies flow a short quiet gap ends the wait.
@@ -324,8 +325,9 @@ class AK60Motor:
                 if received == 0:
                     _log.warning("AK60 id %d: no valid reply to exit motor mode (%s)",
                                  self.config.motor_id, error)
-                return
+                return received > 0
             received += 1
+        return True
 
     def set_zero(self) -> None:
         """Make the current position zero; waits out the motor's silence after the request.

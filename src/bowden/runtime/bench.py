@@ -484,7 +484,12 @@ class BenchRun:
                 sent.append(motor)
             except (HardwareError, OSError) as error:
                 errors.append(f"{name}: could not leave motor mode: {error}")
-        for motor in sent:
+        # A motor that did not answer may not have heard its exit (a frame lost on the bus): once more.
+        unconfirmed = [motor for motor in sent if not motor.await_exit()]
+        for motor in unconfirmed:
+            with contextlib.suppress(HardwareError, OSError):
+                motor.request_exit()
+        for motor in unconfirmed:
             motor.await_exit()
         return clock.now()
 

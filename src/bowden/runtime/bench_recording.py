@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import logging
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -31,6 +32,8 @@ from numpy.typing import NDArray
 from bowden._atomic_file import write_text_atomically
 from bowden.contracts import BENCH_COLUMNS, BENCH_TRIAL
 from bowden.errors import OutputFileError, RecordingError
+
+_log = logging.getLogger(__name__)
 
 RECORDING_COLUMNS = (*BENCH_COLUMNS, BENCH_TRIAL)
 LOG_COLUMNS = (
@@ -195,6 +198,7 @@ class BenchRecordingWriter:
         try:
             _append(self._require(self._log), log_rows, integer_columns=(1, 2))
         except OSError as error:
+            self._cut_back()
             raise OutputFileError(f"cannot write the bench log {self.log_path}: "
                                   f"{error.strerror or error}") from None
         self._sync(int(journal["strokes_done"]), float(journal["last_time_s"]), complete=False)
@@ -257,7 +261,11 @@ class BenchRecordingWriter:
         """Close the files (what is journalled stays; nothing else is written)."""
         for handle in (self._data, self._log):
             if handle is not None and not handle.closed:
-                handle.close()
+                try:
+                    handle.close()
+                except OSError as error:
+                    # What a failed write left in the buffer; the journal never counted it.
+                    _log.warning("bench recording: closing %s: %s", handle.name, error.strerror or error)
         self._data = self._log = None
 
     def __enter__(self) -> BenchRecordingWriter:
