@@ -135,7 +135,7 @@ def test_denoising_and_gate_improve_on_the_described_algorithm_at_high_emg(conta
 
 
 def test_noise_model_spectrum_integrates_to_the_variance_and_is_flat_for_white_noise():
-    from bowden.analysis.emg_ecg_noise import NoiseModel as _NoiseModel
+    from bowden.analysis.emg.ecg_noise import NoiseModel as _NoiseModel
 
     rng = np.random.default_rng(3)
     white = 2.0 * rng.standard_normal(200_000)
@@ -172,7 +172,7 @@ def test_strong_emg_with_weak_ecg_is_not_made_worse(contaminated_emg):
 
 
 def test_pooled_gate_follows_the_fitted_line_of_gain_against_emg_variance():
-    from bowden.analysis.emg_ecg import _pooled_gate
+    from bowden.analysis.emg.ecg import _pooled_gate
 
     scale = np.linspace(0.2, 1.8, 41)
     noise = 0.3 * np.sin(np.arange(41))  # zero-mean scatter, orthogonal enough to the line
@@ -184,7 +184,7 @@ def test_pooled_gate_follows_the_fitted_line_of_gain_against_emg_variance():
 
 
 def test_synthetic_emg_has_the_model_variance_and_each_beat_its_scale():
-    from bowden.analysis.emg_ecg_noise import NoiseModel, synthetic_emg
+    from bowden.analysis.emg.ecg_noise import NoiseModel, synthetic_emg
 
     rng = np.random.default_rng(8)
     coloured = sps.lfilter([1.0], [1.0, -0.8], rng.standard_normal(400_000))

@@ -3,7 +3,7 @@ import pytest
 from scipy import signal as sps
 
 from bowden.analysis import EmgSignal, emg_envelope, emg_filter, emg_rectify
-from bowden.analysis.emg_filter import butterworth_bandpass_sos
+from bowden.analysis.emg.filter import butterworth_bandpass_sos
 from bowden.errors import ParameterError, RecordingError
 
 from .conftest import RATE_HZ, emg_noise, smooth_activation

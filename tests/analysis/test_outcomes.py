@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from bowden.analysis import AnalysisParameters, TrialMetadata, analyse_study, methods_text, sparc
-from bowden.analysis.emg_process import EmgProcessParameters
+from bowden.analysis.emg.process import EmgProcessParameters
 from bowden.contracts import (
     MUSCLES,
     SPEED_PEAK_DEG_S,

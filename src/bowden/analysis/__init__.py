@@ -7,19 +7,27 @@ trial's measures and :func:`analyse_study` turns a study's DataFrames into the t
 and mean ± SD curves; :func:`methods_text` describes it all.
 """
 
-from bowden.analysis.emg_ecg import EcgRemovalParameters, emg_remove_ecg
-from bowden.analysis.emg_filter import emg_envelope, emg_filter, emg_rectify
-from bowden.analysis.emg_io import EmgCheckParameters, emg_align, emg_check, read_emg_csv, read_emg_edf
-from bowden.analysis.emg_normalize import emg_mean_peak, emg_normalize
-from bowden.analysis.emg_process import (
+from bowden.analysis.emg import (
+    EcgRemovalParameters,
+    EmgCheckParameters,
     EmgProcessInfo,
     EmgProcessParameters,
     EmgResult,
+    EmgSignal,
+    emg_align,
+    emg_check,
+    emg_detect_r_peaks,
+    emg_envelope,
+    emg_filter,
+    emg_mean_peak,
+    emg_normalize,
     emg_pipeline,
     emg_process,
+    emg_rectify,
+    emg_remove_ecg,
+    read_emg_csv,
+    read_emg_edf,
 )
-from bowden.analysis.emg_rpeaks import emg_detect_r_peaks
-from bowden.analysis.emg_signal import EmgSignal
 from bowden.analysis.methods_text import MethodsText, methods_text
 from bowden.analysis.outcomes import (
     AnalysisInfo,

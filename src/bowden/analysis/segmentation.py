@@ -21,7 +21,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy import signal as sps
 
-from bowden.analysis.emg_signal import rate_from_time
+from bowden.analysis.emg.signal import rate_from_time
 from bowden.contracts import (
     REPETITIONS_PER_TRIAL,
     TRIAL_ELEVATION,

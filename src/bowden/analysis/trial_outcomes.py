@@ -33,9 +33,9 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from bowden.analysis.emg_normalize import emg_mean_peak
-from bowden.analysis.emg_process import EmgProcessParameters, emg_pipeline
-from bowden.analysis.emg_signal import EmgSignal
+from bowden.analysis.emg.normalize import emg_mean_peak
+from bowden.analysis.emg.process import EmgProcessParameters, emg_pipeline
+from bowden.analysis.emg.signal import EmgSignal
 from bowden.analysis.metrics import percent_error, rmse, root_mean_square, signed_peak
 from bowden.analysis.segmentation import (
     Repetition,

@@ -1,8 +1,8 @@
 """The EMG under an ECG artefact: its spectrum, a Wiener filter for templates, synthetic EMG.
 
-Support for :mod:`bowden.analysis.emg_ecg`: the noise model is measured on the channel after plain
+Support for :mod:`bowden.analysis.emg.ecg`: the noise model is measured on the channel after plain
 template subtraction; the templates are denoised with it (Wiener 1949) and synthetic EMG with its
-spectrum feeds the bootstrap of the section gate (``emg_ecg._search_penalty``).
+spectrum feeds the bootstrap of the section gate (``ecg._search_penalty``).
 """
 
 from __future__ import annotations

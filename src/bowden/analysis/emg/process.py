@@ -18,11 +18,11 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from bowden.analysis.emg_ecg import EcgRemovalParameters, remove_ecg_from_channel
-from bowden.analysis.emg_filter import emg_envelope, emg_filter
-from bowden.analysis.emg_io import EmgCheckParameters, emg_check
-from bowden.analysis.emg_rpeaks import emg_detect_r_peaks
-from bowden.analysis.emg_signal import EmgSignal
+from bowden.analysis.emg.check import EmgCheckParameters, emg_check
+from bowden.analysis.emg.ecg import EcgRemovalParameters, remove_ecg_from_channel
+from bowden.analysis.emg.filter import emg_envelope, emg_filter
+from bowden.analysis.emg.rpeaks import emg_detect_r_peaks
+from bowden.analysis.emg.signal import EmgSignal
 from bowden.contracts import ECG_CONTAMINATED_MUSCLES, TRIAL_TIME
 from bowden.errors import ParameterError
 

@@ -1,4 +1,4 @@
-"""The per-beat fit of the adaptive ECG template subtraction (see :mod:`bowden.analysis.emg_ecg`).
+"""The per-beat fit of the adaptive ECG template subtraction (see :mod:`bowden.analysis.emg.ecg`).
 
 Alignment by cross-correlation and the search over QRS stretch variants, each with a least-squares
 scale and offset per P/QRS/T section (Petersen et al. 2020, IEEE Access 8:30905; REFERENCE §5), for

@@ -1,6 +1,6 @@
 """R-peak detection in ECG-contaminated EMG (Pan & Tompkins 1985, adapted to sEMG).
 
-Used by the ECG removal of :mod:`bowden.analysis.emg_ecg` (REFERENCE §5: "R-peaks (Pan–Tompkins-like,
+Used by the ECG removal of :mod:`bowden.analysis.emg.ecg` (REFERENCE §5: "R-peaks (Pan–Tompkins-like,
 ≥ 300 ms apart) on a high-passed copy or a cleaner channel"). The detector works on a band-passed copy
 of the raw channel: the high-pass removes baseline drift and movement artefacts, the low-pass keeps
 the QRS complex (most of its energy lies in 5–30 Hz) while suppressing most of the EMG (50–150 Hz).
@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal as sps
 
-from bowden.analysis.emg_signal import EmgSignal
+from bowden.analysis.emg.signal import EmgSignal
 from bowden.errors import ParameterError
 
 _INTEGRATION_WINDOW_S = 0.150  # Pan & Tompkins: about the widest QRS

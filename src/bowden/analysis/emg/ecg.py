@@ -24,14 +24,14 @@ removes about 1 % of the EMG energy (−19 dB). Once the ECG is more than ~13 dB
 is more than the ECG it removes (tests/analysis/test_emg_ecg.py and docs/study.md tabulate it):
 
 7. *template denoising*: each template passes through one Wiener filter whose noise spectrum is the
-   EMG's, measured on the channel (:func:`~bowden.analysis.emg_ecg_noise.denoised_templates`);
+   EMG's, measured on the channel (:func:`~bowden.analysis.emg.ecg_noise.denoised_templates`);
 8. *section gate*: a section's fit is subtracted only where it is expected to lower the error of
    the cleaned signal, by Mallows' Cp in Efron's covariance-penalty form with the search included
    (a parametric bootstrap, :func:`_search_penalty`), pooled per section type as a line in the
    beat's EMG variance (:func:`_pooled_gate`).
 
 The fit itself (all beats, shifts and stretch variants at once) is
-:mod:`bowden.analysis.emg_ecg_fit`. ``method="template"`` is the plain template subtraction: the same moving
+:mod:`bowden.analysis.emg.ecg_fit`. ``method="template"`` is the plain template subtraction: the same moving
 40-beat template, subtracted at the detected R-peaks without alignment, stretching, scaling,
 denoising or gate. Beats whose QRS window does not fit inside the record are left untouched.
 """
@@ -46,9 +46,9 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bowden.analysis.emg_ecg_fit import BeatFit, alignment_shifts, fit_beats
-from bowden.analysis.emg_ecg_noise import NoiseModel, denoised_templates, synthetic_emg
-from bowden.analysis.emg_signal import EmgSignal
+from bowden.analysis.emg.ecg_fit import BeatFit, alignment_shifts, fit_beats
+from bowden.analysis.emg.ecg_noise import NoiseModel, denoised_templates, synthetic_emg
+from bowden.analysis.emg.signal import EmgSignal
 from bowden.errors import ParameterError, RecordingError
 
 EcgMethod = Literal["adaptive", "template"]

@@ -2,7 +2,7 @@
 
 The paper's "Data processing" section: a third-order zero-phase Butterworth band-pass (20–400 Hz),
 rectification and a sliding 100 ms RMS window (Burden et al. 2017, following the paper's citation).
-Each function takes and returns an :class:`~bowden.analysis.emg_signal.EmgSignal`, so the sampling
+Each function takes and returns an :class:`~bowden.analysis.emg.signal.EmgSignal`, so the sampling
 rate is never passed separately.
 
 A note on "−6 dB at the cut-offs": ``butter(3, [20, 400], 'bandpass', fs=...)`` places its −3 dB
@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal as sps
 
-from bowden.analysis.emg_signal import EmgSignal
+from bowden.analysis.emg.signal import EmgSignal
 from bowden.errors import ParameterError, RecordingError
 
 

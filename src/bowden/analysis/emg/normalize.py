@@ -12,7 +12,7 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-from bowden.analysis.emg_signal import EmgSignal
+from bowden.analysis.emg.signal import EmgSignal
 from bowden.analysis.segmentation import Repetition
 from bowden.errors import RecordingError
 
