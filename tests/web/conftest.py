@@ -17,6 +17,8 @@ from starlette.testclient import TestClient
 
 from bowden.model import CompensationModel
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
+from bowden.protocol.session_plan import StudyProtocol
+from bowden.runtime.store_schema import STORE_FILE_NAME
 from bowden.sim.arm import PrescribedArm
 from bowden.sim.peers import AK60Peer, NgimuPeer, WallTimePlant
 from bowden.sim.peers.ak60_peer import COMMAND, EXIT, ReceivedFrame
@@ -55,13 +57,31 @@ def store_snapshot(path: Path) -> dict[str, list[tuple[object, ...]]]:
         return {t: sorted(connection.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in tables}
 
 
-def make_server(tmp_path: Path, *, time_scale: float = 20.0, rate_hz: float = 250.0) -> WebServer:
+# A whole session kept short: the four conditions at one speed, one repetition a trial.
+SHORT_PROTOCOL = StudyProtocol(speeds=("V3",), repetitions=1, lead_in_s=0.3, break_s=60.0)
+
+
+def registration(participant: str = "P01", **changes: object) -> dict[str, object]:
+    """A valid registration for the participant registry."""
+    body: dict[str, object] = {
+        "participant": participant, "height_m": 1.70, "mass_kg": 63.0, "sex": "female",
+        "arm_side": "right", "hand_load_kg": 0.5, "age_years": 27,
+    }
+    body.update(changes)
+    return body
+
+
+def make_server(
+    tmp_path: Path, *, time_scale: float = 20.0, rate_hz: float = 250.0,
+    protocol: StudyProtocol = SHORT_PROTOCOL, token: str = TOKEN,
+) -> WebServer:
     config = ServeConfig(
-        store_path=tmp_path / "study.sqlite",
+        store_path=tmp_path / STORE_FILE_NAME,
         model=CompensationModel.from_friction(k=0.12),
         backend=SimulatedBackend(time_scale=time_scale),
-        token=TOKEN,
+        token=token,
         rate_hz=rate_hz,
+        protocol=protocol,
     )
     return build_server(config)
 

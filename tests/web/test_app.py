@@ -18,14 +18,18 @@ from .conftest import AUTH, BASE, TOKEN, store_snapshot, trial_request
 WS = "ws://127.0.0.1"
 
 
-def answers(participant="P02", condition="support_25"):
-    return {
+def answers(participant="P02", condition="support_25", exception="checking the form, no trial run"):
+    """A full submission; by default marked as an exception (these tests run no trial first)."""
+    body = {
         "participant": participant,
         "condition": condition,
         "nordic": {site: 2 for site in NORDIC_SITES},
         "borg_rpe": 13,
         "fatigue": {site: 3 for site in FATIGUE_SITES},
     }
+    if exception is not None:
+        body["exception"] = exception
+    return body
 
 
 def until(ws, kind):
@@ -126,7 +130,8 @@ def test_invalid_requests_are_refused_and_change_nothing(client, web):
 def test_questionnaires_by_json_and_by_form(client, web):
     stored = client.post("/api/questionnaires", headers=AUTH, json=answers("P07", "no_suit"))
     assert stored.status_code == 201 and stored.json()["stored"] == 23
-    form = {"participant": "P07", "condition": "pretension", "borg_rpe": "15", "token": TOKEN}
+    form = {"participant": "P07", "condition": "pretension", "borg_rpe": "15", "token": TOKEN,
+            "exception": "checking the form, no trial run"}
     form.update({f"nordic.{s}": "1" for s in NORDIC_SITES})
     form.update({f"fatigue.{s}": "7" for s in FATIGUE_SITES})
     assert client.post("/api/questionnaires", data=form).status_code == 201

@@ -6,6 +6,7 @@ from bowden.web.questionnaires import (
     FATIGUE_SITE_LABELS,
     NORDIC_SITE_LABELS,
     QuestionnaireResponse,
+    form_scores,
     parse_response,
     questionnaire_schema,
 )
@@ -52,9 +53,20 @@ def test_flat_form_fields_are_the_same_submission():
     flat = {"participant": "P03", "condition": "pretension", "borg_rpe": "11", "replace": "on"}
     flat.update({f"nordic.{site}": str(score) for site, score in body["nordic"].items()})
     flat.update({f"fatigue.{site}": str(score) for site, score in body["fatigue"].items()})
-    response, replace = parse_response(flat)
+    response, replace = parse_response(form_scores(flat))
     assert replace
     assert response == parse_response(body)[0]
+
+
+def test_a_score_sent_as_text_in_json_is_refused_as_the_store_refuses_it():
+    body = answers()
+    body["borg_rpe"] = "13"
+    with pytest.raises(RequestError, match=r"borg_rpe: expected a whole number from 6 to 20, got '13'"):
+        parse_response(body)
+    body = answers()
+    body["nordic"]["hips"] = "3"
+    with pytest.raises(RequestError, match=r"nordic\.hips: expected a whole number"):
+        parse_response(body)
 
 
 @pytest.mark.parametrize(

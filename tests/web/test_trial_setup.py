@@ -15,7 +15,12 @@ def test_support_follows_the_condition_by_default():
     assert parse_setup(trial_request(condition="support_50")).support == 0.5
     assert parse_setup(trial_request(condition="pretension")).support == "pretension"
     assert parse_setup(trial_request(condition="no_suit")).support is None
-    assert parse_setup(trial_request(condition="support_50", support="0.4")).support == 0.4
+    assert parse_setup(trial_request(condition="support_50", support="0.5")).support == 0.5
+
+
+def test_a_support_that_contradicts_the_condition_is_refused_as_bowden_run_does():
+    with pytest.raises(RequestError, match=r"support: support_50 means support 0\.5"):
+        parse_setup(trial_request(condition="support_50", support="0.4"))
 
 
 def test_support_cannot_be_set_without_a_support_condition():

@@ -6,14 +6,15 @@ from bowden.errors import RequestError
 from bowden.web.validation import choice, integer_in, no_unknown_fields, number_in, participant_id
 
 
-@pytest.mark.parametrize("value", ["P01", "P1", "S007", "ABCD1234", " P12 "])
+@pytest.mark.parametrize("value", ["P01", "P1", "S007", "ABCD1234"])
 def test_pseudonymous_ids_are_accepted(value):
     assert participant_id(value) == value.strip()
 
 
 @pytest.mark.parametrize(
     "value",
-    ["Anna", "anna", "Anna Smith", "p01", "P", "01", "P01x", "P 01", "PARTI01", "P12345", "", "P01;DROP", 1,
+    ["Anna", "anna", "Anna Smith", "p01", "P", "01", "P01x", "P 01", "PARTI01", "P12345", "", "P01;DROP",
+     " P03 ", "P01\n", 1,
      None],
 )
 def test_names_and_other_ids_are_refused(value):

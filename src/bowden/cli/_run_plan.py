@@ -22,7 +22,7 @@ from bowden.model.anthropometry import arm_model
 from bowden.runtime import TrialInfo
 from bowden.runtime.loop import StepController
 from bowden.web.reference import TrialReference
-from bowden.web.trial_setup import NoAssistance, TrialSetup, study_reference
+from bowden.web.trial_setup import NoAssistance, TrialSetup, condition_support, study_reference
 
 MAX_LEAD_IN_S = 10.0
 
@@ -43,9 +43,8 @@ def parse_support(text: str) -> float | Literal["pretension"]:
 
 
 def support_of(condition: str) -> Support:
-    """The support a study condition stands for (``contracts.CONDITION_SUPPORT``)."""
-    value = CONDITION_SUPPORT[condition]
-    return "pretension" if isinstance(value, str) else value
+    """The support a study condition stands for: the rule ``bowden serve`` applies too."""
+    return condition_support(condition)
 
 
 def support_and_condition(support_text: str | None, given: str | None) -> tuple[Support, str | None]:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from bowden.cli._outputs import check_output_directory, check_output_file, refuse_overwriting_inputs
 from bowden.errors import ParameterError, StoreError
+from bowden.runtime.store_schema import STORE_FILE_NAME
 from bowden.study.analyze import analyze_store
 from bowden.study.export import export_paths
 from bowden.study.html import check_report_path
@@ -40,9 +41,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
-    store = args.study / "study.db" if args.study.is_dir() else args.study
+    store = args.study / STORE_FILE_NAME if args.study.is_dir() else args.study
     if not store.exists():
-        raise StoreError(f"no study store at {store} (expected a study directory or a study.db file)")
+        raise StoreError(
+            f"no study store at {store} "
+            f"(expected a study directory holding {STORE_FILE_NAME}, or a store file)"
+        )
     if args.export_emg and args.export is None:
         raise ParameterError("--export-emg needs --export DIR")
     report = args.report if args.report is not None else store.with_name("report.html")

@@ -24,8 +24,10 @@ from bowden.cli._suit import (
     open_can_backend,
     require_hardware_extra,
 )
-from bowden.contracts import BACKEND_CAN
+from bowden.contracts import BACKEND_CAN, REPETITIONS_PER_TRIAL, SPEEDS
 from bowden.errors import ParameterError
+from bowden.protocol.session_plan import ORDERS, PAPER_BREAK_S, StudyProtocol
+from bowden.runtime.store_schema import STORE_FILE_NAME
 
 if TYPE_CHECKING:
     from bowden.web.server import ServeConfig
@@ -49,8 +51,21 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         ),
     )
     parser.add_argument(
-        "--store", type=Path, default=Path("study.sqlite"), help="study store file (default study.sqlite)"
+        "--store", type=Path, default=Path(STORE_FILE_NAME),
+        help=f"study store file (default {STORE_FILE_NAME}, the name bowden analyze looks for)",
     )
+    plan = parser.add_argument_group("session plans (the paper's protocol by default)")
+    plan.add_argument("--order", choices=ORDERS, default="random",
+                      help="order of the support conditions after no suit: drawn from each session's "
+                      "seed (random, default) or counterbalanced over participants (latin_square)")
+    plan.add_argument("--speeds", default=",".join(SPEEDS),
+                      help=f"speeds of every condition, in order (default {','.join(SPEEDS)})")
+    plan.add_argument("--repetitions", type=int, default=REPETITIONS_PER_TRIAL,
+                      help=f"repetitions per trial (default {REPETITIONS_PER_TRIAL})")
+    plan.add_argument("--lead-in", type=float, default=2.0,
+                      help="rest before each reference moves, s (default 2)")
+    plan.add_argument("--break-min", type=float, default=PAPER_BREAK_S / 60.0,
+                      help="break with the questionnaires after each condition, minutes (default 5)")
     parser.add_argument("--model", type=Path,
                         help="compensation model (model.json) of the suit (required for --backend can)")
     parser.add_argument(
@@ -127,7 +142,21 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
         model = CompensationModel.from_friction(k=k)
     slack = slack_config(args, model.pulley_radius_m)
     return ServeConfig(store_path=args.store, model=model, backend=backend, host=args.host, port=args.port,
-                       rate_hz=args.rate_hz, safety=safety, realtime=realtime, slack=slack)
+                       rate_hz=args.rate_hz, safety=safety, realtime=realtime, slack=slack,
+                       protocol=session_protocol(args))
+
+
+def session_protocol(args: argparse.Namespace) -> StudyProtocol:
+    """The protocol of the session plans, from the flags (errors name the flag)."""
+    speeds = tuple(s.strip() for s in args.speeds.split(",") if s.strip())
+    try:
+        return StudyProtocol(speeds=speeds, repetitions=args.repetitions, lead_in_s=args.lead_in,
+                             break_s=60.0 * args.break_min, order=args.order)
+    except ParameterError as error:
+        flags = {"speeds": "--speeds", "repetitions": "--repetitions", "lead_in_s": "--lead-in",
+                 "break_s": "--break-min"}
+        flag = next((f for name, f in flags.items() if f"StudyProtocol.{name}" in str(error)), "--speeds")
+        raise ParameterError(f"{flag}: {error}") from None
 
 
 def run(args: argparse.Namespace) -> int:

@@ -37,7 +37,11 @@ from typing import Final
 from bowden.contracts import TRIAL_COLUMNS, TRIAL_FAULT, TRIAL_STATE, TRIAL_TIME
 from bowden.errors import StoreError
 
-SCHEMA_VERSION: Final = 1
+# The study store's file name wherever bowden makes or looks for one (serve, run, study, analyze).
+STORE_FILE_NAME: Final = "study.db"
+
+# 2: the participant registry's columns and the session plans (bowden.web.registry, .session_store).
+SCHEMA_VERSION: Final = 2
 
 _INTEGER_COLUMNS: Final = frozenset({TRIAL_STATE, TRIAL_FAULT})
 _REQUIRED_COLUMNS: Final = frozenset({TRIAL_TIME, TRIAL_STATE, TRIAL_FAULT})
@@ -90,9 +94,10 @@ INSERT_SAMPLE_SQL: Final = (
 
 
 # Every table a bowden store may hold, with the columns bowden reads from it. The runtime makes the
-# first three; the study store (bowden.study.store) and the questionnaire forms (bowden.web) add the
-# others. They are listed here, below all three, so whichever opens a file first can tell a bowden
-# store from another program's file before changing anything. tests/runtime/test_store_schema.py
+# first three; the study store (bowden.study.store), the questionnaire forms, the participant
+# registry and the session plans (bowden.web) add the others. They are listed here, below all three,
+# so whichever opens a file first can tell a bowden store from another program's file before
+# changing anything. tests/runtime/test_store_schema.py
 # checks this list against the tables those modules create.
 STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
     "trials": (
@@ -101,11 +106,26 @@ STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
     ),
     "samples": ("trial_id", *TRIAL_COLUMNS),
     "events": ("trial_id", "time_s", "kind", "message"),
-    "participants": ("id", "sex", "height_m", "mass_kg", "metadata"),
+    "participants": (
+        "id", "sex", "height_m", "mass_kg", "metadata", "arm_side", "hand_load_kg", "age_years",
+        "registered_utc",
+    ),
     "emg": ("trial_id", "muscle", "rate_hz", "start_time_s", "gain", "data"),
     "questionnaires": ("participant", "condition", "questionnaire", "item", "score", "submitted_utc"),
     "outcomes": ("participant", "condition", "speed", "repetition", "phase", "measure", "value"),
     "artifacts": ("name", "content", "updated_utc"),
+    "sessions": (
+        "id", "participant", "protocol", "order_rule", "seed", "sequence", "condition_order", "created_utc",
+    ),
+    "plan_steps": ("session_id", "position", "condition", "speed", "repetitions", "skip_reason"),
+    "session_trials": ("trial_id", "session_id", "position", "status", "reason", "updated_utc"),
+    "session_notes": ("session_id", "participant", "condition", "position", "kind", "reason", "noted_utc"),
+}
+# Columns added to a table after its first release. A store written before lacks them until the
+# module owning the table adds them (bowden.web.registry.migrate_participants), so their absence
+# does not make the file unreadable.
+ADDED_COLUMNS: Final[Mapping[str, frozenset[str]]] = {
+    "participants": frozenset({"arm_side", "hand_load_kg", "age_years", "registered_utc"}),
 }
 
 
@@ -166,7 +186,8 @@ def check_store(connection: sqlite3.Connection) -> None:
             f"make (bowden's tables: {', '.join(STORE_TABLES)}); the file was left unchanged"
         )
     for table, present in columns.items():
-        missing = [column for column in STORE_TABLES[table] if column not in present]
+        added = ADDED_COLUMNS.get(table, frozenset())
+        missing = [column for column in STORE_TABLES[table] if column not in present and column not in added]
         if missing:
             raise StoreError(
                 f"{name}: table {table!r} lacks the column(s) {', '.join(missing)}: an older store "

@@ -6,7 +6,7 @@ import os
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from typing import TYPE_CHECKING, Final
+from typing import Any, Final, Protocol
 
 import pandas as pd
 import pyarrow as pa
@@ -15,8 +15,16 @@ import pyarrow.parquet as pq
 from bowden.contracts import MUSCLES, TRIAL_TIME
 from bowden.errors import OutputFileError, StoreError
 
-if TYPE_CHECKING:
-    from bowden.study.store import StudyStore
+
+class ExportSource(Protocol):
+    """What an export reads from a store (:class:`bowden.study.store.StudyStore` is one).
+
+    A protocol rather than the store class, so this module does not import the store that calls it.
+    """
+
+    def read_sql(self, query: str, params: tuple[Any, ...] = ()) -> pd.DataFrame: ...
+
+    def trial_emg(self, trial_id: int) -> pd.DataFrame | None: ...
 
 EXPORT_FORMATS: Final = ("parquet", "csv")
 
@@ -48,7 +56,7 @@ def export_paths(
 
 
 def export_store(
-    store: StudyStore, directory: str | Path, *, file_format: str = "parquet", include_emg: bool = False
+    store: ExportSource, directory: str | Path, *, file_format: str = "parquet", include_emg: bool = False
 ) -> list[Path]:
     """Write the store's tables into ``directory``, one file each; return the files.
 
@@ -84,7 +92,7 @@ def export_store(
     return paths
 
 
-def _write_emg(store: StudyStore, path: Path, *, file_format: str) -> None:
+def _write_emg(store: ExportSource, path: Path, *, file_format: str) -> None:
     """Every trial's stored EMG as rows of ``path``: labels, time_s, the union of the muscles."""
     stored = set(store.read_sql("SELECT DISTINCT muscle FROM emg")["muscle"])
     muscles = [m for m in MUSCLES if m in stored] + sorted(stored - set(MUSCLES))

@@ -4,7 +4,8 @@ It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``tria
 ``events``) — so a trial recorded live on the suit and a simulated one land in the same tables — with
 
 ``participants``
-    pseudonymous id, sex, height, mass (never a name);
+    the registry (:mod:`bowden.web.registry`): pseudonymous id, sex, height, mass, arm side, hand
+    load, age (never a name);
 ``emg``
     one row per trial and muscle: rate, start time on the controller time base, and the samples as a
     16-bit integer blob with its gain (the resolution of EDF/BDF-16 files, 2 bytes a sample);
@@ -15,7 +16,9 @@ It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``tria
     the tidy outcome table of the analysis;
 ``artifacts``
     named text documents of the study (the identified ``model.json``, the identification summary,
-    the settings the study ran with).
+    the settings the study ran with);
+``sessions``, ``plan_steps``, ``session_trials``, ``session_notes``
+    the session plans of :mod:`bowden.web.session_store` (``bowden serve``).
 
 Why SQLite over DuckDB: the recorder must commit every 0.1 s from a small ARM board and survive
 ``kill -9``; SQLite's WAL gives that from the standard library. Analyses read whole trials into
@@ -56,9 +59,11 @@ from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection,
 from bowden.study.export import export_store
 from bowden.study.ownership import made_by_study_pipeline, metadata_object
 
-# One definition of the questionnaire table, shared with the browser forms that write it.
+# One definition of the questionnaire, registry and session tables, shared with the server.
 from bowden.web.questionnaire_store import QUESTIONNAIRES_DDL
 from bowden.web.questionnaires import BORG_HIGH, BORG_LOW, LIKERT_HIGH, LIKERT_LOW
+from bowden.web.registry import migrate_participants
+from bowden.web.session_store import SESSION_DDL
 
 # The items and score range of each questionnaire (what the browser forms and the simulation write).
 _QUESTIONNAIRE_ITEMS: Final = {
@@ -68,15 +73,6 @@ _QUESTIONNAIRE_ITEMS: Final = {
 }
 
 _STUDY_DDL: Final = (
-    """
-CREATE TABLE IF NOT EXISTS participants (
-    id TEXT PRIMARY KEY,
-    sex TEXT NOT NULL CHECK (sex IN ('female', 'male')),
-    height_m REAL NOT NULL,
-    mass_kg REAL NOT NULL,
-    metadata TEXT NOT NULL DEFAULT '{}'
-) STRICT
-""",
     """
 CREATE TABLE IF NOT EXISTS emg (
     trial_id INTEGER NOT NULL REFERENCES trials(id),
@@ -181,7 +177,8 @@ class StudyStore:
             configure_connection(self._db, synchronous=synchronous)
             create_schema(self._db)
             with self._db:
-                for ddl in _STUDY_DDL:
+                migrate_participants(self._db)  # older stores gain the registry's columns
+                for ddl in (*_STUDY_DDL, *SESSION_DDL):
                     self._db.execute(ddl)
         except sqlite3.Error as error:
             raise StoreError(f"cannot open the study store {self.path}: {error}") from None

@@ -19,10 +19,9 @@ import asyncio
 import contextlib
 import json
 import logging
-from collections.abc import AsyncIterator, Awaitable, Callable, Sequence
+from collections.abc import AsyncIterator, Sequence
 from pathlib import Path
 from typing import Final
-from urllib.parse import parse_qsl
 
 from starlette.applications import Starlette
 from starlette.middleware import Middleware
@@ -41,103 +40,29 @@ from bowden.contracts import (
     SPEED_PEAK_DEG_S,
     SPEEDS,
 )
-from bowden.errors import (
-    AccessDeniedError,
-    BowdenError,
-    ConflictError,
-    ParameterError,
-    RequestError,
-    StoreError,
-)
+from bowden.errors import RequestError
+from bowden.web.http import Handler, form_encoded, payload, refusals
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, _Client, encode, send
 from bowden.web.questionnaire_store import COLUMNS, QuestionnaireStore
-from bowden.web.questionnaires import parse_response, questionnaire_schema
+from bowden.web.questionnaires import EXCEPTION_FIELD, form_scores, parse_response, questionnaire_schema
 from bowden.web.security import TOKEN_FIELD, TOKEN_HEADER, SecurityHeaders, SessionToken, same_origin
-from bowden.web.trial_setup import parse_setup
+from bowden.web.session_desk import SessionDesk
+from bowden.web.session_routes import session_routes
 from bowden.web.trials import TrialManager
 from bowden.web.validation import choice, participant_id
 
 _log = logging.getLogger(__name__)
 
 STATIC_DIR: Final = Path(__file__).parent / "static"
-MAX_BODY_BYTES: Final = 32 * 1024
 AUTH_TIMEOUT_S: Final = 5.0
 WS_POLICY_VIOLATION: Final = 1008
-
-
-class _PayloadError(Exception):
-    def __init__(self, status: int, message: str) -> None:
-        super().__init__(message)
-        self.status = status
-
-
-async def _payload(request: Request) -> dict[str, object]:
-    """The request's JSON object or form fields, size-limited."""
-    kind = request.headers.get("content-type", "").split(";")[0].strip().lower()
-    if kind not in ("application/json", "application/x-www-form-urlencoded"):
-        raise _PayloadError(415, "send application/json or application/x-www-form-urlencoded")
-    body = bytearray()
-    async for chunk in request.stream():
-        body += chunk
-        if len(body) > MAX_BODY_BYTES:
-            raise _PayloadError(413, f"request body above {MAX_BODY_BYTES} bytes")
-    try:
-        text = body.decode("utf-8")
-    except UnicodeDecodeError:
-        raise RequestError("the request body is not UTF-8") from None
-    if kind == "application/json":
-        try:
-            data = json.loads(text) if text.strip() else {}
-        except json.JSONDecodeError as error:
-            raise RequestError(f"the request body is not valid JSON: {error.msg} at {error.pos}") from None
-        if not isinstance(data, dict):
-            raise RequestError("the request body must be a JSON object")
-        return data
-    fields: dict[str, object] = {}
-    for key, value in parse_qsl(text, keep_blank_values=True, max_num_fields=200):
-        if key in fields:
-            raise RequestError(f"{key[:30]}: given more than once")
-        fields[key] = value
-    return fields
-
-
-def _error(status: int, message: str) -> JSONResponse:
-    return JSONResponse({"error": message}, status_code=status)
-
-
-_STATUS: Final[tuple[tuple[type[Exception], int], ...]] = (
-    (AccessDeniedError, 403),
-    (ConflictError, 409),
-    (RequestError, 400),
-    (ParameterError, 400),
-    (StoreError, 503),
-    (BowdenError, 503),  # a device that cannot be opened, an IMU that never streamed...
-)
-
-Handler = Callable[[Request], Awaitable[Response]]
-
-
-def _refusals(handler: Handler) -> Handler:
-    """Turn bowden's refusals into JSON errors with the right status (the message names the field)."""
-
-    async def wrapped(request: Request) -> Response:
-        try:
-            return await handler(request)
-        except _PayloadError as error:
-            return _error(error.status, str(error))
-        except BowdenError as error:
-            status = next(code for kind, code in _STATUS if isinstance(error, kind))
-            if status == 403:
-                _log.warning("refused %s %s: %s", request.method, request.url.path, error)
-            return _error(status, str(error))
-
-    return wrapped
 
 
 def create_app(
     *,
     manager: TrialManager,
     questionnaires: QuestionnaireStore,
+    desk: SessionDesk,
     token: SessionToken,
     allowed_hosts: Sequence[str] = ("127.0.0.1", "localhost", "::1", "[::1]"),
 ) -> Starlette:
@@ -149,6 +74,8 @@ def create_app(
         Runs the trials (its hub carries the live data).
     questionnaires
         The study store's questionnaire table.
+    desk
+        The registry and the session plans (:mod:`bowden.web.session_routes`).
     token
         The session token operator actions and questionnaire writes need.
     allowed_hosts
@@ -157,10 +84,10 @@ def create_app(
     """
     hub: LiveHub = manager.hub
 
-    def authorise(request: Request, payload: dict[str, object] | None = None) -> None:
+    def authorise(request: Request, data: dict[str, object] | None = None) -> None:
         candidates: list[object] = [request.headers.get(TOKEN_HEADER)]
-        if payload is not None:
-            candidates.append(payload.pop(TOKEN_FIELD, None))
+        if data is not None:
+            candidates.append(data.pop(TOKEN_FIELD, None))
         token.require(candidates)
 
     def page(name: str) -> Handler:
@@ -185,41 +112,50 @@ def create_app(
     async def schema(request: Request) -> Response:
         return JSONResponse(questionnaire_schema())
 
-    @_refusals
+    @refusals
     async def console_status(request: Request) -> Response:
         authorise(request)
         status = manager.status(console=True)
         status["health"] = manager.health()
         return JSONResponse(json.loads(encode(status)))
 
-    @_refusals
+    @refusals
     async def start_trial(request: Request) -> Response:
-        payload = await _payload(request)
-        authorise(request, payload)
-        setup = parse_setup(payload)
+        data = await payload(request)
+        authorise(request, data)
+        setup, registration = desk.registered_setup(data)
         status = await manager.start(setup)
+        if registration is not None:
+            await asyncio.to_thread(desk.registry.register, registration)
         return JSONResponse(json.loads(encode(status)), status_code=201)
 
-    @_refusals
+    @refusals
     async def stop_trial(request: Request) -> Response:
-        payload = await _payload(request)
-        authorise(request, payload)
-        if payload:
-            raise RequestError(f"stop takes no fields, got {', '.join(sorted(payload))[:60]}")
+        data = await payload(request)
+        authorise(request, data)
+        if data:
+            raise RequestError(f"stop takes no fields, got {', '.join(sorted(data))[:60]}")
         return JSONResponse(json.loads(encode(manager.stop("operator stop (console)"))))
 
-    @_refusals
+    @refusals
     async def save_questionnaire(request: Request) -> Response:
-        payload = await _payload(request)
-        authorise(request, payload)
-        response, replace = parse_response(payload)
-        rows = await asyncio.to_thread(questionnaires.save, response, replace=replace)
+        data = await payload(request)
+        authorise(request, data)
+        exception = data.pop(EXCEPTION_FIELD, None)
+        response, replace = parse_response(form_scores(data) if form_encoded(request) else data)
+        # In their place: only after a condition the participant ran (or an exception with a reason).
+        excepted = await asyncio.to_thread(
+            desk.check_questionnaire, response.participant, response.condition, exception
+        )
+        rows = await asyncio.to_thread(questionnaires.save, response, replace=replace, exception=excepted)
+        if desk.current is not None:
+            desk.publish(desk.current)
         return JSONResponse(
             {"stored": rows, "participant": response.participant, "condition": response.condition},
             status_code=201,
         )
 
-    @_refusals
+    @refusals
     async def list_questionnaires(request: Request) -> Response:
         authorise(request)
         participant = request.query_params.get("participant")
@@ -259,6 +195,8 @@ def create_app(
         client = hub.connect(ROLE_CONSOLE)
         status = manager.status(console=True)
         send(client, encode(status))
+        if desk.current is not None:  # a console (re)loaded mid-session sees the plan at once
+            send(client, encode(desk.status(desk.store.get(desk.current))))
         await _serve(websocket, client, hub)
 
     @contextlib.asynccontextmanager
@@ -286,6 +224,7 @@ def create_app(
         Route("/api/trial/stop", stop_trial, methods=["POST"]),
         Route("/api/questionnaires", save_questionnaire, methods=["POST"]),
         Route("/api/questionnaires", list_questionnaires, methods=["GET"]),
+        *session_routes(desk, authorise),
         WebSocketRoute("/ws/display", display_socket),
         WebSocketRoute("/ws/console", console_socket),
         Mount("/static", StaticFiles(directory=STATIC_DIR), name="static"),

@@ -104,8 +104,13 @@ class QuestionnaireStore:
             raise
         return _Connection(connection)
 
-    def save(self, response: QuestionnaireResponse, *, replace: bool = False) -> int:
+    def save(
+        self, response: QuestionnaireResponse, *, replace: bool = False, exception: str | None = None
+    ) -> int:
         """Store every answer of ``response`` in one transaction; return the number of rows written.
+
+        ``exception``: the operator's reason for answers after a condition the participant did not
+        run, noted in ``session_notes`` (:mod:`bowden.web.session_store`) in the same transaction.
 
         Raises
         ------
@@ -137,6 +142,12 @@ class QuestionnaireStore:
                 connection.executemany(
                     f"INSERT INTO questionnaires ({', '.join(COLUMNS)}) VALUES (?, ?, ?, ?, ?, ?)", rows
                 )
+                if exception is not None:
+                    connection.execute(
+                        "INSERT INTO session_notes (participant, condition, kind, reason, noted_utc) "
+                        "VALUES (?, ?, 'questionnaire_exception', ?, ?)",
+                        (*key, exception, stamp),
+                    )
         except sqlite3.Error as error:
             raise StoreError(f"cannot write questionnaires into {self.path}: {error}") from None
         return len(rows)

@@ -32,7 +32,7 @@ from bowden.contracts import (
     QUESTIONNAIRES,
 )
 from bowden.errors import RequestError
-from bowden.web.validation import choice, integer_in, no_unknown_fields, participant_id
+from bowden.web.validation import choice, no_unknown_fields, participant_id, whole_number_in
 
 NORDIC: Final = QUESTIONNAIRE_NORDIC
 BORG_RPE: Final = QUESTIONNAIRE_BORG_RPE
@@ -86,6 +86,8 @@ NORDIC_ANCHORS: Final = {1: "No discomfort", 7: "Extreme discomfort"}
 FATIGUE_ANCHORS: Final = {1: "No fatigue", 7: "Extreme fatigue"}
 
 _FORM_FIELDS: Final = ("participant", "condition", "replace", "token")
+# The operator's reason for questionnaires after a condition the participant did not run.
+EXCEPTION_FIELD: Final = "exception"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -120,10 +122,10 @@ class QuestionnaireResponse:
         if len(self.fatigue) != len(FATIGUE_SITES):
             raise RequestError(f"fatigue: expected {len(FATIGUE_SITES)} scores, got {len(self.fatigue)}")
         for site, score in zip(NORDIC_SITES, self.nordic, strict=True):
-            integer_in(score, LIKERT_LOW, LIKERT_HIGH, f"nordic.{site}")
-        integer_in(self.borg_rpe, BORG_LOW, BORG_HIGH, BORG_RPE)
+            whole_number_in(score, LIKERT_LOW, LIKERT_HIGH, f"nordic.{site}")
+        whole_number_in(self.borg_rpe, BORG_LOW, BORG_HIGH, BORG_RPE)
         for site, score in zip(FATIGUE_SITES, self.fatigue, strict=True):
-            integer_in(score, LIKERT_LOW, LIKERT_HIGH, f"fatigue.{site}")
+            whole_number_in(score, LIKERT_LOW, LIKERT_HIGH, f"fatigue.{site}")
 
     def items(self) -> list[tuple[str, str, int]]:
         """``(questionnaire, item, score)`` rows in a fixed order (the store's long format)."""
@@ -140,7 +142,24 @@ def _scores(section: object, sites: tuple[str, ...], name: str) -> tuple[int, ..
     missing = [site for site in sites if site not in section]
     if missing:
         raise RequestError(f"{name}: no answer for {', '.join(missing)}")
-    return tuple(integer_in(section[site], LIKERT_LOW, LIKERT_HIGH, f"{name}.{site}") for site in sites)
+    return tuple(whole_number_in(section[site], LIKERT_LOW, LIKERT_HIGH, f"{name}.{site}") for site in sites)
+
+
+def form_scores(payload: Mapping[str, object]) -> dict[str, object]:
+    """An HTML form's fields with the scores as numbers (a form can only send text).
+
+    Only the score fields (``nordic.*``, ``fatigue.*``, ``borg_rpe``) are converted, and only whole
+    digit strings; anything else is left for :func:`parse_response` to refuse. JSON requests are not
+    converted: a score sent as the string "3" is refused there, as the study store refuses it.
+    """
+    converted: dict[str, object] = {}
+    for key, value in payload.items():
+        score = key == BORG_RPE or key.partition(".")[0] in (NORDIC, FATIGUE)
+        if score and isinstance(value, str) and value.isascii() and value.isdigit() and len(value) <= 3:
+            converted[key] = int(value)
+        else:
+            converted[key] = value
+    return converted
 
 
 def _nest_form_fields(payload: Mapping[str, object]) -> dict[str, object]:
@@ -183,7 +202,7 @@ def parse_response(payload: Mapping[str, object]) -> tuple[QuestionnaireResponse
         participant=participant_id(data["participant"]),
         condition=choice(data["condition"], CONDITIONS, "condition"),
         nordic=_scores(data[NORDIC], NORDIC_SITES, NORDIC),
-        borg_rpe=integer_in(data[BORG_RPE], BORG_LOW, BORG_HIGH, BORG_RPE),
+        borg_rpe=whole_number_in(data[BORG_RPE], BORG_LOW, BORG_HIGH, BORG_RPE),
         fatigue=_scores(data[FATIGUE], FATIGUE_SITES, FATIGUE),
     )
     return response, replace

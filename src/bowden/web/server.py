@@ -21,6 +21,7 @@ from starlette.applications import Starlette
 
 from bowden.errors import BowdenError, ParameterError
 from bowden.model import CompensationModel
+from bowden.protocol.session_plan import StudyProtocol
 from bowden.runtime import SafetyConfig
 from bowden.runtime.realtime import RealtimeConfig
 from bowden.runtime.slack import SlackTakeUp
@@ -28,6 +29,7 @@ from bowden.web.app import create_app
 from bowden.web.live import LiveHub
 from bowden.web.questionnaire_store import QuestionnaireStore
 from bowden.web.security import SessionToken
+from bowden.web.session_desk import SessionDesk
 from bowden.web.suits import SimulatedBackend, SuitBackend
 from bowden.web.trials import TrialManager
 
@@ -59,6 +61,8 @@ class ServeConfig:
         The slack take-up that starts each trial (None: assist at once).
     token
         The session token; None draws a fresh one.
+    protocol
+        The protocol of the session plans (default: the paper's).
     """
 
     store_path: Path
@@ -71,6 +75,7 @@ class ServeConfig:
     realtime: RealtimeConfig | None = None
     slack: SlackTakeUp | None = None
     token: str | None = None
+    protocol: StudyProtocol = field(default_factory=StudyProtocol)
 
     def __post_init__(self) -> None:
         if not (isinstance(self.port, int) and 0 <= self.port <= 65535):
@@ -98,6 +103,7 @@ class WebServer:
     token: SessionToken
     manager: TrialManager
     questionnaires: QuestionnaireStore
+    desk: SessionDesk
 
 
 def build_server(config: ServeConfig) -> WebServer:
@@ -114,10 +120,12 @@ def build_server(config: ServeConfig) -> WebServer:
         realtime=config.realtime,
         slack=config.slack,
     )
+    desk = SessionDesk(config.store_path, manager, config.protocol)
     app = create_app(
-        manager=manager, questionnaires=questionnaires, token=token, allowed_hosts=config.allowed_hosts
+        manager=manager, questionnaires=questionnaires, desk=desk, token=token,
+        allowed_hosts=config.allowed_hosts,
     )
-    return WebServer(config, app, token, manager, questionnaires)
+    return WebServer(config, app, token, manager, questionnaires, desk)
 
 
 def bind(host: str, port: int) -> socket.socket:

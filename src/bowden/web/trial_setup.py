@@ -1,9 +1,9 @@
 """What the operator chooses for a trial, validated, and the controller it implies.
 
 The operator console sends participant, condition, speed, support, repetitions and the wearer's
-anthropometrics (the controller's gravity model needs them; they are not identifying). Support
-defaults to the condition's (``contracts.CONDITION_SUPPORT``); for the two support conditions the
-operator may set another fraction, for "no suit" and "pretension" there is nothing to set.
+anthropometrics (the controller's gravity model needs them; they are not identifying). The support is
+the condition's (``contracts.CONDITION_SUPPORT``), the rule ``bowden run`` applies too: a support
+that contradicts the condition is refused, so no trial is stored under a condition it did not run in.
 """
 
 from __future__ import annotations
@@ -110,6 +110,14 @@ def study_reference(speed: str, *, lead_in_s: float, repetitions: int) -> TrialR
     return TrialReference(cycle=cycle, start_s=lead_in_s, repetitions=repetitions)
 
 
+def condition_support(condition: str) -> float | Literal["pretension"] | None:
+    """The support a condition stands for (``contracts.CONDITION_SUPPORT``): the one rule of serve and run."""
+    value = CONDITION_SUPPORT[condition]
+    if value is None:
+        return None
+    return "pretension" if isinstance(value, str) else float(value)
+
+
 def parse_setup(payload: Mapping[str, object]) -> TrialSetup:
     """Validate the console's start request.
 
@@ -125,20 +133,16 @@ def parse_setup(payload: Mapping[str, object]) -> TrialSetup:
         if required not in data:
             raise RequestError(f"trial: the field {required!r} is missing")
     condition = choice(data["condition"], CONDITIONS, "condition")
-    default = CONDITION_SUPPORT[condition]
+    support = condition_support(condition)
     raw_support = data.get("support")
-    support: float | Literal["pretension"] | None
-    if raw_support in (None, ""):
-        if default is None:
-            support = None
-        elif default == "pretension":
-            support = "pretension"
-        else:
-            support = float(default)
-    elif condition in (CONDITION_NO_SUIT, CONDITION_PRETENSION):
-        raise RequestError(f"support: the {condition} condition has no support fraction to set")
-    else:
-        support = number_in(raw_support, 0.0, 1.0, "support")
+    if raw_support not in (None, ""):
+        if condition in (CONDITION_NO_SUIT, CONDITION_PRETENSION):
+            raise RequestError(f"support: the {condition} condition has no support fraction to set")
+        if number_in(raw_support, 0.0, 1.0, "support") != support:
+            # One rule with bowden run: a trial is stored under the condition it ran in.
+            raise RequestError(
+                f"support: {condition} means support {support}; a trial runs its condition's support"
+            )
     sex = choice(data["sex"], ("female", "male"), "sex")
     subject = Subject(
         height_m=number_in(data["height_m"], 1.0, 2.3, "height_m"),

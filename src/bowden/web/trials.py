@@ -22,7 +22,7 @@ import contextlib
 import logging
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -118,6 +118,8 @@ class TrialManager:
         self._starting = False
         self._wake = asyncio.Event()
         self.last_result: dict[str, object] | None = None
+        # Called in the event loop with each trial's end message, before the browsers get it.
+        self.finished_listeners: list[Callable[[dict[str, object]], None]] = []
         self.trials_run = 0
         self.event_loop: asyncio.AbstractEventLoop | None = None  # the server's, set when it starts
 
@@ -126,8 +128,12 @@ class TrialManager:
     def running(self) -> bool:
         return self._trial is not None or self._starting
 
-    async def start(self, setup: TrialSetup) -> dict[str, object]:
+    async def start(
+        self, setup: TrialSetup, *, metadata: Mapping[str, object] | None = None
+    ) -> dict[str, object]:
         """Start ``setup``'s trial; return its status once the loop runs.
+
+        ``metadata`` is added to the trial's metadata (the session and plan step it runs).
 
         Raises
         ------
@@ -140,7 +146,7 @@ class TrialManager:
             raise ConflictError("a trial is running: stop it before starting another")
         self._starting = True
         try:
-            trial = await asyncio.to_thread(self._open, setup, asyncio.get_running_loop())
+            trial = await asyncio.to_thread(self._open, setup, asyncio.get_running_loop(), metadata or {})
         finally:
             self._starting = False
         self._trial = trial
@@ -257,7 +263,9 @@ class TrialManager:
             await self.wait(10.0)
 
     # --- the trial thread ------------------------------------------------------------------------
-    def _open(self, setup: TrialSetup, loop: asyncio.AbstractEventLoop) -> _Trial:
+    def _open(
+        self, setup: TrialSetup, loop: asyncio.AbstractEventLoop, extra: Mapping[str, object]
+    ) -> _Trial:
         controller = controller_for(setup, self.model)
         suit = self.backend.open(setup)
         try:
@@ -273,6 +281,7 @@ class TrialManager:
                     "rate_hz": self.rate_hz,
                     "bowden_version": __version__,
                     **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},
+                    **extra,
                 },
             )
             recorder = Recorder(self.store_path, info).start()
@@ -332,11 +341,15 @@ class TrialManager:
 
     def _finished(self, trial: _Trial, report: LoopReport | None, error: str | None) -> None:
         self._flush()
+        clean = bool(report is not None and report.clean and error is None)
+        # Completed: the whole reference ran (no stop asked for, no fault, no error).
+        completed = clean and trial.stop_requested_by is None
         result: dict[str, object] = {
             "type": "stopped",
             "trial_id": trial.recorder.trial_id,
             "reason": report.reason if report is not None else f"error: {error}",
-            "clean": bool(report is not None and report.clean and error is None),
+            "clean": clean,
+            "completed": completed,
             "faults": fault_names(int(report.fault)) if report is not None else [],
             "error": error,
             "committed_rows": trial.recorder.stats.committed_rows,
@@ -352,8 +365,14 @@ class TrialManager:
             )
         self.last_result = result
         self._trial = None
+        for listener in self.finished_listeners:
+            try:
+                listener(result)
+            except Exception:  # a listener's failure must not leave the trial unannounced
+                _log.exception("a trial-end listener failed")
         self.hub.publish(result, (ROLE_CONSOLE,))
-        self.hub.publish({"type": "stopped"}, (ROLE_DISPLAY,))
+        # The display says whether the reference ran to its end or was stopped (no ids, no reasons).
+        self.hub.publish({"type": "stopped", "completed": completed}, (ROLE_DISPLAY,))
         trial.done.set()
 
     # --- live data (event loop) ------------------------------------------------------------------

@@ -17,21 +17,22 @@ from bowden.errors import RequestError
 
 
 def participant_id(value: object, field: str = "participant") -> str:
-    """A pseudonymous participant id such as ``P01`` (surrounding spaces are dropped).
+    """A pseudonymous participant id such as ``P01``, exactly as sent.
 
     The rule is :func:`bowden.contracts.is_participant_id`, the one the study store and the recorder
-    apply: 1–4 capital letters then 1–4 digits. Digits are required and lower-case letters refused,
-    so a name ("Anna", "anna smith") can never be stored by mistake.
+    apply: the whole text, 1–4 capital letters then 1–4 digits. Digits are required and lower-case
+    letters refused, so a name ("Anna", "anna smith") can never be stored by mistake; surrounding
+    spaces or a line break are refused too, not trimmed (the pages trim what is typed), so an id is
+    never stored other than it was sent.
     """
     if not isinstance(value, str):
         raise RequestError(f"{field}: expected a pseudonymous id such as P01, got {type(value).__name__}")
-    text = value.strip()
-    if not is_participant_id(text):
+    if not is_participant_id(value):
         raise RequestError(
-            f"{field}: {text[:20]!r} is not a pseudonymous id; use 1–4 capital letters and 1–4 digits "
-            "such as P01 (never a name)"
+            f"{field}: {value[:20]!r} is not a pseudonymous id; use 1–4 capital letters and 1–4 digits "
+            "such as P01, nothing around them (never a name)"
         )
-    return text
+    return value
 
 
 def choice(value: object, options: Collection[str], field: str) -> str:
@@ -54,6 +55,14 @@ def integer_in(value: object, low: int, high: int, field: str) -> int:
         shown = value if isinstance(value, int | float) else type(value).__name__
         raise RequestError(f"{field}: expected an integer from {low} to {high}, got {shown!r}")
     return value
+
+
+def whole_number_in(value: object, low: int, high: int, field: str) -> int:
+    """A JSON whole number in ``[low, high]``; text ("3") is refused, as the study store refuses it."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        shown = repr(value[:10]) if isinstance(value, str) else type(value).__name__
+        raise RequestError(f"{field}: expected a whole number from {low} to {high}, got {shown}")
+    return integer_in(value, low, high, field)
 
 
 def number_in(value: object, low: float, high: float, field: str) -> float:
