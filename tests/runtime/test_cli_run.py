@@ -13,6 +13,7 @@ from bowden.cli import main
 from bowden.cli._run_plan import run_reference, trial_info
 from bowden.contracts import BACKEND_CAN, BACKEND_SIM, TRIAL_COLUMNS
 from bowden.model import CompensationModel, Subject
+from bowden.model.model_file import save_model
 from bowden.study.store import StudyStore
 from bowden.web.trial_setup import TrialSetup
 
@@ -20,7 +21,7 @@ from bowden.web.trial_setup import TrialSetup
 def test_run_sim_records_a_trial(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     store = tmp_path / "study.db"
     model = tmp_path / "model.json"
-    CompensationModel.from_friction(k=0.12).save(model)
+    save_model(CompensationModel.from_friction(k=0.12), model)
     code = main(["run", "--backend", "sim", "--model", str(model), "--support", "0.25", "--duration", "0.6",
                  "--rate", "250", "--record", str(store), "--participant", "P03", "--speed", "V2",
                  "--lead-in", "0", "--height", "1.62", "--mass", "55", "--sex", "male", "--hand-load", "1"])
@@ -144,11 +145,12 @@ def test_a_participant_stored_with_other_anthropometrics_is_not_overwritten(
     store = tmp_path / "study.db"
     with StudyStore(store) as opened:
         opened.add_participant("P07", Subject(height_m=1.58, mass_kg=52.0, sex="female"))
-    # The defaults (1.70 m, 63 kg) are not P07's.
+    # Flags that contradict the stored values (the registry) are refused before the suit opens;
+    # left out, the stored values are used (bowden.cli._run_plan.fill_wearer).
     assert main(["run", "--backend", "sim", "--duration", "0.3", "--participant", "P07",
-                 "--record", str(store)]) == 1
+                 "--record", str(store), "--height", "1.70", "--mass", "63"]) == 1
     err = capsys.readouterr().err
-    assert "participant P07 is in" in err and "female, 1.58 m, 52 kg" in err and "1.7 m, 63 kg" in err
+    assert "--height 1.7 contradicts the registry: P07 is registered" in err and "height_m 1.58" in err
     assert "bowden run: " not in err
     assert _trials(store) == []
     with StudyStore(store) as opened:

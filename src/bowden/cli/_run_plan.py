@@ -19,6 +19,7 @@ from bowden.control import build_controller
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel, Subject
 from bowden.model.anthropometry import arm_model
+from bowden.model.model_file import load_model
 from bowden.runtime import TrialInfo
 from bowden.runtime.loop import StepController
 from bowden.web.reference import TrialReference
@@ -84,7 +85,7 @@ def run_reference(args: argparse.Namespace) -> TrialReference:
 
 def run_model(args: argparse.Namespace) -> CompensationModel:
     if args.model is not None:
-        return CompensationModel.load(args.model)
+        return load_model(args.model)
     from bowden.sim.parameters import SuitParameters
 
     return CompensationModel.from_friction(k=SuitParameters().sheath.kinetic_coefficient)
@@ -118,20 +119,58 @@ def controller_for(
     return build_controller(model=model, support=support, subject=subject, hand_load_kg=hand_load_kg)
 
 
-def record_participant(path: Path, participant: str, subject: Subject) -> None:
-    """Add the wearer to the store's participants table, or check that it holds the same values.
+# The wearer's flags, the registry's value each stands for, and the value without a registration.
+_REGISTERED: Final = (
+    ("height", "--height", "height_m", 1.70),
+    ("mass", "--mass", "mass_kg", 63.0),
+    ("sex", "--sex", "sex", "female"),
+    ("hand_load", "--hand-load", "hand_load_kg", 0.5),
+)
+
+
+def fill_wearer(args: argparse.Namespace, participant: str) -> bool:
+    """Take the wearer's flags left out from the registry of ``--record`` (True if registered there).
+
+    A registered participant's anthropometrics are never typed again; a flag that contradicts the
+    registry is refused (naming both values). Without a registration the defaults stand in.
+    """
+    known = None
+    if args.record is not None and Path(args.record).is_file():
+        from bowden.web.registry import Registry
+
+        known = Registry(args.record).find(participant)
+    registered = known.to_json() if known is not None else {}
+    for attribute, flag, field, default in _REGISTERED:
+        given, stored = getattr(args, attribute), registered.get(field)
+        if stored is None:
+            setattr(args, attribute, default if given is None else given)
+        elif given is None:
+            setattr(args, attribute, stored)
+        elif given != stored:
+            raise ParameterError(
+                f"{flag} {given} contradicts the registry: {participant} is registered in {args.record} "
+                f"with {field} {stored}; leave {flag} out to use it, or register another participant"
+            )
+    return known is not None
+
+
+def record_participant(path: Path, participant: str, subject: Subject, hand_load_kg: float) -> None:
+    """Register the wearer in the store's registry, or check that it holds the same values.
 
     Opening the store here also proves the ``--record`` path usable before any device is opened.
     A participant stored with other anthropometrics is refused rather than overwritten: the
     defaults of --height/--mass/--sex must never replace what a study recorded.
     """
     from bowden.study.store import StudyStore  # cli wires study and runtime together
+    from bowden.web.registry import Participant, Registry
 
     with StudyStore(path, synchronous="FULL") as store:
         stored = store.participants()
         row = stored[stored["id"] == participant]
         if row.empty:
-            store.add_participant(participant, subject)
+            Registry(path).register(Participant(
+                participant=participant, subject=subject, arm_side=None, hand_load_kg=hand_load_kg
+            ))
             return
         known = Subject(
             height_m=float(row["height_m"].iloc[0]),

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
 from bowden.cli._run_plan import (
     controller_for,
+    fill_wearer,
     record_participant,
     run_model,
     run_reference,
@@ -85,7 +86,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--duration", type=float, default=30.0, help="run length in s (default 30)")
     parser.add_argument("--rate", type=float, default=500.0, help="control rate in Hz (default 500)")
     parser.add_argument("--record", type=Path, help="study store (SQLite) to record every cycle into")
-    parser.add_argument("--participant", default="P00", help="pseudonymous participant id (default P00)")
+    parser.add_argument(
+        "--participant", default="P00",
+        help="pseudonymous participant id (default P00); with --record, a participant registered in the "
+        "store (bowden serve's console) runs with the registered height, mass, sex and hand load",
+    )
     parser.add_argument(
         "--condition",
         choices=CONDITIONS,
@@ -101,10 +106,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--lead-in", type=float, default=2.0, help="rest before the reference starts moving, s (default 2)"
     )
-    parser.add_argument("--height", type=float, default=1.70, help="wearer stature in m (default 1.70)")
-    parser.add_argument("--mass", type=float, default=63.0, help="wearer body mass in kg (default 63)")
-    parser.add_argument("--sex", choices=("female", "male"), default="female")
-    parser.add_argument("--hand-load", type=float, default=0.5, help="load in the hand in kg (default 0.5)")
+    parser.add_argument("--height", type=float,
+                        help="wearer stature in m (default: the registry's, else 1.70)")
+    parser.add_argument("--mass", type=float,
+                        help="wearer body mass in kg (default: the registry's, else 63)")
+    parser.add_argument("--sex", choices=("female", "male"), help="(default: the registry's, else female)")
+    parser.add_argument("--hand-load", type=float,
+                        help="load in the hand in kg (default: the registry's, else 0.5)")
     web = parser.add_argument_group("browser (--serve, needs the web extra)")
     web.add_argument(
         "--serve",
@@ -259,6 +267,7 @@ def run(args: argparse.Namespace) -> int:
     reference = run_reference(args)
     model = run_model(args)
     slack = slack_config(args, model.pulley_radius_m)
+    fill_wearer(args, participant)
     subject = wearer(args)
     controller = controller_for(model, support, subject, args.hand_load)
     setup = trial = None
@@ -267,7 +276,7 @@ def run(args: argparse.Namespace) -> int:
     if args.record is not None:
         assert setup is not None  # a recorded trial has a condition (checked above)
         trial = trial_info(args, setup, reference)
-        record_participant(args.record, participant, subject)
+        record_participant(args.record, participant, subject, args.hand_load)
     with ExitStack() as stack:
         server = stack.enter_context(_serving(args, model)) if args.serve else None
         recorder = Recorder(args.record, trial).start() if trial is not None else None
