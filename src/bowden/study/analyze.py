@@ -14,7 +14,10 @@ study pipeline) steer it:
     holds both — MIXED, and then its results (which pool both kinds) are labelled simulated.
 
 A trial that cannot be analysed (no samples, fewer or more repetitions than it should hold) is
-skipped; the report's notes and :attr:`AnalysisReport.skipped` name it and say why.
+skipped; the report's notes and :attr:`AnalysisReport.skipped` name it and say why. So are trials a
+session set aside (stopped early, or redone by the operator, with the reason) and trials left open
+(no end recorded: a recording cut off by a killed server). The report lists the participants as
+registered and the session plans with their condition order (:mod:`bowden.study.sessions`).
 """
 
 from __future__ import annotations
@@ -27,6 +30,8 @@ from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, Literal
+
+import pandas as pd
 
 from bowden.analysis import (
     AnalysisParameters,
@@ -45,6 +50,7 @@ from bowden.model.model_file import model_from_dict
 from bowden.study.html import HtmlDocument
 from bowden.study.progress import StageProgress
 from bowden.study.report import ReportInputs, build_report
+from bowden.study.sessions import SessionFacts, left_open_notes, session_facts
 from bowden.study.statistics import StudyStatistics, study_statistics
 from bowden.study.store import StoredTrial, StudyStore
 
@@ -73,6 +79,8 @@ class AnalysisReport:
     n_trials: int
     skipped: tuple[str, ...] = ()
     data_kind: DataKind = "measured"
+    participants: pd.DataFrame | None = None  # the registry (bowden.study.sessions)
+    plans: pd.DataFrame | None = None  # the session plans, with their condition order
 
 
 def analyze_store(
@@ -107,9 +115,12 @@ def analyze_store(
     skipped: list[str] = []
     kept: dict[int, dict[str, Any]] = {}  # trial id → metadata of the trials analysed
     with StudyStore(store_path) as store:
+        facts = session_facts(store)
+        skipped.extend(left_open_notes(facts))
         trials = store.completed_trials()
         if not trials:
-            raise StoreError(f"{store_path} holds no completed trial to analyse")
+            raise StoreError(f"{store_path} holds no completed trial to analyse" + (
+                f" ({'; '.join(skipped)})" if skipped else ""))
         metadata = {trial.trial_id: store.trial_metadata(trial.trial_id) for trial in trials}
         counts = {trial_id: _expected(meta, repetitions) for trial_id, meta in metadata.items()}
         # The paper drops each trial's first repetition (adaptation); a study whose trials hold one
@@ -124,8 +135,11 @@ def analyze_store(
                     if trial.trial_id not in metadata:  # completed while we were reading
                         metadata[trial.trial_id] = store.trial_metadata(trial.trial_id)
                         counts[trial.trial_id] = _expected(metadata[trial.trial_id], repetitions)
-                    problem = _unusable(samples, counts[trial.trial_id], segmentation)
-                    if problem is not None:
+                    set_aside = facts.set_aside.get(trial.trial_id)
+                    problem = set_aside or _unusable(samples, counts[trial.trial_id], segmentation)
+                    if set_aside is not None:
+                        skipped.append(f"{_describe(trial)} set aside: {set_aside}")
+                    elif problem is not None:
                         skipped.append(f"{_describe(trial)} skipped: {problem}")
                         _log.warning("bowden analyze: %s", skipped[-1])
                     else:
@@ -175,6 +189,7 @@ def analyze_store(
         document = build_report(inputs)
         if kind == "mixed":
             _label_mixed(document, kept)
+        _session_sections(document, facts)
         report = document.write(report_path)
     return AnalysisReport(
         report=report,
@@ -183,6 +198,8 @@ def analyze_store(
         n_trials=outcomes.info.n_trials,
         skipped=tuple(skipped),
         data_kind=kind,
+        participants=facts.participants,
+        plans=facts.plans,
     )
 
 
@@ -295,6 +312,19 @@ def _label_mixed(document: HtmlDocument, trials: Mapping[int, Mapping[str, Any]]
         "of their own to report them."
     )
     document.parts[:0] = banner.parts
+
+
+def _session_sections(document: HtmlDocument, facts: SessionFacts) -> None:
+    """The participants as registered and the session plans (condition order, seed), when recorded."""
+    if facts.participants.empty and facts.plans.empty:
+        return
+    document.heading("Participants and session plans")
+    if not facts.participants.empty:
+        document.table(facts.participants, "Participants as registered (pseudonymous ids)", "{:.4g}")
+    if not facts.plans.empty:
+        document.table(
+            facts.plans, "Session plans: condition order (no suit first), seed and progress", "{:.0f}"
+        )
 
 
 def _ids(ids: list[int]) -> str:
