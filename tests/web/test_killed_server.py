@@ -57,7 +57,8 @@ def serving(store: Path) -> Iterator[tuple[str, dict[str, str], subprocess.Popen
 
 def _samples(store: Path, trial_id: int) -> int:
     with sqlite3.connect(store) as connection:
-        return int(connection.execute("SELECT count(*) FROM samples WHERE trial_id = ?", (trial_id,)).fetchone()[0])
+        query = "SELECT count(*) FROM samples WHERE trial_id = ?"
+        return int(connection.execute(query, (trial_id,)).fetchone()[0])
 
 
 def test_a_killed_server_s_open_trial_is_resumed_and_named(tmp_path: Path, capsys) -> None:
@@ -75,9 +76,8 @@ def test_a_killed_server_s_open_trial_is_resumed_and_named(tmp_path: Path, capsy
         os.kill(process.pid, signal.SIGKILL)
         process.wait(30)
         http.close()
-    with serving(store) as (url, auth, _):
-        with httpx.Client(base_url=url, headers=auth, timeout=START_TIMEOUT_S) as http:
-            resumed = http.get("/api/sessions/current").json()
+    with serving(store) as (url, auth, _), httpx.Client(base_url=url, headers=auth, timeout=60.0) as http:
+        resumed = http.get("/api/sessions/current").json()
     assert resumed["session_id"] == session and resumed["next"] == 2
     assert resumed["steps"][0]["trial_id"] == first
     assert resumed["steps"][1]["attempts"] == [{"trial_id": second, "status": "stopped", "reason": LEFT_OPEN}]

@@ -124,9 +124,11 @@ def test_a_session_runs_its_plan_with_questionnaires_in_their_place(client, web)
         status = run_next(client, console, session)
         attempts = status["steps"][0]["attempts"]
         assert attempts[0] == {"trial_id": first_trial, "status": "redone", "reason": "cuff slipped"}
-        assert attempts[1]["status"] == "completed" and status["steps"][0]["trial_id"] == attempts[1]["trial_id"]
+        assert attempts[1]["status"] == "completed"
+        assert status["steps"][0]["trial_id"] == attempts[1]["trial_id"]
         # Skip needs a reason; the reason is recorded.
-        no_reason = client.post(f"/api/sessions/{session}/skip", headers=AUTH, json={"position": 2, "reason": ""})
+        no_reason = client.post(f"/api/sessions/{session}/skip", headers=AUTH,
+                                json={"position": 2, "reason": ""})
         assert no_reason.status_code == 400 and "reason" in no_reason.json()["error"]
         skipped = client.post(f"/api/sessions/{session}/skip", headers=AUTH,
                               json={"position": 2, "reason": "motor too warm"})
@@ -134,7 +136,8 @@ def test_a_session_runs_its_plan_with_questionnaires_in_their_place(client, web)
     with sqlite3.connect(web.config.store_path) as connection:
         metadata = json.loads(connection.execute(
             "SELECT metadata FROM trials WHERE id = ?", (attempts[1]["trial_id"],)).fetchone()[0])
-        notes = connection.execute("SELECT kind, condition, reason FROM session_notes ORDER BY rowid").fetchall()
+        query = "SELECT kind, condition, reason FROM session_notes ORDER BY rowid"
+        notes = connection.execute(query).fetchall()
     # The trial ran with the registered anthropometrics and says which step of which plan it was.
     assert metadata["hand_load_kg"] == 1.0 and metadata["height_m"] == 1.7 and metadata["arm_side"] == "right"
     assert metadata["session_id"] == session and metadata["plan_position"] == 1 and metadata["plan_seed"] == 5
@@ -162,7 +165,8 @@ def test_a_restarted_server_resumes_the_session_and_marks_the_interrupted_trial(
 
 def test_a_trial_outside_the_plan_takes_the_registry_s_anthropometrics(client, web):
     client.post("/api/participants", headers=AUTH, json=registration("P11", mass_kg=80.0))
-    body = {"participant": "P11", "condition": "support_25", "speed": "V3", "repetitions": 1, "lead_in_s": 0.3}
+    body = {"participant": "P11", "condition": "support_25", "speed": "V3", "repetitions": 1,
+            "lead_in_s": 0.3}
     contradicting = client.post("/api/trial/start", headers=AUTH, json={**body, "mass_kg": 63.0})
     assert contradicting.status_code == 400 and "mass_kg: P11 is registered with 80.0" in contradicting.text
     started = client.post("/api/trial/start", headers=AUTH, json=body)
