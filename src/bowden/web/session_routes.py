@@ -56,8 +56,8 @@ def session_routes(desk: SessionDesk, authorise: Authorise) -> list[Route]:
         if "participant" not in data:
             raise RequestError("session: the field 'participant' is missing")
         given = data.get("seed")
-        whole = isinstance(given, int) and not isinstance(given, bool)
-        seed = given if whole and 0 <= given < 2**31 else None  # type: ignore[operator]
+        seed = given if isinstance(given, int) and not isinstance(given, bool) else None
+        seed = seed if seed is not None and 0 <= seed < 2**31 else None
         if given is not None and seed is None:
             raise RequestError("seed: expected a whole number from 0 to 2147483647 (or none: one is drawn)")
         session, created = desk.open(participant_id(data["participant"]), seed=seed)
