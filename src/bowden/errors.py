@@ -79,3 +79,7 @@ class MissingExtraError(BowdenError, ImportError):
 
 class ClusterError(BowdenError, RuntimeError):
     """The Dask cluster cannot be reached, runs another bowden, or lost a task for good."""
+
+
+class SyncError(RecordingError):
+    """A recording's sync events (trigger edges, LSL markers) do not agree with the store's trials."""

@@ -35,6 +35,9 @@ PROVIDERS: Final[Mapping[str, tuple[str, str | None]]] = {
     "dask": ("dask", "cluster"),
     "distributed": ("distributed", "cluster"),
     "edfio": ("edfio", "emg"),
+    "pyxdf": ("pyxdf", "emg"),
+    "pylsl": ("pylsl", "lsl"),
+    "gpiod": ("gpiod", "gpio"),
 }
 
 

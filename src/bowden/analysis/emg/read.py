@@ -19,7 +19,25 @@ from bowden.contracts import TRIAL_TIME
 from bowden.errors import ParameterError, RecordingError
 
 # Physical dimensions found in EDF/BDF headers and their factor to volts.
-_VOLT_SCALE = {"v": 1.0, "mv": 1e-3, "uv": 1e-6, "µv": 1e-6, "μv": 1e-6, "nv": 1e-9}
+_VOLT_SCALE = {"v": 1.0, "mv": 1e-3, "uv": 1e-6, "µv": 1e-6, "μv": 1e-6, "nv": 1e-9,
+               # spelled out, as XDF's meta-data conventions write them
+               "volts": 1.0, "millivolts": 1e-3, "microvolts": 1e-6, "nanovolts": 1e-9}
+
+
+def volt_scale(unit: str, *, default: float | None = None) -> float:
+    """Factor from a file's unit (``"uV"``, ``"mV"``...) to volts; ``default`` for an empty unit.
+
+    Raises
+    ------
+    RecordingError
+        For a unit that is not a voltage.
+    """
+    key = unit.strip().lower()
+    if key in _VOLT_SCALE:
+        return _VOLT_SCALE[key]
+    if not key and default is not None:
+        return default
+    raise RecordingError(f"unit {unit!r} is not a voltage (expected one of V, mV, uV)")
 
 
 def read_emg_edf(
@@ -27,6 +45,7 @@ def read_emg_edf(
     *,
     channel_map: Mapping[str, str] | None = None,
     channels: Sequence[str] | None = None,
+    raw_channels: Sequence[str] = (),
 ) -> EmgSignal:
     """Read EMG channels from an EDF/EDF+ or BDF/BDF+ file (by extension) into volts.
 
@@ -40,6 +59,8 @@ def read_emg_edf(
     channels
         Channel names (after mapping) to read; ``None`` reads all signals except EDF annotations.
         All selected signals must share one sampling rate.
+    raw_channels
+        Channels (after mapping) kept in their file units whatever they are, such as a trigger input.
     """
     try:
         import edfio
@@ -68,6 +89,9 @@ def read_emg_edf(
     for name in names:
         signal = by_name[name]
         unit = signal.physical_dimension.strip().lower()
+        if name in raw_channels:
+            columns.append(np.asarray(signal.data, dtype=np.float64))
+            continue
         if unit not in _VOLT_SCALE:
             raise RecordingError(
                 f"{file.name}: channel {name!r} has physical dimension {signal.physical_dimension!r}, "

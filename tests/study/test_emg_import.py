@@ -1,0 +1,277 @@
+"""`bowden emg import`: a 20-minute session's amplifier recording (EDF and XDF) into the store.
+
+The truth is known: every amplifier sample's host time (tests/study/emg_session.py). The import
+sees only the files and the store's sync events, and must find the trials, fit the +80 ppm drift and
+the offset, and store each trial's samples at their true loop times.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bowden.analysis import AnalysisParameters, SegmentationParameters, TrialMetadata, analyse_study
+from bowden.analysis.emg.channels import SAGA_CHANNELS
+from bowden.cli import main
+from bowden.contracts import MUSCLES, TRIAL_TIME
+from bowden.study.emg_import import ImportOptions, import_emg
+from bowden.study.emg_store import emg_imports
+from bowden.study.store import StudyStore
+
+from .emg_session import (
+    TRIGGER,
+    Session,
+    direct_store,
+    simulate_session,
+    write_edf,
+    write_xdf,
+)
+
+MAP = ["--channels", "saga"]
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory: pytest.TempPathFactory) -> Session:
+    return simulate_session(tmp_path_factory.mktemp("session"))
+
+
+@pytest.fixture(scope="module")
+def edf(session: Session, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("edf") / "P01_session.edf"
+    write_edf(session, path)
+    return path
+
+
+@pytest.fixture
+def store(session: Session, tmp_path: Path) -> Path:
+    """A fresh copy of the session's store (trials and sync events, no EMG)."""
+    copy = tmp_path / "study.db"
+    shutil.copyfile(session.store, copy)
+    return copy
+
+
+def _alignment_errors(session: Session, store: Path) -> dict[int, float]:
+    """Per trial, the largest |stored loop time - true loop time| of its samples, s.
+
+    Which amplifier sample a stored row is comes from its value (the store keeps the samples), so
+    a boundary sample taken or left by a slightly different fit does not count as misalignment.
+    """
+    recording_v = 1e-6 * session.emg_uv()[:, 0]
+    errors = {}
+    with StudyStore(store) as opened:
+        for trial in session.trials:
+            emg = opened.trial_emg(trial.trial_id)
+            assert emg is not None and list(emg.columns) == [TRIAL_TIME, *MUSCLES]
+            guess = int(session.trial_span(trial)[0])
+            candidates = np.arange(guess - 2, guess + 3)
+            first = int(candidates[np.argmin(np.abs(recording_v[candidates] - emg[MUSCLES[0]].iloc[0]))])
+            n = first + np.arange(len(emg))
+            np.testing.assert_allclose(
+                emg[MUSCLES[0]], recording_v[n], rtol=0, atol=1e-3 * np.max(np.abs(recording_v[n]))
+            )
+            truth = session.host_time(n) - trial.zero_host_s
+            errors[trial.trial_id] = float(np.max(np.abs(emg[TRIAL_TIME].to_numpy() - truth)))
+    return errors
+
+
+def _outcomes(store: Path) -> pd.DataFrame:
+    with StudyStore(store) as opened:
+        items = [
+            (TrialMetadata(participant=t.participant, condition=t.condition, speed=t.speed), samples, emg)
+            for t, samples, emg in opened.iter_trials()
+        ]
+    # As bowden analyze does: each trial's own repetition count, the first one dropped.
+    segmentation = SegmentationParameters(expected_repetitions=None, drop_first=1)
+    table = analyse_study(items, AnalysisParameters(segmentation=segmentation)).outcomes
+    return table.set_index(
+        ["participant", "condition", "speed", "repetition", "phase", "measure"]
+    ).sort_index()
+
+
+def _assert_same_outcomes(imported: Path, direct: Path) -> None:
+    a, b = _outcomes(imported), _outcomes(direct)
+    assert a.index.equals(b.index)
+    emg_measures = a.index.get_level_values("measure").str.contains("emg|iemg", case=False)
+    assert emg_measures.any()  # EMG outcomes are among those compared
+    np.testing.assert_allclose(a["value"].to_numpy(), b["value"].to_numpy(), rtol=1e-6, atol=0.0)
+
+
+@pytest.mark.parametrize("ramp_samples", [2.0, 0.0], ids=["band-limited edges", "hard step edges"])
+def test_edf_import_is_within_a_millisecond_at_both_ends_of_a_20_minute_session(
+    session, store, tmp_path, ramp_samples, capsys
+):
+    path = tmp_path / "session.edf"
+    write_edf(session, path, ramp_samples=ramp_samples)
+    assert main(["emg", "import", str(store), str(path), "--trigger-channel", TRIGGER, *MAP]) == 0
+    out = capsys.readouterr().out
+    assert "imported EMG of trial(s) 1, 2, 3" in out and "drift +80.0 ppm" in out
+    errors = _alignment_errors(session, store)
+    span_s = session.trials[-1].zero_host_s - session.trials[0].zero_host_s
+    assert span_s > 1150.0  # the first and last trial are ~20 minutes apart
+    print(
+        f"alignment error per trial ({ramp_samples=}): "
+        + ", ".join(f"{e * 1e6:.3f} µs" for e in errors.values())
+    )
+    assert max(errors.values()) < 1e-3
+    if ramp_samples:  # an edge the interpolation resolves: the fit is exact up to rounding
+        assert max(errors.values()) < 1e-6
+
+
+def test_outcomes_from_the_imported_edf_equal_those_of_the_same_emg_stored_directly(
+    session, store, edf, tmp_path
+):
+    result = import_emg(store, edf, ImportOptions(trigger_channel=TRIGGER, channel_map=SAGA_CHANNELS))
+    assert result.trials == (1, 2, 3) and abs(result.fit.drift_ppm - 80.0) < 0.01
+    assert result.fit.max_residual_s < 1e-6
+    from bowden.analysis.emg.read import read_emg_edf
+
+    decoded = read_emg_edf(edf, channels=list(SAGA_CHANNELS)).values
+    _assert_same_outcomes(store, direct_store(session, tmp_path / "direct.db", decoded))
+
+
+def test_xdf_with_bowden_markers_is_imported_on_the_controller_clock(session, store, tmp_path):
+    path = tmp_path / "session.xdf"
+    write_xdf(session, path)
+    result = import_emg(store, path, ImportOptions(channel_map=SAGA_CHANNELS))
+    assert result.via == "markers" and result.trials == (1, 2, 3) and result.fit.n_events == 6
+    errors = _alignment_errors(session, store)
+    print("XDF alignment error per trial: " + ", ".join(f"{e * 1e6:.3f} µs" for e in errors.values()))
+    assert max(errors.values()) < 1e-3
+    decoded = 1e-6 * session.emg_uv()
+    _assert_same_outcomes(store, direct_store(session, tmp_path / "direct.db", decoded))
+
+
+def test_the_same_file_again_is_a_no_op_and_another_needs_replace(session, store, edf, tmp_path, capsys):
+    args = ["emg", "import", str(store), str(edf), "--trigger-channel", TRIGGER, *MAP]
+    assert main(args) == 0
+    with StudyStore(store) as opened:
+        before = opened.read_sql("SELECT trial_id, muscle, start_time_s, data FROM emg ORDER BY 1, 2")
+    assert main(args) == 0
+    assert "nothing new to import; trial(s) 1, 2, 3 already from this file" in capsys.readouterr().out
+    other = tmp_path / "other.edf"
+    shutil.copyfile(edf, other)
+    with other.open("r+b") as file:  # the same signals under another recording field: another file
+        file.seek(88)
+        file.write(b"Startdate 01-JAN-2026 X X X".ljust(80))
+    assert main(["emg", "import", str(store), str(other), "--trigger-channel", TRIGGER, *MAP]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "EMG already stored for trial 1 from P01_session.edf" in err
+    assert "--replace" in err
+    with StudyStore(store) as opened:
+        after = opened.read_sql("SELECT trial_id, muscle, start_time_s, data FROM emg ORDER BY 1, 2")
+    pd.testing.assert_frame_equal(before, after)
+    assert (
+        main(["emg", "import", str(store), str(other), "--trigger-channel", TRIGGER, *MAP, "--replace"]) == 0
+    )
+    with StudyStore(store) as opened:
+        assert {meta["file"] for meta in emg_imports(opened).values()} == {"other.edf"}
+        assert len(opened.read_sql("SELECT * FROM emg")) == 3 * len(MUSCLES)
+
+
+def _refused(store: Path, path: Path, *extra: str, capsys: pytest.CaptureFixture[str]) -> str:
+    code = main(["emg", "import", str(store), str(path), *extra])
+    err = capsys.readouterr().err.strip()
+    assert code == 1 and err.startswith("bowden: error: ") and "\n" not in err, err
+    with StudyStore(store) as opened:  # nothing half-imported
+        assert opened.read_sql("SELECT COUNT(*) AS n FROM emg")["n"][0] == 0
+    return err
+
+
+def _edf(session: Session, path: Path, **changes: object) -> Path:
+    write_edf(session, path, **changes)  # type: ignore[arg-type]
+    return path
+
+
+def test_a_recording_of_part_of_the_session_is_imported_for_those_trials(session, store, tmp_path):
+    path = _edf(session, tmp_path / "part.edf", pulses=[1, 2])
+    result = import_emg(store, path, ImportOptions(trigger_channel=TRIGGER, channel_map=SAGA_CHANNELS))
+    assert result.trials == (2, 3)
+
+
+def test_a_missing_trigger_pulse_names_the_trials_that_matched(session, store, tmp_path, capsys):
+    # The amplifier missed the second trial's pulse (the line was unplugged for it).
+    path = _edf(session, tmp_path / "missed.edf", pulses=[0, 2])
+    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    assert "2 trigger pulses do not all match the store's trials: pulses 1–1 match trials 1, pulse 2" in err
+    assert "matches no trial" in err
+
+
+def test_more_pulses_than_trials_are_refused(session, store, edf, capsys):
+    with StudyStore(store) as opened:
+        opened._db.execute("DELETE FROM events WHERE trial_id = 3")
+        opened._db.commit()
+    err = _refused(store, edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    assert "3 trigger pulses but the store has 2 trials with sync events (trials 1, 2)" in err
+
+
+def test_drift_beyond_the_tolerance_is_refused(session, store, tmp_path, capsys):
+    session.drift_ppm = 300.0
+    try:
+        path = _edf(session, tmp_path / "drift.edf")
+    finally:
+        session.drift_ppm = 80.0
+    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    assert "drift +300 ppm" in err and "beyond the 200 ppm tolerance" in err
+
+
+def test_a_residual_beyond_2_ms_is_refused(session, store, tmp_path, capsys):
+    # The second trial's end edge is 3 ms late in the recording: inside the matching window, off the fit.
+    path = _edf(session, tmp_path / "late.edf", late_s=[0.0, 0.003])
+    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    assert "ms off the fit, beyond 2 ms" in err
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--trigger-channel", TRIGGER, *MAP, "--rate", "1000"], "trial 1: sampling rate is 2000.16 Hz"),
+        (["--trigger-channel", TRIGGER], "unknown channel labels UNI1"),
+        (["--trigger-channel", "TRIG", *MAP], "lacks channel(s) ['TRIG']"),
+        ([*MAP], "give --trigger-channel NAME"),
+    ],
+)
+def test_wrong_rate_labels_and_channels_are_refused(store, edf, args, message, capsys):
+    assert message in _refused(store, edf, *args, capsys=capsys)
+
+
+def test_a_map_naming_an_absent_label_and_a_flat_channel_are_refused(session, store, edf, tmp_path, capsys):
+    mapping = {**SAGA_CHANNELS}
+    mapping["UNI42"] = mapping.pop("UNI8")
+    (tmp_path / "map.json").write_text(json.dumps(mapping))
+    err = _refused(
+        store, edf, "--trigger-channel", TRIGGER, "--channels", str(tmp_path / "map.json"), capsys=capsys
+    )
+    assert "lacks channel(s) ['UNI42']" in err
+    # The pectoralis electrode was plugged into UNI9, which recorded nothing.
+    mapping = {**SAGA_CHANNELS}
+    mapping["UNI9"] = mapping.pop("UNI8")
+    (tmp_path / "map.json").write_text(json.dumps(mapping))
+    path = _edf(session, tmp_path / "flat.edf", flat="UNI9")
+    err = _refused(
+        store, path, "--trigger-channel", TRIGGER, "--channels", str(tmp_path / "map.json"), capsys=capsys
+    )
+    assert "trial 1: channel 'pectoralis_major' is flat" in err
+
+
+def test_a_recording_without_pulses_and_stores_without_trials_are_refused(
+    session, store, edf, tmp_path, capsys
+):
+    path = _edf(session, tmp_path / "quiet.edf", pulses=[])
+    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    assert "holds no pulse: the recording covers no trial" in err
+    empty = tmp_path / "empty.db"
+    StudyStore(empty).close()
+    assert "holds no completed trial" in _refused(
+        empty, edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys
+    )
+    no_sync = tmp_path / "nosync.db"
+    shutil.copyfile(session.store, no_sync)
+    with StudyStore(no_sync) as opened:
+        opened._db.execute("DELETE FROM events WHERE kind = 'sync'")
+        opened._db.commit()
+    assert "has sync events" in _refused(no_sync, edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
