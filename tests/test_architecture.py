@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 
 import bowden
+from bowden.model.model_file import save_model
 
 PACKAGE = Path(bowden.__file__).parent
 PURE = ("model", "control", "analysis", "stats")
@@ -43,7 +44,7 @@ def test_controller_contract_of_design_md(tmp_path):
     from bowden.control import build_controller
     from bowden.model import CompensationModel, Subject
 
-    CompensationModel.from_friction(k=0.1).save(tmp_path / "model.json")
+    save_model(CompensationModel.from_friction(k=0.1), tmp_path / "model.json")
     ctrl = build_controller(
         model=str(tmp_path / "model.json"),
         support=0.5,

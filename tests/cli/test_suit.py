@@ -16,6 +16,7 @@ from bowden.cli._suit import CanSuitOptions
 from bowden.cli.serve import serve_config
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
+from bowden.model.model_file import save_model
 from bowden.sim.parameters import SuitParameters
 
 HARDWARE = ["--channel", "can1", "--interface", "virtual", "--motor-id", "3", "--firmware", "peak-9nm",
@@ -26,7 +27,7 @@ HARDWARE = ["--channel", "can1", "--interface", "virtual", "--motor-id", "3", "-
 @pytest.fixture
 def model(tmp_path: Path) -> Path:
     path = tmp_path / "model.json"
-    CompensationModel.from_friction(k=0.12).save(path)
+    save_model(CompensationModel.from_friction(k=0.12), path)
     return path
 
 

@@ -15,6 +15,7 @@ from bowden.model import (
     arm_model,
     desired_tension_n,
 )
+from bowden.model.model_file import save_model
 
 SUBJECT = Subject(height_m=1.70, mass_kg=63.0, sex="female")
 MODEL = CompensationModel(
@@ -150,7 +151,7 @@ def test_more_torque_when_raising_faster(theta, velocity, dv):
 
 def test_build_from_model_file(tmp_path):
     path = tmp_path / "model.json"
-    MODEL.save(path)
+    save_model(MODEL, path)
     ctrl = build_controller(model=path, support="pretension", subject=SUBJECT)
     assert ctrl.model == MODEL
     assert ctrl.step(0.0, 1.0, 0.0).tension_n == 10.0

@@ -14,7 +14,7 @@ from bowden import __version__
 from bowden.contracts import BENCH_MOTOR_TORQUE, BENCH_MOTOR_VELOCITY, BENCH_TENSION
 from bowden.errors import FitError, ParameterError, RecordingError
 from bowden.identify import PreprocessSettings, TransmissionIdentifier, robustfit
-from bowden.model import CompensationModel
+from bowden.model.model_file import load_model, save_model
 from bowden.model.transmission import slopes_from_friction
 
 from .law_bench import LawTruth, law_bench_frame
@@ -81,8 +81,8 @@ def test_provenance_and_round_trip_through_model_json(tmp_path: Path) -> None:
     assert abs((datetime.now(UTC) - created).total_seconds()) < 600
     assert "5 Hz" in provenance.notes and "15 °/s" in provenance.notes
     target = tmp_path / "model.json"
-    identifier.model_.save(target)
-    loaded = CompensationModel.load(target)
+    save_model(identifier.model_, target)
+    loaded = load_model(target)
     assert loaded == identifier.model_
     assert loaded.blend_weight(0.5) == pytest.approx(0.99)
 

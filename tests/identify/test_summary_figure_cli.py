@@ -23,7 +23,7 @@ from bowden.identify import (
     save_identification_figure,
 )
 from bowden.identify.figure import COLOURS
-from bowden.model import CompensationModel
+from bowden.model.model_file import load_model
 
 from .law_bench import law_bench_frame
 
@@ -98,7 +98,7 @@ def test_cli_writes_model_summary_and_figure(tmp_path: Path, capsys: pytest.Capt
     out = capsys.readouterr().out
     assert code == 0
     assert "raising" in out and "lowering" in out and "Implied friction: k = " in out
-    model = CompensationModel.load(model_path)
+    model = load_model(model_path)
     assert model.raising.slope_m == pytest.approx(0.035 * 1.1 / 0.9, rel=0.01)
     assert json.loads(model_path.read_text())["provenance"]["source_files"] == [str(bench)]
     assert figure_path.stat().st_size > 10_000
@@ -110,7 +110,7 @@ def test_cli_thresholds_in_degrees(tmp_path: Path, capsys: pytest.CaptureFixture
     narrow = ["--min-elevation-deg", "40", "--max-elevation-deg", "60"]
     assert main(["identify", str(bench), "-o", str(tmp_path / "a.json")]) == 0
     assert main(["identify", str(bench), "-o", str(tmp_path / "b.json"), *narrow]) == 0
-    wide, cut = (CompensationModel.load(tmp_path / name) for name in ("a.json", "b.json"))
+    wide, cut = (load_model(tmp_path / name) for name in ("a.json", "b.json"))
     assert wide.raising_fit is not None and cut.raising_fit is not None
     assert cut.raising_fit.n < 0.5 * wide.raising_fit.n
 

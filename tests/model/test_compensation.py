@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from bowden.errors import ModelFileError, ParameterError
 from bowden.model import CompensationLine, CompensationModel, LineFitStats, Provenance
-from bowden.model.model_file import model_to_dict
+from bowden.model.model_file import load_model, model_to_dict, save_model
 
 
 def make_model(**kwargs):
@@ -101,12 +101,12 @@ def full_model():
 def test_save_load_round_trip(tmp_path):
     model = full_model()
     path = tmp_path / "model.json"
-    model.save(path)
-    assert CompensationModel.load(path) == model
-    assert json.loads(path.read_text())["version"] == 1
+    save_model(model, path)
+    assert load_model(path) == model
+    assert json.loads(path.read_text())["version"] == 2
     bare = make_model()
-    bare.save(path)
-    assert CompensationModel.load(path) == bare
+    save_model(bare, path)
+    assert load_model(path) == bare
 
 
 def write(tmp_path, data):
@@ -120,7 +120,7 @@ def write(tmp_path, data):
     [
         (lambda d: d["raising"].pop("slope_m"), "raising.slope_m"),
         (lambda d: d["lowering"].__setitem__("intercept_nm", "0.1"), "lowering.intercept_nm"),
-        (lambda d: d.__setitem__("version", 2), "version"),
+        (lambda d: d.__setitem__("version", 3), "version"),
         (lambda d: d.__setitem__("format", "other"), "format"),
         (lambda d: d["blend"].pop("velocity_99_rad_s"), "blend.velocity_99_rad_s"),
         (lambda d: d["raising"]["fit"].pop("n"), "raising.fit.n"),
@@ -135,20 +135,20 @@ def test_bad_files_name_the_field(tmp_path, mutate, field):
     data = model_to_dict(full_model())
     mutate(data)
     with pytest.raises(ModelFileError, match=f"'{field}'"):
-        CompensationModel.load(write(tmp_path, data))
+        load_model(write(tmp_path, data))
 
 
 def test_missing_and_malformed_files(tmp_path):
     with pytest.raises(ModelFileError, match="bowden identify"):
-        CompensationModel.load(tmp_path / "absent.json")
+        load_model(tmp_path / "absent.json")
     path = tmp_path / "broken.json"
     path.write_text('{"format": ')
     with pytest.raises(ModelFileError, match="not valid JSON"):
-        CompensationModel.load(path)
+        load_model(path)
     path.write_text("[1, 2]")
     with pytest.raises(ModelFileError, match="JSON object"):
-        CompensationModel.load(path)
+        load_model(path)
     inconsistent = model_to_dict(full_model())
     inconsistent["blend"]["velocity_01_rad_s"] = 2.0
     with pytest.raises(ModelFileError, match="must exceed"):
-        CompensationModel.load(write(tmp_path, inconsistent))
+        load_model(write(tmp_path, inconsistent))

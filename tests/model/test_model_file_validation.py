@@ -12,7 +12,7 @@ import pytest
 
 from bowden.errors import ModelFileError
 from bowden.model.compensation import CompensationLine, CompensationModel, LineFitStats, Provenance
-from bowden.model.model_file import MAX_INTERCEPT_NM, load_model, model_from_dict, model_to_dict
+from bowden.model.model_file import MAX_INTERCEPT_NM, load_model, model_from_dict, model_to_dict, save_model
 
 FIT = LineFitStats(
     n=1200, r_squared_ols=0.98, r_squared_robust=0.97, robust_scale_nm=0.02, intercept_se_nm=0.004,
@@ -53,8 +53,8 @@ def _set(*keys: str, value: object) -> Callable[[dict[str, Any]], None]:
 @pytest.mark.parametrize(
     ("change", "field", "problem"),
     [
-        (_set("version", value=True), "version", "must be the integer 1, got True"),
-        (_set("version", value=1.0), "version", "must be the integer 1, got 1.0"),
+        (_set("version", value=True), "version", "must be the integer 1 or 2, got True"),
+        (_set("version", value=1.0), "version", "must be the integer 1 or 2, got 1.0"),
         (_set("raising", "fit", "n", value=-5), "raising.fit.n", "must be a non-negative integer"),
         (_set("lowering", "fit", "n", value=2.5), "lowering.fit.n", "must be a non-negative integer"),
         (_set("raising", "fit", "r_squared_ols", value=3.0), "raising.fit.r_squared_ols",
@@ -110,5 +110,5 @@ def test_a_valid_model_and_the_bounds_themselves_load(tmp_path: Path) -> None:
 @pytest.mark.parametrize("k", [0.12, 0.0])  # 0: a frictionless transmission, equal slopes
 def test_the_ideal_friction_model_round_trips(tmp_path: Path, k: float) -> None:
     model = CompensationModel.from_friction(k=k)
-    model.save(tmp_path / "model.json")
+    save_model(model, tmp_path / "model.json")
     assert load_model(tmp_path / "model.json") == model

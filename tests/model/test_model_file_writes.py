@@ -11,6 +11,7 @@ import pytest
 
 from bowden.errors import OutputFileError
 from bowden.model import CompensationModel
+from bowden.model.model_file import load_model, save_model
 
 MODEL = CompensationModel.from_friction(k=0.1)
 
@@ -26,35 +27,35 @@ def umask_022() -> Iterator[None]:
 
 def test_model_file_gets_the_usual_permissions(tmp_path: Path, umask_022: None) -> None:
     path = tmp_path / "model.json"
-    MODEL.save(path)
+    save_model(MODEL, path)
     assert stat.S_IMODE(path.stat().st_mode) == 0o644  # 0o666 less the umask, not mkstemp's 0o600
     os.umask(0o077)
-    MODEL.save(path)  # replacing follows the umask too
+    save_model(MODEL, path)  # replacing follows the umask too
     assert stat.S_IMODE(path.stat().st_mode) == 0o600
-    assert CompensationModel.load(path) == MODEL
+    assert load_model(path) == MODEL
     assert [p.name for p in tmp_path.iterdir()] == ["model.json"]  # no temporary file left
 
 
 def test_an_older_model_file_is_replaced(tmp_path: Path) -> None:
     path = tmp_path / "model.json"
-    CompensationModel.from_friction(k=0.2).save(path)
-    MODEL.save(path)
-    assert CompensationModel.load(path) == MODEL
+    save_model(CompensationModel.from_friction(k=0.2), path)
+    save_model(MODEL, path)
+    assert load_model(path) == MODEL
 
 
 def test_a_file_that_is_not_a_model_is_never_replaced(tmp_path: Path) -> None:
     recording = tmp_path / "bench.csv"
     recording.write_text("time_s,motor_torque_nm\n0.0,0.1\n")
     with pytest.raises(OutputFileError, match=r"refusing to replace .*bench\.csv.*not a bowden model"):
-        MODEL.save(recording)
+        save_model(MODEL, recording)
     assert recording.read_text() == "time_s,motor_torque_nm\n0.0,0.1\n"
 
 
 def test_an_empty_file_may_be_replaced(tmp_path: Path) -> None:
     path = tmp_path / "model.json"
     path.touch()
-    MODEL.save(path)
-    assert CompensationModel.load(path) == MODEL
+    save_model(MODEL, path)
+    assert load_model(path) == MODEL
 
 
 @pytest.mark.parametrize("where", ["directory", "missing folder", "under a file"])
@@ -66,4 +67,4 @@ def test_unwritable_paths_are_output_file_errors_naming_the_path(tmp_path: Path,
         "under a file": tmp_path / "a_file" / "model.json",
     }[where]
     with pytest.raises(OutputFileError, match=f"cannot write the model to {target}"):
-        MODEL.save(target)
+        save_model(MODEL, target)

@@ -19,7 +19,7 @@ import pytest
 
 from bowden.cli import main
 from bowden.hardware.ak60 import AK60Config, AK60Motor
-from bowden.model import CompensationModel
+from bowden.model.model_file import load_model
 from bowden.protocol.bench import BenchProtocol, BenchStroke
 from bowden.runtime.bench import BenchDevices, BenchReport, BenchRun, BenchRunConfig
 from bowden.runtime.bench_recording import BenchRecordingWriter
@@ -74,7 +74,7 @@ def test_bench_run_identifies_the_lines_bench_simulate_gives(tmp_path, capsys):
     for path in (wire, batch):
         assert main(["identify", str(path), "-o", str(path.with_suffix(".json"))]) in (0, 3)
     capsys.readouterr()
-    models = {path: CompensationModel.load(path.with_suffix(".json")) for path in (wire, batch)}
+    models = {path: load_model(path.with_suffix(".json")) for path in (wire, batch)}
     for direction in ("raising", "lowering"):
         a = getattr(models[wire], direction)
         b = getattr(models[batch], direction)

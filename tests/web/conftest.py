@@ -16,6 +16,7 @@ import pytest
 from starlette.testclient import TestClient
 
 from bowden.model import CompensationModel
+from bowden.model.model_file import save_model
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.protocol.session_plan import StudyProtocol
 from bowden.runtime.store_schema import STORE_FILE_NAME
@@ -130,7 +131,7 @@ def wire_suit(tmp_path: Path) -> Iterator[WireSuit]:
     before = set(threading.enumerate())
     channel = virtual_channel()
     model = tmp_path / "model.json"
-    CompensationModel.from_friction(k=0.12).save(model)
+    save_model(CompensationModel.from_friction(k=0.12), model)
     plant = WallTimePlant(SimulatedSuit(arm=PrescribedArm.following(MinimumJerkCycle())))
     port = free_udp_port()
     with can.Bus(interface="virtual", channel=channel) as bus, AK60Peer(bus, plant) as motor, \

@@ -29,6 +29,7 @@ from bowden.cli import build_parser, main
 from bowden.cli.serve import serve_config
 from bowden.control import Fault
 from bowden.model import CompensationModel
+from bowden.model.model_file import save_model
 from bowden.runtime import LoopState
 from bowden.sim.peers.ak60_peer import COMMAND, ENTER, EXIT
 from bowden.web.server import ServerThread
@@ -261,7 +262,7 @@ def test_a_real_suit_that_cannot_be_opened_refuses_the_start_and_leaves_nothing_
     tmp_path: Path,
 ) -> None:
     model = tmp_path / "model.json"
-    CompensationModel.from_friction(k=0.12).save(model)
+    save_model(CompensationModel.from_friction(k=0.12), model)
     store = tmp_path / "study.sqlite"
     port = free_udp_port()
     common = ["serve", "--backend", "can", "--model", str(model), "--store", str(store), "--port", "0",

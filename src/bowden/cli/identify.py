@@ -18,6 +18,7 @@ from bowden.errors import OutputFileError
 from bowden.identify.estimator import TransmissionIdentifier
 from bowden.identify.figure import save_identification_figure
 from bowden.identify.preprocess import LOWERING, RAISING, PreprocessSettings
+from bowden.model.model_file import save_model
 
 _DEFAULTS = PreprocessSettings()
 
@@ -87,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
         identifier.fit(read_bench_recording(args.bench, limits=identifier.limits, allow_extra_columns=True))
     else:
         identifier.fit(args.bench)
-    identifier.model_.save(args.output)
+    save_model(identifier.model_, args.output)
     print(identifier.summary_.format())
     print(f"Model written to {args.output}")
     if args.figure is not None:

@@ -26,6 +26,7 @@ from bowden.cli._suit import (
 )
 from bowden.contracts import BACKEND_CAN, REPETITIONS_PER_TRIAL, SPEEDS
 from bowden.errors import ParameterError
+from bowden.model.model_file import load_model
 from bowden.protocol.session_plan import ORDERS, PAPER_BREAK_S, StudyProtocol
 from bowden.runtime.store_schema import STORE_FILE_NAME
 
@@ -136,7 +137,7 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
     else:
         backend = SimulatedBackend(time_scale=args.time_scale)
     if args.model is not None:
-        model = CompensationModel.load(args.model)
+        model = load_model(args.model)
     else:
         k = args.friction_k if args.friction_k is not None else _sim_friction_k()
         model = CompensationModel.from_friction(k=k)

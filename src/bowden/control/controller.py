@@ -18,80 +18,26 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from operator import itemgetter
 from pathlib import Path
-from typing import Literal, NamedTuple, Protocol
+from typing import Literal, NamedTuple
 
-from bowden.control.faults import Fault, Limit
+from bowden.control.command import Command, StepFunction, fault_command
+from bowden.control.dynamic_step import compile_dynamic_step
+from bowden.control.faults import Limit
 from bowden.control.limits import ControllerLimits
+from bowden.errors import ParameterError
 from bowden.model.anthropometry import STANDARD_GRAVITY_M_S2, ArmModel, Subject, arm_model
 from bowden.model.assistance import AssistanceParameters
 from bowden.model.compensation import CompensationModel
 from bowden.model.geometry import CuffGeometry
+from bowden.model.model_file import load_model
 
 _NAN = math.nan
 # Bound once: a module global is one lookup on the hot path, math.sin two.
 _sin, _cos, _sqrt, _exp = math.sin, math.cos, math.sqrt, math.exp
-
-
-class Command(tuple[float, float, float, int, int]):
-    """One cycle's output, a 5-tuple with named fields.
-
-    torque_nm
-        Motor torque to command, Nm (spool side, ≥ 0; 0 on a fault).
-    tension_n
-        Desired cable tension at the arm anchor, N (NaN on a fault).
-    moment_arm_m
-        Cable moment arm r(θ) of this cycle, m (NaN on a fault).
-    faults
-        :class:`Fault` bits (0: none).
-    limits
-        :class:`Limit` bits: which limits shaped the command.
-
-    Built on the hot path as ``Command((torque, tension, arm, faults, limits))``: tuple's own C
-    constructor, about 40 % cheaper than a NamedTuple's Python ``__new__``. :meth:`of` takes keywords.
-    """
-
-    __slots__ = ()
-    _fields = ("torque_nm", "tension_n", "moment_arm_m", "faults", "limits")
-
-    torque_nm = property(itemgetter(0), doc="Motor torque to command, Nm.")
-    tension_n = property(itemgetter(1), doc="Desired cable tension at the arm, N.")
-    moment_arm_m = property(itemgetter(2), doc="Cable moment arm of this cycle, m.")
-    faults = property(itemgetter(3), doc="Fault bits (0: none).")
-    limits = property(itemgetter(4), doc="Limit bits.")
-
-    @classmethod
-    def of(
-        cls, *, torque_nm: float, tension_n: float, moment_arm_m: float, faults: int = 0, limits: int = 0
-    ) -> Command:
-        """A command from keywords."""
-        return cls((torque_nm, tension_n, moment_arm_m, faults, limits))
-
-    def _asdict(self) -> dict[str, float | int]:
-        return dict(zip(self._fields, self, strict=True))
-
-    def __repr__(self) -> str:
-        fields = ", ".join(f"{name}={value!r}" for name, value in zip(self._fields, self, strict=True))
-        return f"Command({fields})"
-
-
 _TENSION = int(Limit.TENSION)
 _TORQUE = int(Limit.TORQUE)
 _RATE = int(Limit.TORQUE_RATE)
-
-
-class StepFunction(Protocol):
-    """Signature of :attr:`Controller.step`."""
-
-    def __call__(
-        self,
-        time_s: float,
-        elevation_rad: float,
-        elevation_velocity_rad_s: float,
-        motor_velocity_rad_s: float = _NAN,
-        motor_torque_nm: float = _NAN,
-    ) -> Command: ...
 
 
 class Controller:
@@ -116,7 +62,9 @@ class Controller:
     within the cost budget of the arithmetic itself (see ``benchmarks/controller.py``).
     """
 
-    __slots__ = ("_state", "arm", "assistance", "geometry", "limits", "model", "step", "subject")
+    __slots__ = (
+        "_state", "arm", "assistance", "compensation", "geometry", "limits", "model", "step", "subject",
+    )
 
     def __init__(
         self,
@@ -127,8 +75,10 @@ class Controller:
         geometry: CuffGeometry,
         assistance: AssistanceParameters,
         limits: ControllerLimits,
+        compensation: Literal["paper", "dynamic"] = "paper",
     ) -> None:
         self.model = model
+        self.compensation = compensation
         self.subject = subject
         self.arm = arm
         self.geometry = geometry
@@ -136,7 +86,18 @@ class Controller:
         self.limits = limits
         self.step: StepFunction
         self._state: _StepState
-        self.step, self._state = _compile_step(model, arm, geometry, assistance, limits)
+        if compensation == "paper":
+            self.step, self._state = _compile_step(model, arm, geometry, assistance, limits)
+        elif compensation == "dynamic" and model.dynamic is not None:
+            step, reset, torque_nm = compile_dynamic_step(
+                model.dynamic, model.pulley_radius_m, arm, geometry, assistance, limits
+            )
+            self.step, self._state = step, _StepState(reset=reset, torque_nm=torque_nm)
+        else:
+            raise ParameterError(
+                f"compensation must be 'paper' or 'dynamic' (the latter needs a model identified with "
+                f"its dynamic part, model.json version 2), got {compensation!r}"
+            )
 
     def reset(self) -> None:
         """Forget the last command: the next torque ramps up from zero again."""
@@ -208,7 +169,7 @@ def _compile_step(
             and not min_motor_vel <= motor_velocity_rad_s <= max_motor_vel
         ) or (motor_torque_nm == motor_torque_nm and motor_torque_nm - motor_torque_nm != 0.0):
             last_torque, last_time = 0.0, _NAN
-            return _fault_command(
+            return fault_command(
                 time_s, elevation_rad, elevation_velocity_rad_s, motor_velocity_rad_s, motor_torque_nm,
                 elev_min, elev_max, max_vel, max_motor_vel,
             )
@@ -265,32 +226,6 @@ def _compile_step(
     return step, _StepState(reset=reset, torque_nm=torque_nm)
 
 
-def _fault_command(
-    time_s: float,
-    elevation_rad: float,
-    elevation_velocity_rad_s: float,
-    motor_velocity_rad_s: float,
-    motor_torque_nm: float,
-    elev_min: float,
-    elev_max: float,
-    max_vel: float,
-    max_motor_vel: float,
-) -> Command:
-    """The safe command, with flags saying which input was wrong (off the hot path)."""
-    faults = Fault.NONE
-    if not all(math.isfinite(v) for v in (time_s, elevation_rad, elevation_velocity_rad_s)) or any(
-        math.isinf(v) for v in (motor_velocity_rad_s, motor_torque_nm)
-    ):
-        faults |= Fault.NONFINITE_INPUT
-    if math.isfinite(elevation_rad) and not elev_min <= elevation_rad <= elev_max:
-        faults |= Fault.ELEVATION_OUT_OF_RANGE
-    if math.isfinite(elevation_velocity_rad_s) and abs(elevation_velocity_rad_s) > max_vel:
-        faults |= Fault.ELEVATION_VELOCITY_OUT_OF_RANGE
-    if math.isfinite(motor_velocity_rad_s) and abs(motor_velocity_rad_s) > max_motor_vel:
-        faults |= Fault.MOTOR_OVERSPEED
-    return Command((0.0, _NAN, _NAN, int(faults), 0))
-
-
 def build_controller(
     *,
     model: CompensationModel | str | Path,
@@ -301,6 +236,7 @@ def build_controller(
     limits: ControllerLimits | None = None,
     floor_tension_n: float = 10.0,
     pretension_n: float = 10.0,
+    compensation: Literal["paper", "dynamic"] | None = None,
 ) -> Controller:
     """Build the controller for one wearer and condition.
 
@@ -318,15 +254,22 @@ def build_controller(
         Cuff geometry and safety limits; defaults reproduce the paper's suit.
     floor_tension_n, pretension_n
         Floor under the support law and the constant pretension, N (paper: 10 N).
+    compensation
+        ``"paper"``: the paper's two lines and sigmoid, exactly; ``"dynamic"``: the model's dynamic
+        compensation (:mod:`bowden.model.dynamic`); None: the model's recommendation (dynamic when
+        the model holds one).
 
     Raises
     ------
     bowden.errors.ParameterError, bowden.errors.ModelFileError
         For invalid parameters or an unreadable model file.
     """
-    compensation = model if isinstance(model, CompensationModel) else CompensationModel.load(model)
+    loaded = model if isinstance(model, CompensationModel) else load_model(model)
+    if compensation is None:
+        compensation = "dynamic" if loaded.dynamic is not None else "paper"
     return Controller(
-        model=compensation,
+        model=loaded,
+        compensation=compensation,
         subject=subject,
         arm=arm_model(subject, hand_load_kg),
         geometry=geometry if geometry is not None else CuffGeometry(),

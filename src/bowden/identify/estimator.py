@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bowden import __version__
 from bowden.errors import FitError, ParameterError, RecordingError
+from bowden.identify.dynamic import DynamicIdentification, identify_dynamic
 from bowden.identify.preprocess import (
     DIRECTIONS,
     LOWERING,
@@ -52,6 +53,7 @@ _PARAMETERS = (
     "tune",
     "limits",
     "thresholds",
+    "dynamic",
 )
 
 
@@ -102,6 +104,10 @@ class TransmissionIdentifier:
         Unit plausibility limits used when reading files or tables.
     thresholds
         When the summary warns.
+    dynamic
+        Also identify the dynamic compensation (:mod:`bowden.identify.dynamic`) and store it in the
+        model (version 2), which then recommends it. When the recording cannot support it (one spool
+        speed), the model keeps the paper's lines only and ``dynamic_error_`` says why.
     """
 
     def __init__(
@@ -115,6 +121,7 @@ class TransmissionIdentifier:
         tune: float = BISQUARE_TUNE,
         limits: RecordingLimits | None = None,
         thresholds: SummaryThresholds | None = None,
+        dynamic: bool = True,
     ) -> None:
         self.preprocessing = preprocessing or PreprocessSettings()
         self.pulley_radius_m = pulley_radius_m
@@ -124,6 +131,7 @@ class TransmissionIdentifier:
         self.tune = tune
         self.limits = limits or RecordingLimits()
         self.thresholds = thresholds or SummaryThresholds()
+        self.dynamic = dynamic
         self._validate()
 
     def _validate(self) -> None:
@@ -147,6 +155,8 @@ class TransmissionIdentifier:
             raise ParameterError("blend_velocity_99_rad_s must exceed blend_velocity_01_rad_s")
         if self.tune <= 0.0:
             raise ParameterError(f"tune must be positive, got {self.tune!r}")
+        if not isinstance(self.dynamic, bool):
+            raise ParameterError(f"dynamic must be True or False, got {self.dynamic!r}")
         count = self.min_samples_per_direction
         if isinstance(count, bool) or not isinstance(count, int) or count < 3:
             raise ParameterError(f"min_samples_per_direction must be an integer >= 3, got {count!r}")
@@ -254,6 +264,15 @@ class TransmissionIdentifier:
             lowering_fit=_stats(fits[LOWERING]),
             provenance=self._provenance(data),
         )
+        self.dynamic_: DynamicIdentification | None = None
+        self.dynamic_error_: str | None = None
+        if self.dynamic:
+            try:
+                self.dynamic_ = identify_dynamic(selection, self.model_)
+            except FitError as error:
+                self.dynamic_error_ = str(error)
+            else:
+                self.model_ = replace(self.model_, dynamic=self.dynamic_.dynamic)
         return self
 
     def _provenance(self, data: BenchRecording) -> Provenance:

@@ -17,8 +17,9 @@ from bowden.model.assistance import (
     desired_joint_torque_nm,
     desired_tension_n,
 )
-from bowden.model.compensation import CompensationLine, CompensationModel, LineFitStats, Provenance
+from bowden.model.compensation import CompensationModel, Provenance
 from bowden.model.geometry import CuffGeometry
+from bowden.model.lines import CompensationLine, LineFitStats
 
 __all__ = [
     "PRETENSION",

@@ -15,59 +15,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from bowden.errors import ParameterError
+from bowden.model.dynamic import DynamicCompensation
+from bowden.model.lines import CompensationLine, LineFitStats, finite_number
 from bowden.model.transmission import slopes_from_friction
 
 LN_99 = math.log(99.0)
-
-
-def _finite(name: str, value: float) -> None:
-    if not (isinstance(value, int | float) and math.isfinite(value)):
-        raise ParameterError(f"{name} must be a finite number, got {value!r}")
-
-
-@dataclass(frozen=True, kw_only=True)
-class CompensationLine:
-    """Motor torque for a desired arm tension in one direction: τ = intercept_nm + slope_m·T."""
-
-    intercept_nm: float
-    slope_m: float
-
-    def __post_init__(self) -> None:
-        _finite("intercept_nm", self.intercept_nm)
-        _finite("slope_m", self.slope_m)
-        if not (0.0 < self.slope_m < 1.0):
-            raise ParameterError(
-                f"slope_m is motor torque per newton of tension (about the pulley radius), "
-                f"so it must be in (0, 1) m; got {self.slope_m!r}"
-            )
-
-    def torque_nm(self, tension_n: float) -> float:
-        return self.intercept_nm + self.slope_m * tension_n
-
-
-@dataclass(frozen=True, kw_only=True)
-class LineFitStats:
-    """How well a compensation line was identified.
-
-    ``r_squared_ols`` is corr(y, ŷ)² (equal to ordinary R² for a line); ``r_squared_robust`` is
-    fitlm's robust definition SSR/(SSR + dfe·s²) with the robust scale s (REFERENCE §1).
-    """
-
-    n: int
-    r_squared_ols: float
-    r_squared_robust: float
-    robust_scale_nm: float
-    intercept_se_nm: float
-    slope_se_m: float
-
-    def __post_init__(self) -> None:
-        if not (isinstance(self.n, int) and self.n >= 0):
-            raise ParameterError(f"n must be a non-negative integer, got {self.n!r}")
-        for name in ("r_squared_ols", "r_squared_robust", "robust_scale_nm", "intercept_se_nm", "slope_se_m"):
-            _finite(name, getattr(self, name))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -103,6 +57,10 @@ class CompensationModel:
         Spool radius (paper: 35 mm), used to relate torque and cable tension.
     raising_fit, lowering_fit, provenance
         Identification statistics and provenance, when the model came from data.
+    dynamic
+        The dynamic compensation identified from the same bench data (:mod:`bowden.model.dynamic`),
+        or None. When present it is the model's recommended compensation: ``build_controller`` uses
+        it unless asked for ``compensation="paper"``, which uses the lines above exactly as the paper.
     """
 
     raising: CompensationLine
@@ -113,21 +71,24 @@ class CompensationModel:
     raising_fit: LineFitStats | None = None
     lowering_fit: LineFitStats | None = None
     provenance: Provenance | None = None
+    dynamic: DynamicCompensation | None = None
     blend_midpoint_rad_s: float = field(init=False, repr=False)
     blend_steepness_s_rad: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        _finite("blend_velocity_01_rad_s", self.blend_velocity_01_rad_s)
-        _finite("blend_velocity_99_rad_s", self.blend_velocity_99_rad_s)
+        finite_number("blend_velocity_01_rad_s", self.blend_velocity_01_rad_s)
+        finite_number("blend_velocity_99_rad_s", self.blend_velocity_99_rad_s)
         if not self.blend_velocity_99_rad_s > self.blend_velocity_01_rad_s:
             raise ParameterError(
                 "blend_velocity_99_rad_s must exceed blend_velocity_01_rad_s (the raising line takes "
                 f"over as velocity grows); got {self.blend_velocity_01_rad_s!r} and "
                 f"{self.blend_velocity_99_rad_s!r}"
             )
-        _finite("pulley_radius_m", self.pulley_radius_m)
+        finite_number("pulley_radius_m", self.pulley_radius_m)
         if not 0.0 < self.pulley_radius_m < 0.5:
             raise ParameterError(f"pulley_radius_m must be in (0, 0.5) m, got {self.pulley_radius_m!r}")
+        if self.dynamic is not None and not isinstance(self.dynamic, DynamicCompensation):
+            raise ParameterError(f"dynamic must be a DynamicCompensation or None, got {self.dynamic!r}")
         midpoint = 0.5 * (self.blend_velocity_01_rad_s + self.blend_velocity_99_rad_s)
         object.__setattr__(self, "blend_midpoint_rad_s", midpoint)
         object.__setattr__(self, "blend_steepness_s_rad", LN_99 / (self.blend_velocity_99_rad_s - midpoint))
@@ -151,6 +112,11 @@ class CompensationModel:
             pulley_radius_m=pulley_radius_m,
         )
 
+    @property
+    def recommended_compensation(self) -> str:
+        """``"dynamic"`` when the model holds a dynamic compensation, else ``"paper"``."""
+        return "paper" if self.dynamic is None else "dynamic"
+
     def blend_weight(self, elevation_velocity_rad_s: float) -> float:
         """Weight of the raising line, w ∈ (0, 1); w(θ̇₀₀₁) = 0.01, w(θ̇₀₉₉) = 0.99."""
         x = self.blend_steepness_s_rad * (elevation_velocity_rad_s - self.blend_midpoint_rad_s)
@@ -165,16 +131,3 @@ class CompensationModel:
         lowering = self.lowering.torque_nm(tension_n)
         raising = self.raising.torque_nm(tension_n)
         return lowering + (raising - lowering) * self.blend_weight(elevation_velocity_rad_s)
-
-    def save(self, path: str | Path) -> None:
-        """Write the versioned ``model.json`` (see :mod:`bowden.model.model_file`)."""
-        from bowden.model.model_file import save_model  # model_file imports this module
-
-        save_model(self, path)
-
-    @classmethod
-    def load(cls, path: str | Path) -> CompensationModel:
-        """Read a ``model.json``; raises :class:`bowden.errors.ModelFileError` naming any bad field."""
-        from bowden.model.model_file import load_model  # model_file imports this module
-
-        return load_model(path)

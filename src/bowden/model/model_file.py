@@ -1,6 +1,6 @@
 """The versioned ``model.json`` file of a :class:`~bowden.model.compensation.CompensationModel`.
 
-Format (version 1)::
+Format (version 2; version 1 is the same without ``dynamic`` and still loads)::
 
     {
       "format": "bowden.compensation_model",
@@ -10,7 +10,13 @@ Format (version 1)::
       "blend": {"velocity_01_rad_s": -1.0, "velocity_99_rad_s": 1.0},
       "pulley_radius_m": 0.035,
       "provenance": {"source_files": [...], "source_sha256": [...], "created_utc": "...",
-                     "tool": "bowden identify", "tool_version": "0.1.0", "notes": ""} | null
+                     "tool": "bowden identify", "tool_version": "0.1.0", "notes": ""} | null,
+      "dynamic": {"raising": {"intercept_nm": ..., "slope_m": ...}, "lowering": {...},
+                  "viscous_nm_s_rad": 0.04, "inertia_kg_m2": 0.0015, "imu_latency_s": 0.03,
+                  "reversal_hysteresis_rad_s": 0.1, "reversal_time_s": 0.01, "max_dynamic_nm": 0.6,
+                  "fit": {"n": ..., "viscous_se_nm_s_rad": ..., "inertia_se_kg_m2": ...,
+                          "regime_rms_nm": {...}, "paper_rms_nm": {...}}
+                          | null} | null
     }
 
 where ``fit`` holds ``n, r_squared_ols, r_squared_robust, robust_scale_nm, intercept_se_nm,
@@ -28,10 +34,21 @@ from typing import Any
 
 from bowden._atomic_file import existing_head, write_text_atomically
 from bowden.errors import ModelFileError, OutputFileError, ParameterError
-from bowden.model.compensation import CompensationLine, CompensationModel, LineFitStats, Provenance
+from bowden.model.compensation import CompensationModel, Provenance
+from bowden.model.dynamic import DynamicCompensation, DynamicFitStats
+from bowden.model.lines import CompensationLine, LineFitStats
 
 FORMAT = "bowden.compensation_model"
-VERSION = 1
+VERSION = 2
+READABLE_VERSIONS = (1, 2)
+_DYNAMIC_NUMBERS = (
+    "viscous_nm_s_rad",
+    "inertia_kg_m2",
+    "imu_latency_s",
+    "reversal_hysteresis_rad_s",
+    "reversal_time_s",
+    "max_dynamic_nm",
+)
 
 _FIT_FIELDS = ("n", "r_squared_ols", "r_squared_robust", "robust_scale_nm", "intercept_se_nm", "slope_se_m")
 
@@ -44,7 +61,7 @@ _R_SQUARED_TOLERANCE = 1e-9
 
 
 def model_to_dict(model: CompensationModel) -> dict[str, Any]:
-    """The JSON-ready dictionary of ``model`` (format version 1)."""
+    """The JSON-ready dictionary of ``model`` (format version 2)."""
 
     def line(line: CompensationLine, fit: LineFitStats | None) -> dict[str, Any]:
         return {
@@ -69,7 +86,25 @@ def model_to_dict(model: CompensationModel) -> dict[str, Any]:
         },
         "pulley_radius_m": model.pulley_radius_m,
         "provenance": provenance,
+        "dynamic": None if model.dynamic is None else _dynamic_to_dict(model.dynamic),
     }
+
+
+def _dynamic_to_dict(dynamic: DynamicCompensation) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "raising": {"intercept_nm": dynamic.raising.intercept_nm, "slope_m": dynamic.raising.slope_m},
+        "lowering": {"intercept_nm": dynamic.lowering.intercept_nm, "slope_m": dynamic.lowering.slope_m},
+    }
+    out.update({name: getattr(dynamic, name) for name in _DYNAMIC_NUMBERS})
+    fit = dynamic.fit
+    out["fit"] = None if fit is None else {
+        "n": fit.n,
+        "viscous_se_nm_s_rad": fit.viscous_se_nm_s_rad,
+        "inertia_se_kg_m2": fit.inertia_se_kg_m2,
+        "regime_rms_nm": dict(fit.regime_rms_nm),
+        "paper_rms_nm": dict(fit.paper_rms_nm),
+    }
+    return out
 
 
 def save_model(model: CompensationModel, path: str | Path) -> None:
@@ -151,11 +186,13 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
         raise read.fail("format", f"must be {FORMAT!r}, got {data.get('format')!r}: not a bowden model file")
     version = read.get(data, "version")
     if type(version) is not int:  # JSON true would equal 1, and 1.0 is not how bowden writes it
-        raise read.fail("version", f"must be the integer {VERSION}, got {version!r}")
-    if version != VERSION:
+        known = " or ".join(map(str, READABLE_VERSIONS))
+        raise read.fail("version", f"must be the integer {known}, got {version!r}")
+    if version not in READABLE_VERSIONS:
         raise read.fail(
             "version",
-            f"is {version!r}, but this bowden reads version {VERSION}; upgrade bowden or re-identify",
+            f"is {version!r}, but this bowden reads versions "
+            f"{', '.join(map(str, READABLE_VERSIONS))}; upgrade bowden or re-identify",
         )
 
     def line(key: str) -> tuple[CompensationLine, LineFitStats | None]:
@@ -220,8 +257,14 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
             )
         except ParameterError as error:
             raise read.fail("provenance.source_sha256", f"is invalid: {error}") from None
+    dynamic = None
+    if version >= 2:
+        dynamic_data = read.get(data, "dynamic")
+        if dynamic_data is not None:
+            dynamic = _dynamic_from_dict(read, dynamic_data)
     try:
         return CompensationModel(
+            dynamic=dynamic,
             raising=raising,
             lowering=lowering,
             raising_fit=raising_fit,
@@ -233,6 +276,59 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
         )
     except ParameterError as error:
         raise ModelFileError(f"{source}: {error}") from None
+
+
+def _dynamic_from_dict(read: _Reader, data: Any) -> DynamicCompensation:
+    if not isinstance(data, Mapping):
+        raise read.fail("dynamic", "must be an object or null")
+    lines = {}
+    for key in ("raising", "lowering"):
+        section = read.mapping(data, key, "dynamic.")
+        prefix = f"dynamic.{key}."
+        try:
+            lines[key] = CompensationLine(
+                intercept_nm=read.number(section, "intercept_nm", prefix),
+                slope_m=read.number(section, "slope_m", prefix),
+            )
+        except ParameterError as error:
+            raise read.fail(prefix + "slope_m", f"is invalid: {error}") from None
+        if abs(lines[key].intercept_nm) > MAX_INTERCEPT_NM:
+            raise read.fail(
+                prefix + "intercept_nm", f"is beyond the motor's peak torque ({MAX_INTERCEPT_NM:g} Nm)"
+            )
+    numbers = {name: read.number(data, name, "dynamic.") for name in _DYNAMIC_NUMBERS}
+    fit = None
+    fit_data = read.get(data, "fit", "dynamic.")
+    if fit_data is not None:
+        fit = _dynamic_fit_from_dict(read, fit_data)
+    try:
+        return DynamicCompensation(raising=lines["raising"], lowering=lines["lowering"], fit=fit, **numbers)
+    except ParameterError as error:
+        raise read.fail("dynamic", f"is invalid: {error}") from None
+
+
+def _dynamic_fit_from_dict(read: _Reader, data: Any) -> DynamicFitStats:
+    prefix = "dynamic.fit."
+    if not isinstance(data, Mapping):
+        raise read.fail("dynamic.fit", "must be an object or null")
+
+    def table(key: str) -> tuple[tuple[str, float], ...]:
+        section = read.mapping(data, key, prefix)
+        return tuple((str(name), read.number(section, name, f"{prefix}{key}.")) for name in section)
+
+    n = read.number(data, "n", prefix)
+    if not (n.is_integer() and n >= 0):
+        raise read.fail(prefix + "n", f"must be a non-negative integer, got {n!r}")
+    try:
+        return DynamicFitStats(
+            n=int(n),
+            viscous_se_nm_s_rad=read.number(data, "viscous_se_nm_s_rad", prefix),
+            inertia_se_kg_m2=read.number(data, "inertia_se_kg_m2", prefix),
+            regime_rms_nm=table("regime_rms_nm"),
+            paper_rms_nm=table("paper_rms_nm"),
+        )
+    except ParameterError as error:
+        raise read.fail("dynamic.fit", f"is invalid: {error}") from None
 
 
 def _check_fit(read: _Reader, values: Mapping[str, float], prefix: str) -> None:

@@ -1,8 +1,10 @@
-"""Compiled loop of one study trial: IMU → the paper's controller → motor → plant ← participant.
+"""Compiled loop of one study trial: IMU → the controller → motor → plant ← participant.
 
-The controller arithmetic of :meth:`bowden.control.Controller.step` is restated here on a parameter
-vector so that a whole trial runs as one compiled loop; ``tests/sim/test_batch.py`` checks that both
-agree to 1e-12 on the same inputs. Keep the two in step: any change there is a change here.
+The controller arithmetic of :meth:`bowden.control.Controller.step` — the paper's compensation and
+the dynamic one (:mod:`bowden.control.dynamic_step`) — is restated here on a parameter vector so that
+a whole trial runs as one compiled loop; ``tests/sim/test_batch.py`` and
+``tests/control/test_dynamic_step.py`` check that both agree to 1e-12 on the same inputs. Keep them in
+step: any change there is a change here.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ from numpy.typing import NDArray
 
 from bowden.control import Controller
 from bowden.model import STANDARD_GRAVITY_M_S2
+from bowden.model.elevation_estimator import estimator_gains
 from bowden.sim import _kernels as k
 from bowden.sim._kernels import drop_stale_dependent_cache, jit
 
@@ -39,11 +42,32 @@ C_MAX_MOTOR_VEL = 17
 C_GEOM_A = 18
 C_GEOM_B = 19
 C_GEOM_PSI = 20
-N_CONTROLLER = 21
+# Dynamic compensation (C_MODE 1; the lines above are then the dynamic model's).
+C_MODE = 21
+C_VISCOUS_PER_ARM = 22
+C_INERTIA_PER_ARM = 23
+C_MAX_DYNAMIC = 24
+C_HYSTERESIS = 25
+C_RELAX = 26
+C_LATENCY = 27
+C_PERIOD = 28
+C_GAIN = 29  # 8 entries: the estimator's gain row by row
+N_CONTROLLER = 37
 
-# Controller state: last torque and its time.
+MODE_PAPER = 0.0
+MODE_DYNAMIC = 1.0
+
+# Controller state: last torque and its time; the dynamic step's estimator and reversal state.
 CS_TORQUE = 0
 CS_TIME = 1
+CS_TH = 2
+CS_W = 3
+CS_ACC = 4
+CS_BIAS = 5
+CS_STARTED = 6
+CS_SIGMA = 7
+CS_TARGET = 8
+N_CONTROLLER_STATE = 9
 
 # Fault and limit bits (bowden.control.faults; recording contract, never renumbered).
 FAULT_NONFINITE = 1
@@ -68,10 +92,11 @@ def controller_vector(controller: Controller) -> NDArray[np.float64]:
         c[C_SUPPORT_MOMENT] = float(assistance.support) * STANDARD_GRAVITY_M_S2 * arm.total_moment_kg_m
     c[C_FLOOR] = assistance.floor_tension_n
     c[C_MAX_TENSION] = limits.max_tension_n
-    c[C_LOW_INTERCEPT] = model.lowering.intercept_nm
-    c[C_LOW_SLOPE] = model.lowering.slope_m
-    c[C_D_INTERCEPT] = model.raising.intercept_nm - model.lowering.intercept_nm
-    c[C_D_SLOPE] = model.raising.slope_m - model.lowering.slope_m
+    lines = model if controller.compensation == "paper" or model.dynamic is None else model.dynamic
+    c[C_LOW_INTERCEPT] = lines.lowering.intercept_nm
+    c[C_LOW_SLOPE] = lines.lowering.slope_m
+    c[C_D_INTERCEPT] = lines.raising.intercept_nm - lines.lowering.intercept_nm
+    c[C_D_SLOPE] = lines.raising.slope_m - lines.lowering.slope_m
     c[C_BLEND_MID] = model.blend_midpoint_rad_s
     c[C_BLEND_STEEP] = model.blend_steepness_s_rad
     c[C_MIN_TORQUE] = limits.min_torque_nm
@@ -85,7 +110,27 @@ def controller_vector(controller: Controller) -> NDArray[np.float64]:
     c[C_GEOM_A] = geometry.exit_distance_m
     c[C_GEOM_B] = geometry.anchor_distance_m
     c[C_GEOM_PSI] = geometry.rest_angle_rad
+    c[C_MODE] = MODE_PAPER
+    dynamic = model.dynamic
+    if controller.compensation == "dynamic" and dynamic is not None:
+        gains = estimator_gains(limits.nominal_period_s, dynamic.imu_latency_s)
+        c[C_MODE] = MODE_DYNAMIC
+        c[C_VISCOUS_PER_ARM] = dynamic.viscous_nm_s_rad / model.pulley_radius_m
+        c[C_INERTIA_PER_ARM] = dynamic.inertia_kg_m2 / model.pulley_radius_m
+        c[C_MAX_DYNAMIC] = dynamic.max_dynamic_nm
+        c[C_HYSTERESIS] = dynamic.reversal_hysteresis_rad_s
+        c[C_RELAX] = 1.0 - math.exp(-limits.nominal_period_s / dynamic.reversal_time_s)
+        c[C_LATENCY] = gains.latency_s
+        c[C_PERIOD] = limits.nominal_period_s
+        c[C_GAIN : C_GAIN + 8] = [value for row in gains.gain for value in row]
     return c
+
+
+def controller_state() -> NDArray[np.float64]:
+    """A fresh controller state (no last command, estimator not started)."""
+    cs = np.zeros(N_CONTROLLER_STATE)
+    cs[CS_TIME] = math.nan
+    return cs
 
 
 @jit
@@ -115,6 +160,9 @@ def controller_step(
     ):
         cs[CS_TORQUE] = 0.0
         cs[CS_TIME] = math.nan
+        cs[CS_STARTED] = 0.0
+        cs[CS_SIGMA] = 0.0
+        cs[CS_TARGET] = 0.0
         faults = 0
         finite = math.isfinite(time_s) and math.isfinite(elevation) and math.isfinite(velocity)
         if not finite or math.isinf(motor_velocity) or math.isinf(motor_torque):
@@ -131,10 +179,18 @@ def controller_step(
         out[3] = faults
         out[4] = 0.0
         return
+    dynamic = c[C_MODE] == MODE_DYNAMIC
+    velocity_used = velocity
+    if dynamic:
+        elevation, velocity_used = _estimate(c, cs, elevation, velocity)
     a = c[C_GEOM_A]
     b = c[C_GEOM_B]
     alpha = c[C_GEOM_PSI] - elevation
-    moment_arm = a * b * math.sin(alpha) / math.sqrt((a * a + b * b) - (2.0 * a * b) * math.cos(alpha))
+    sin_alpha = math.sin(alpha)
+    cos_alpha = math.cos(alpha)
+    d = (a * a + b * b) - (2.0 * a * b) * cos_alpha
+    root = math.sqrt(d)
+    moment_arm = a * b * sin_alpha / root
     limited = 0
     tension = c[C_PRETENSION]
     if tension != tension:
@@ -146,14 +202,34 @@ def controller_step(
     if tension > c[C_MAX_TENSION]:
         tension = c[C_MAX_TENSION]
         limited = LIMIT_TENSION
-    xb = c[C_BLEND_STEEP] * (velocity - c[C_BLEND_MID])
-    if xb >= 0.0:
-        weight = 1.0 / (1.0 + math.exp(-xb))
+    if dynamic:
+        if velocity_used > c[C_HYSTERESIS]:
+            cs[CS_TARGET] = 1.0
+        elif velocity_used < -c[C_HYSTERESIS]:
+            cs[CS_TARGET] = -1.0
+        cs[CS_SIGMA] += (cs[CS_TARGET] - cs[CS_SIGMA]) * c[C_RELAX]
+        slope = -(a * b) * (cos_alpha * d - (a * b) * sin_alpha * sin_alpha) / (d * root)
+        extra = c[C_VISCOUS_PER_ARM] * moment_arm * velocity_used + c[C_INERTIA_PER_ARM] * (
+            moment_arm * cs[CS_ACC] + slope * velocity_used * velocity_used
+        )
+        if extra > c[C_MAX_DYNAMIC]:
+            extra = c[C_MAX_DYNAMIC]
+        elif extra < -c[C_MAX_DYNAMIC]:
+            extra = -c[C_MAX_DYNAMIC]
+        torque = (
+            c[C_LOW_INTERCEPT] + c[C_LOW_SLOPE] * tension
+            + (c[C_D_INTERCEPT] + c[C_D_SLOPE] * tension) * 0.5 * (cs[CS_SIGMA] + 1.0)
+            + extra
+        )
     else:
-        e = math.exp(xb)
-        weight = e / (1.0 + e)
-    torque = c[C_LOW_INTERCEPT] + c[C_LOW_SLOPE] * tension
-    torque += (c[C_D_INTERCEPT] + c[C_D_SLOPE] * tension) * weight
+        xb = c[C_BLEND_STEEP] * (velocity - c[C_BLEND_MID])
+        if xb >= 0.0:
+            weight = 1.0 / (1.0 + math.exp(-xb))
+        else:
+            e = math.exp(xb)
+            weight = e / (1.0 + e)
+        torque = c[C_LOW_INTERCEPT] + c[C_LOW_SLOPE] * tension
+        torque += (c[C_D_INTERCEPT] + c[C_D_SLOPE] * tension) * weight
     if torque > c[C_MAX_TORQUE]:
         torque = c[C_MAX_TORQUE]
         limited |= LIMIT_TORQUE
@@ -177,6 +253,38 @@ def controller_step(
     out[2] = moment_arm
     out[3] = 0.0
     out[4] = limited
+
+
+@jit
+def _estimate(
+    c: NDArray[np.float64], cs: NDArray[np.float64], elevation: float, gyro: float
+) -> tuple[float, float]:
+    """The dynamic step's estimator: update, then predict across the latency (elevation clamped)."""
+    period = c[C_PERIOD]
+    if cs[CS_STARTED] != 0.0:
+        cs[CS_TH] += cs[CS_W] * period + 0.5 * period * period * cs[CS_ACC]
+        cs[CS_W] += cs[CS_ACC] * period
+        e0 = elevation - cs[CS_TH]
+        e1 = gyro - cs[CS_W] - cs[CS_BIAS]
+        g = C_GAIN
+        cs[CS_TH] += c[g] * e0 + c[g + 1] * e1
+        cs[CS_W] += c[g + 2] * e0 + c[g + 3] * e1
+        cs[CS_ACC] += c[g + 4] * e0 + c[g + 5] * e1
+        cs[CS_BIAS] += c[g + 6] * e0 + c[g + 7] * e1
+    else:
+        cs[CS_TH] = elevation
+        cs[CS_W] = gyro
+        cs[CS_ACC] = 0.0
+        cs[CS_BIAS] = 0.0
+        cs[CS_STARTED] = 1.0
+    latency = c[C_LATENCY]
+    predicted_velocity = cs[CS_W] + cs[CS_ACC] * latency
+    predicted = cs[CS_TH] + (cs[CS_W] + 0.5 * cs[CS_ACC] * latency) * latency
+    if predicted > c[C_ELEV_MAX]:
+        predicted = c[C_ELEV_MAX]
+    elif predicted < c[C_ELEV_MIN]:
+        predicted = c[C_ELEV_MIN]
+    return predicted, predicted_velocity
 
 
 # --- recorded signals of a trial, one row per control cycle ----------------------------------------
@@ -233,7 +341,7 @@ def run_trial(
     """
     dt = control_dt / substeps
     lag = 1.0 - math.exp(-dt / p[k.P_CURRENT_TAU])
-    cs = np.zeros(2)
+    cs = np.zeros(N_CONTROLLER_STATE)
     cs[CS_TIME] = math.nan
     command = np.zeros(5)
     delay = int(sensors[S_IMU_DELAY_CYCLES])

@@ -77,6 +77,9 @@ class ProtocolSettings:
         Paper: 0.5 kg in the hand, 10 N floor and pretension.
     limits
         The controller's safety limits.
+    compensation
+        ``"paper"`` (the paper's lines and sigmoid) or ``"dynamic"`` (the model's dynamic
+        compensation, :mod:`bowden.model.dynamic`; needs a version-2 model).
     """
 
     conditions: tuple[str, ...] = c.CONDITIONS
@@ -90,8 +93,11 @@ class ProtocolSettings:
     floor_tension_n: float = 10.0
     pretension_n: float = 10.0
     limits: ControllerLimits = field(default_factory=ControllerLimits)
+    compensation: Literal["paper", "dynamic"] = "paper"
 
     def __post_init__(self) -> None:
+        if self.compensation not in ("paper", "dynamic"):
+            raise ParameterError(f"compensation must be 'paper' or 'dynamic', got {self.compensation!r}")
         for name in self.conditions:
             if name not in c.CONDITIONS:
                 raise ParameterError(f"unknown condition {name!r}; known: {', '.join(c.CONDITIONS)}")
@@ -161,6 +167,7 @@ def simulate_trial(
             limits=settings.limits,
             floor_tension_n=settings.floor_tension_n,
             pretension_n=settings.pretension_n,
+            compensation=settings.compensation,
         )
         controller_vector = bk.controller_vector(controller)
         expected = ExpectedAssistance.for_condition(

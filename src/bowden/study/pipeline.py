@@ -32,6 +32,7 @@ from bowden._atomic_file import write_text_atomically
 from bowden.errors import OutputFileError, ParameterError, StoreError
 from bowden.identify import TransmissionIdentifier
 from bowden.model import CompensationModel
+from bowden.model.model_file import load_model, save_model
 from bowden.runtime.recorder import TrialInfo
 from bowden.sim.batch import ProtocolSettings, condition_order, simulate_trial, trial_seed
 from bowden.sim.bench import BenchProtocol, run_bench
@@ -147,8 +148,8 @@ def run_study(
         if not model_path.exists():
             with progress.spinner("identifying the transmission"):
                 identifier = TransmissionIdentifier().fit(bench_path)
-            identifier.model_.save(model_path)
-        model = CompensationModel.load(model_path)
+            save_model(identifier.model_, model_path)
+        model = load_model(model_path)
 
     store_path = out / "study.db"
     with StudyStore(store_path) as store:

@@ -33,6 +33,7 @@ import pyarrow.parquet as pq
 import bowden.sim
 from bowden.errors import OutputFileError, ParameterError
 from bowden.model import CompensationModel
+from bowden.model.model_file import load_model, save_model
 from bowden.sweep.spec import SweepSpec
 from bowden.sweep.task import RESULT_COLUMNS
 
@@ -147,12 +148,12 @@ class SweepDirectory:
 
     def load_model(self, suit_id: str) -> CompensationModel | None:
         path = self.model_path(suit_id)
-        return CompensationModel.load(path) if path.exists() else None
+        return load_model(path) if path.exists() else None
 
     def save_model(self, suit_id: str, model: CompensationModel) -> None:
         path = self.model_path(suit_id)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        model.save(tmp)
+        save_model(model, tmp)
         os.replace(tmp, path)
 
     # --- tables ---------------------------------------------------------------------------------

@@ -1,0 +1,114 @@
+"""Elevation, velocity and acceleration of the arm from the IMU, predicted across its latency.
+
+A Kalman filter at the controller's fixed rate on the state (θ, θ̇, θ̈, b): elevation, its velocity
+and acceleration under a white-jerk model, and the gyroscope's bias b (a slow random walk). The IMU
+gives the elevation θ (from its orientation) and the gyroscope's rate θ̇ + b. Because the rate is
+fixed and the model linear, the gain converges to a constant: it is solved once (discrete algebraic
+Riccati equation) and each update is a few plain-float multiply-adds. The bias is observable from the
+elevation itself, so it is learnt whenever the arm holds still and whenever it moves.
+
+Samples arrive ``latency`` seconds old (orientation filter and radio link); the estimate is carried
+forward across it with the filter's own velocity and acceleration, which is what lets the
+compensation see a turn when it happens rather than a latency later.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from bowden.errors import ParameterError
+
+# A 60–180 °/s minimum-jerk movement of 80° has jerk peaks of 20–150 rad/s³; 55 rad/s³ per step of
+# process noise follows the turns of the fastest without letting gyro noise through at rest.
+DEFAULT_JERK_SD_RAD_S3 = 55.0
+DEFAULT_ELEVATION_NOISE_RAD = math.radians(0.3)
+DEFAULT_GYRO_NOISE_RAD_S = math.radians(1.5)
+DEFAULT_BIAS_WALK_RAD_S = 1e-5  # per step: a bias that drifts over minutes, not within a movement
+
+
+@dataclass(frozen=True, kw_only=True)
+class EstimatorGains:
+    """Constant Kalman gain of the estimator, row by state (θ, θ̇, θ̈, b), columns (elevation, gyro)."""
+
+    period_s: float
+    latency_s: float
+    gain: tuple[tuple[float, float], ...]
+
+
+def estimator_gains(
+    period_s: float,
+    latency_s: float = 0.0,
+    *,
+    jerk_sd_rad_s3: float = DEFAULT_JERK_SD_RAD_S3,
+    elevation_noise_rad: float = DEFAULT_ELEVATION_NOISE_RAD,
+    gyro_noise_rad_s: float = DEFAULT_GYRO_NOISE_RAD_S,
+    bias_walk_rad_s: float = DEFAULT_BIAS_WALK_RAD_S,
+) -> EstimatorGains:
+    """The steady-state gain for a filter run every ``period_s`` seconds."""
+    for name, value, low in (
+        ("period_s", period_s, 1e-5),
+        ("jerk_sd_rad_s3", jerk_sd_rad_s3, 1e-6),
+        ("elevation_noise_rad", elevation_noise_rad, 1e-9),
+        ("gyro_noise_rad_s", gyro_noise_rad_s, 1e-9),
+        ("bias_walk_rad_s", bias_walk_rad_s, 1e-12),
+    ):
+        if not (math.isfinite(value) and value >= low):
+            raise ParameterError(f"{name} must be a finite number >= {low:g}, got {value!r}")
+    if not (math.isfinite(latency_s) and 0.0 <= latency_s <= 0.2):
+        raise ParameterError(f"latency_s must be in [0, 0.2] s, got {latency_s!r}")
+    dt = period_s
+    f = np.eye(4)
+    f[0, 1], f[0, 2], f[1, 2] = dt, 0.5 * dt * dt, dt
+    g = np.array([dt**3 / 6.0, 0.5 * dt * dt, dt, 0.0])
+    q = jerk_sd_rad_s3**2 * np.outer(g, g)
+    q[3, 3] = bias_walk_rad_s**2
+    h = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 1.0]])
+    r = np.diag([elevation_noise_rad**2, gyro_noise_rad_s**2])
+    prior = scipy.linalg.solve_discrete_are(f.T, h.T, q, r)
+    gain = prior @ h.T @ np.linalg.inv(h @ prior @ h.T + r)
+    rows = tuple((float(row[0]), float(row[1])) for row in gain)
+    return EstimatorGains(period_s=period_s, latency_s=latency_s, gain=rows)
+
+
+class ElevationEstimator:
+    """The filter with its state; ``update(elevation, gyro)`` → predicted (θ, θ̇, θ̈) now.
+
+    The controller inlines the same arithmetic in its step (tests hold the two equal); this class is
+    for offline use and for tests.
+    """
+
+    __slots__ = ("_gains", "_state")
+
+    def __init__(self, gains: EstimatorGains) -> None:
+        self._gains = gains
+        self._state: list[float] | None = None
+
+    @property
+    def bias_rad_s(self) -> float:
+        """The gyroscope bias learnt so far (0 before the first sample)."""
+        return 0.0 if self._state is None else self._state[3]
+
+    def reset(self) -> None:
+        self._state = None
+
+    def update(self, elevation_rad: float, gyro_rad_s: float) -> tuple[float, float, float]:
+        dt, latency = self._gains.period_s, self._gains.latency_s
+        (k00, k01), (k10, k11), (k20, k21), (k30, k31) = self._gains.gain
+        if self._state is None:  # the first sample is the state
+            th, w, a, b = elevation_rad, gyro_rad_s, 0.0, 0.0
+        else:
+            th, w, a, b = self._state
+            th = th + w * dt + 0.5 * dt * dt * a
+            w = w + a * dt
+            e0 = elevation_rad - th
+            e1 = gyro_rad_s - w - b
+            th += k00 * e0 + k01 * e1
+            w += k10 * e0 + k11 * e1
+            a += k20 * e0 + k21 * e1
+            b += k30 * e0 + k31 * e1
+        self._state = [th, w, a, b]
+        return th + (w + 0.5 * a * latency) * latency, w + a * latency, a
