@@ -275,3 +275,14 @@ def test_a_recording_without_pulses_and_stores_without_trials_are_refused(
         opened._db.execute("DELETE FROM events WHERE kind = 'sync'")
         opened._db.commit()
     assert "has sync events" in _refused(no_sync, edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+
+
+def test_analyze_reports_which_trials_had_emg_and_from_which_file(session, store, tmp_path, capsys):
+    path = _edf(session, tmp_path / "P01_part.edf", pulses=[0, 1])
+    assert main(["emg", "import", str(store), str(path), "--trigger-channel", TRIGGER, *MAP]) == 0
+    report = tmp_path / "report.html"
+    assert main(["analyze", str(store), "--report", str(report), "--quiet"]) == 0
+    assert "analysed 3 trials" in capsys.readouterr().out
+    text = report.read_text()
+    assert "EMG of trials 1, 2: imported from P01_part.edf (synchronised by trigger: drift +80.0 ppm" in text
+    assert "EMG of trial 3: none" in text

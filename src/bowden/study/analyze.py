@@ -47,6 +47,7 @@ from bowden.errors import ModelFileError, ParameterError, RecordingError, StoreE
 from bowden.identify import TransmissionIdentifier, plot_identification
 from bowden.model import CompensationModel
 from bowden.model.model_file import model_from_dict
+from bowden.study.emg_store import emg_imports, trials_with_emg
 from bowden.study.html import HtmlDocument
 from bowden.study.progress import StageProgress
 from bowden.study.report import ReportInputs, build_report
@@ -154,10 +155,10 @@ def analyze_store(
                     advance(done)
 
         outcomes = _analyse(items(), parameters, workers, store_path, kept, skipped)
-        if skipped:
-            # The report's notes say which trials are missing and why.
-            info = dataclasses.replace(outcomes.info, notes=(*skipped, *outcomes.info.notes))
-            outcomes = dataclasses.replace(outcomes, info=info)
+        # The report's notes say which trials are missing and why, and where each trial's EMG came from.
+        sources = emg_sources(store, kept)
+        info = dataclasses.replace(outcomes.info, notes=(*skipped, *sources, *outcomes.info.notes))
+        outcomes = dataclasses.replace(outcomes, info=info)
         store.replace_outcomes(outcomes.outcomes)
         with progress.spinner("fitting the statistics"):
             statistics = study_statistics(outcomes.outcomes, store.questionnaires())
@@ -325,6 +326,27 @@ def _session_sections(document: HtmlDocument, facts: SessionFacts) -> None:
         document.table(
             facts.plans, "Session plans: condition order (no suit first), seed and progress", "{:.0f}"
         )
+
+
+def emg_sources(store: StudyStore, trial_ids: Iterable[int]) -> list[str]:
+    """One note per EMG source of the analysed trials: an imported file, the trial itself, or none."""
+    imports, stored = emg_imports(store), trials_with_emg(store)
+    by_source: dict[str, list[int]] = {}
+    for trial_id in sorted(trial_ids):
+        if trial_id in imports:
+            meta = imports[trial_id]
+            source = (
+                f"imported from {meta.get('file', '?')} (synchronised by {meta.get('via', '?')}: drift "
+                f"{meta.get('drift_ppm', float('nan')):+.1f} ppm, largest residual "
+                f"{1e3 * meta.get('max_residual_s', float('nan')):.3f} ms)"
+            )
+        elif trial_id in stored:
+            source = "recorded with the trial"
+        else:
+            source = "none"
+        by_source.setdefault(source, []).append(trial_id)
+    plural = {True: "trials", False: "trial"}
+    return [f"EMG of {plural[len(ids) > 1]} {_ids(ids)}: {source}" for source, ids in by_source.items()]
 
 
 def _ids(ids: list[int]) -> str:
