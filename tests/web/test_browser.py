@@ -128,7 +128,7 @@ def test_the_display_trace_follows_a_simulated_trial(server, browser):
     display.screenshot(path=str(ARTIFACTS / "display.png"))
     console.screenshot(path=str(ARTIFACTS / "console.png"), full_page=True)
     display.wait_for_function("() => !bowdenDisplay.running()")
-    console.wait_for_function("() => document.getElementById('last-result').textContent.includes('ended')")
+    console.wait_for_function("() => document.getElementById('last-result').textContent.includes('completed')")
     assert "duration" in console.inner_text("#last-result")
     display.screenshot(path=str(ARTIFACTS / "display-end.png"))
 
@@ -199,6 +199,9 @@ def test_a_questionnaire_submitted_through_the_form_is_in_the_store(server, brow
     for site, score in fatigue.items():
         page.locator(f"[id='fatigue.{site}-{score}']").check()
     page.screenshot(path=str(ARTIFACTS / "questionnaire.png"), full_page=True)
+    page.click("#submit")  # P12 ran no trial: refused until the operator marks an exception
+    page.wait_for_function("() => document.getElementById('message').textContent.includes('has not run')")
+    page.fill("#exception", "checking the form before the study")
     page.click("#submit")
     page.wait_for_function("() => document.getElementById('message').textContent.startsWith('Stored')")
     assert page.inner_text("#message") == "Stored 23 answers of P12 after support_25."
@@ -216,6 +219,7 @@ def test_a_questionnaire_submitted_through_the_form_is_in_the_store(server, brow
     page.locator("[id='borg_rpe-20']").check()
     for site, score in fatigue.items():
         page.locator(f"[id='fatigue.{site}-{score}']").check()
+    page.fill("#exception", "checking the form before the study")
     page.click("#submit")
     page.wait_for_function("() => document.getElementById('message').textContent.includes('already stored')")
     assert store_snapshot(server.web.config.store_path) == before

@@ -22,12 +22,26 @@ const Bowden = (() => {
     sessionStorage.setItem(TOKEN_KEY, value.trim());
   }
 
-  // Wire a token field (shown only when no token is stored yet).
-  function tokenField(input, box) {
+  // Wire a token field: shown when no token is stored yet, and again whenever the server refuses the
+  // stored one (a restarted server has a new token); a pasted token calls `changed`.
+  function tokenField(input, box, changed) {
     takeTokenFromUrl();
     box.hidden = token() !== "";
-    input.addEventListener("change", () => setToken(input.value));
+    input.addEventListener("change", () => {
+      setToken(input.value);
+      if (changed) { changed(); }
+    });
   }
+
+  function tokenRefused(input, box) {
+    box.hidden = false;
+    input.value = "";
+  }
+
+  // Whether a trial is running (the console's pages share it).
+  let running = false;
+  function setBusy(value) { running = value; }
+  function busy() { return running; }
 
   async function request(method, path, body) {
     const options = { method, headers: { "X-Bowden-Token": token() } };
@@ -144,5 +158,5 @@ const Bowden = (() => {
     }
   }
 
-  return { takeTokenFromUrl, token, setToken, tokenField, request, ScrollingPlot };
+  return { takeTokenFromUrl, token, setToken, tokenField, tokenRefused, setBusy, busy, request, ScrollingPlot };
 })();

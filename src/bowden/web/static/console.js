@@ -1,4 +1,5 @@
-// Operator console: choose and start a trial, stop it (safe state), watch plots and loop health.
+// Operator console: trials (the plan's next one, or one outside the plan), the STOP that must always
+// get through, plots and loop health. The session plan itself is console_session.js.
 "use strict";
 
 (() => {
@@ -6,11 +7,25 @@
   const form = $("trial-form");
   const message = $("message");
   const banner = $("fault-banner");
+  const STOP_RETRY_MS = 500;
   let options = null;
   let socket = null;
   let running = false;
+  let registry = new Map();  // participant id → registration
+  let stopRetry = null;
 
-  Bowden.tokenField($("token"), $("token-box"));
+  function refused() {
+    Bowden.tokenRefused($("token"), $("token-box"));
+    $("connection").textContent = "token refused";
+    $("connection").classList.remove("live");
+  }
+
+  Bowden.tokenField($("token"), $("token-box"), () => {
+    $("token-box").hidden = true;
+    if (socket !== null) { socket.close(); } else { connect(); }
+    loadRegistry();
+  });
+  BowdenSession.init(refused);
 
   const plots = {
     tension: new Bowden.ScrollingPlot($("plot-tension"), {
@@ -46,23 +61,31 @@
 
   function setRunning(value) {
     running = value;
+    Bowden.setBusy(value);
     $("start").disabled = value;
     $("trial-state").textContent = value ? "running" : "idle";
     $("trial-state").classList.toggle("live", value);
     for (const element of form.querySelectorAll("input, select")) {
       element.disabled = value;
     }
-    if (!value) { updateSupportField(); }
+    if (!value) { updateFields(); }
+    const session = BowdenSession.current();
+    if (session) { BowdenSession.show(session); }
   }
 
-  function updateSupportField() {
+  function updateFields() {
     if (!options) { return; }
     const condition = options.conditions.find((c) => c.id === $("condition").value);
     const support = $("support");
-    const numeric = typeof condition.support === "number";
-    support.disabled = running || !numeric;
-    support.value = numeric ? String(condition.support) : "";
-    support.placeholder = numeric ? "" : (condition.support === null ? "no suit" : "pretension");
+    support.disabled = true;  // a trial runs its condition's support (the rule of serve and run)
+    support.value = typeof condition.support === "number" ? String(condition.support) : "";
+    support.placeholder = condition.support === null ? "no suit" : (condition.support === "pretension" ? "pretension" : "");
+    const known = registry.get($("participant").value.trim());
+    $("registered-note").hidden = !known;
+    for (const [id, key] of [["height_m", "height_m"], ["mass_kg", "mass_kg"], ["sex", "sex"]]) {
+      if (known) { $(id).value = String(known[key]); }
+      $(id).disabled = running || Boolean(known);
+    }
   }
 
   async function loadOptions() {
@@ -75,8 +98,22 @@
       $("speed").append(new Option(`${s.id} (${s.peak_deg_s} °/s peak)`, s.id));
     }
     $("repetitions").value = String(options.repetitions);
-    $("condition").addEventListener("change", updateSupportField);
-    updateSupportField();
+    $("condition").addEventListener("change", updateFields);
+    $("participant").addEventListener("input", updateFields);
+    updateFields();
+  }
+
+  async function loadRegistry() {
+    if (!Bowden.token()) { return; }
+    try {
+      const result = await Bowden.request("GET", "/api/participants");
+      if (result.ok) {
+        registry = new Map(result.data.participants.map((p) => [p.participant, p]));
+        updateFields();
+      } else if (result.status === 403) {
+        refused();
+      }
+    } catch (error) { /* offline: the socket's reconnection says so */ }
   }
 
   function trialRequest() {
@@ -85,12 +122,9 @@
       condition: $("condition").value,
       speed: $("speed").value,
       repetitions: $("repetitions").value,
-      height_m: $("height_m").value,
-      mass_kg: $("mass_kg").value,
-      sex: $("sex").value,
     };
-    if (!$("support").disabled && $("support").value !== "") {
-      body.support = $("support").value;
+    if (!registry.has(body.participant)) {  // registered: the registry's values are used
+      Object.assign(body, { height_m: $("height_m").value, mass_kg: $("mass_kg").value, sex: $("sex").value });
     }
     return body;
   }
@@ -98,22 +132,56 @@
   form.addEventListener("submit", async (event) => {
     event.preventDefault();
     say("Starting…");
-    const result = await Bowden.request("POST", "/api/trial/start", trialRequest());
+    let result;
+    try {
+      result = await Bowden.request("POST", "/api/trial/start", trialRequest());
+    } catch (error) {
+      say(`The server did not answer (${error.message}): nothing was started.`, true);
+      return;
+    }
     if (result.ok) {
       say(`Trial ${result.data.trial_id} running.`);
       setRunning(true);
+      loadRegistry();
     } else {
       say(result.data.error || `refused (HTTP ${result.status})`, true);
+      if (result.status === 403) { refused(); }
     }
     if (result.status !== 403 && socket === null) { connect(); }
   });
 
-  $("stop").addEventListener("click", async () => {
-    const result = await Bowden.request("POST", "/api/trial/stop", {});
+  // STOP must get through: a request that fails on the network is said, retried until the server
+  // answers, and the button (and Escape) stay usable meanwhile.
+  function stopSay(text, isError) {
+    $("stop-message").textContent = text;
+    $("stop-message").classList.toggle("error", Boolean(isError));
+  }
+
+  async function requestStop() {
+    clearTimeout(stopRetry);
+    stopRetry = null;
+    let result;
+    try {
+      result = await Bowden.request("POST", "/api/trial/stop", {});
+    } catch (error) {
+      stopSay(`STOP did not reach the server (${error.message}): retrying… Press STOP or Escape again, `
+        + "or use the suit's emergency stop.", true);
+      stopRetry = setTimeout(requestStop, STOP_RETRY_MS);
+      return;
+    }
     if (result.ok) {
-      say("Stop requested: ramping the torque to zero and leaving motor mode…");
+      stopSay("Stop requested: ramping the torque to zero and leaving motor mode…");
     } else {
-      say(result.data.error || `refused (HTTP ${result.status})`, true);
+      stopSay(result.data.error || `refused (HTTP ${result.status})`, true);
+      if (result.status === 403) { refused(); }
+    }
+  }
+
+  $("stop").addEventListener("click", requestStop);
+  document.addEventListener("keydown", (event) => {
+    if (event.key === "Escape") {
+      event.preventDefault();
+      requestStop();
     }
   });
 
@@ -135,6 +203,15 @@
     }
   }
 
+  // A console (re)loaded during a trial shows that trial, not the defaults.
+  function restore(setup) {
+    $("participant").value = setup.participant;
+    $("condition").value = setup.condition;
+    $("speed").value = setup.speed;
+    $("repetitions").value = String(setup.repetitions);
+    for (const key of ["height_m", "mass_kg", "sex"]) { $(key).value = String(setup[key]); }
+  }
+
   function handle(data) {
     if (data.type === "error") {
       say(data.error, true);
@@ -142,27 +219,33 @@
       if (data.state === "running") {
         Object.values(plots).forEach((p) => p.clear());
         showBanner("");
+        restore(data.setup);
         setRunning(true);
         $("h-suit").textContent = data.suit;
         const s = data.setup;
         $("last-result").textContent =
-          `Trial ${data.trial_id}: ${s.participant}, ${s.condition}, ${s.speed}, ${s.repetitions} repetitions`;
+          `Trial ${data.trial_id} running: ${s.participant}, ${s.condition}, ${s.speed}, ${s.repetitions} repetitions`;
       } else {
         setRunning(false);
       }
-      if (data.last_result) { showResult(data.last_result); }
+      if (data.last_result && data.state !== "running") { showResult(data.last_result); }
     } else if (data.type === "samples") {
       Object.values(plots).forEach((p) => p.push(data));
     } else if (data.type === "health") {
       showHealth(data);
     } else if (data.type === "stopped") {
+      clearTimeout(stopRetry);
+      stopRetry = null;
       setRunning(false);
       showResult(data);
+    } else if (data.type === "session") {
+      BowdenSession.show(data);
     }
   }
 
   function showResult(r) {
-    const text = `Trial ${r.trial_id} ended: ${r.reason}. ${r.committed_rows} rows recorded.`
+    const how = r.completed ? "completed" : "stopped before its end";
+    const text = `Trial ${r.trial_id} ${how}: ${r.reason}. ${r.committed_rows} rows recorded.`
       + (r.timing ? ` ${r.timing}.` : "");
     $("last-result").textContent = text;
     $("h-state").textContent = r.clean ? "safe (ended)" : "safe (FAULT)";
@@ -184,20 +267,23 @@
       $("connection").classList.add("live");
     };
     socket.onclose = (event) => {
-      $("connection").textContent = event.code === 1008 ? "token refused" : "offline";
-      $("connection").classList.remove("live");
       socket = null;
-      if (event.code !== 1008) { setTimeout(connect, 1000); }
+      if (event.code === 1008) {
+        refused();
+        return;
+      }
+      $("connection").textContent = "offline";
+      $("connection").classList.remove("live");
+      setTimeout(connect, 1000);
     };
     socket.onmessage = (event) => handle(JSON.parse(event.data));
   }
-
-  $("token").addEventListener("change", () => { if (socket === null) { connect(); } });
 
   function animate() {
     Object.values(plots).forEach((p) => p.draw());
     requestAnimationFrame(animate);
   }
 
-  loadOptions().then(() => { connect(); requestAnimationFrame(animate); });
+  window.bowdenConsole = { running: () => running, stopRetrying: () => stopRetry !== null };
+  loadOptions().then(() => { connect(); loadRegistry(); requestAnimationFrame(animate); });
 })();

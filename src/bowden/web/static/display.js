@@ -28,6 +28,7 @@
     connected: false,
     reference: null,   // numbers of TrialReference.to_json(), or null when idle
     running: false,
+    stopped: false,    // the last trial was stopped before its end (not completed)
     trace: [],         // [t_s, elevation_deg, seq, stamp_ms] of the current trial, oldest first
     lastT: null,
     unpresented: [],   // samples received since the last frame
@@ -54,6 +55,7 @@
         const fresh = !state.running || JSON.stringify(message.reference) !== JSON.stringify(state.reference);
         state.reference = message.reference;
         state.running = true;
+        state.stopped = false;
         if (fresh) {
           state.trace = [];
           state.lastT = null;
@@ -76,6 +78,7 @@
       }
     } else if (message.type === "stopped") {
       state.running = false;
+      state.stopped = message.completed === false;
     }
   }
 
@@ -105,23 +108,47 @@
     }
   }
 
+  const GRID_DEG = [20, 60, 100];
+
+  // Type scales with the shorter side, so a portrait tablet gets the same proportions as a monitor.
+  function unitOf(g) {
+    return Math.min(g.h, 1.4 * g.w) / 100;
+  }
+
   function drawGrid(g) {
-    const unit = g.h / 100;
-    ctx.lineWidth = Math.max(1, 0.2 * unit);
+    ctx.lineWidth = Math.max(1, 0.2 * unitOf(g));
     ctx.strokeStyle = COLORS.grid;
-    ctx.fillStyle = COLORS.gridText;
-    ctx.font = `${Math.round(2.6 * unit)}px sans-serif`;
-    ctx.textBaseline = "middle";
-    for (const deg of [20, 60, 100]) {
+    for (const deg of GRID_DEG) {
       ctx.beginPath();
       ctx.moveTo(0, g.y(deg));
       ctx.lineTo(g.w, g.y(deg));
       ctx.stroke();
-      // Labels at the right edge, above their line: the measured trace lives at the left.
-      ctx.textAlign = "right";
-      ctx.fillText(`${deg}°`, 0.99 * g.w, g.y(deg) - 2.6 * unit);
-      ctx.textAlign = "left";
     }
+  }
+
+  // The grid labels, drawn after the traces on a backing of the page colour: the reference sweeps the
+  // whole width and would otherwise cross them (a portrait screen brings the 60° label into its path).
+  function labelBoxes(g) {
+    const unit = unitOf(g);
+    ctx.font = `${Math.round(2.6 * unit)}px sans-serif`;
+    return GRID_DEG.map((deg) => {
+      const text = `${deg}°`;
+      const w = ctx.measureText(text).width + 1.2 * unit;
+      const h = 3.4 * unit;
+      return { deg, text, x: 0.99 * g.w - w, y: g.y(deg) - 2.6 * unit - h / 2, w, h };
+    });
+  }
+
+  function drawLabels(g) {
+    ctx.textBaseline = "middle";
+    ctx.textAlign = "center";
+    for (const box of labelBoxes(g)) {
+      ctx.fillStyle = COLORS.background;
+      ctx.fillRect(box.x, box.y, box.w, box.h);
+      ctx.fillStyle = COLORS.gridText;
+      ctx.fillText(box.text, box.x + box.w / 2, box.y + box.h / 2);
+    }
+    ctx.textAlign = "left";
   }
 
   function drawReference(g) {
@@ -194,6 +221,9 @@
       return state.connected ? "Please wait for the next trial" : "Connecting…";
     }
     const rep = BowdenReference.repetition(ref, g.tNow);
+    if (state.stopped) {
+      return "Stopped — rest";
+    }
     if (!state.running || g.tNow >= BowdenReference.endS(ref)) {
       return `Done: ${ref.repetitions} of ${ref.repetitions} — rest`;
     }
@@ -203,13 +233,25 @@
     return `Repetition ${rep} of ${ref.repetitions}`;
   }
 
+  // The headline's font: 8 % of the height, made smaller until the text fits 94 % of the width.
+  function headlineFont(g, text) {
+    let size = Math.round(8 * g.h / 100);
+    ctx.font = `bold ${size}px sans-serif`;
+    const width = ctx.measureText(text).width;
+    if (width > 0.94 * g.w) {
+      size = Math.floor(size * (0.94 * g.w) / width);
+      ctx.font = `bold ${size}px sans-serif`;
+    }
+    return size;
+  }
+
   function drawText(g) {
-    const unit = g.h / 100;
+    const text = headline(g);
+    headlineFont(g, text);
     ctx.fillStyle = COLORS.text;
-    ctx.font = `bold ${Math.round(8 * unit)}px sans-serif`;
     ctx.textBaseline = "top";
     ctx.textAlign = "center";
-    ctx.fillText(headline(g), g.w / 2, 2 * unit);
+    ctx.fillText(text, g.w / 2, 2 * g.h / 100);
     ctx.textAlign = "left";
   }
 
@@ -236,8 +278,9 @@
     if (state.reference !== null) {
       drawReference(g);
       drawNowLine(g);
-      drawMeasured(g);  // last, so the participant's own dot is never hidden
+      drawMeasured(g);  // last of the traces, so the participant's own dot is never hidden
     }
+    drawLabels(g);
     drawText(g);
 
     const drawnMs = performance.timeOrigin + performance.now();
@@ -259,6 +302,13 @@
     running: () => state.running,
     connected: () => state.connected,
     headline: () => headline(geometry()),
+    headlineWidth: () => {
+      const g = geometry();
+      const text = headline(g);
+      headlineFont(g, text);
+      return { text: ctx.measureText(text).width, canvas: g.w };
+    },
+    labelBoxes: () => labelBoxes(geometry()).map(({ deg, x, y, w, h }) => ({ deg, x, y, w, h })),
     latency: () => state.latency.slice(),
     framesPerSecond: () => {
       const times = state.frameTimes;

@@ -5,6 +5,8 @@
 (() => {
   const $ = (id) => document.getElementById(id);
   const message = $("message");
+  // The console's prompt links here with the participant and the condition just completed.
+  const given = new URLSearchParams(location.hash.slice(1));
 
   Bowden.tokenField($("token"), $("token-box"));
 
@@ -74,6 +76,7 @@
   function answers(form) {
     const body = { participant: $("participant").value.trim(), condition: $("condition").value,
                    nordic: {}, fatigue: {}, replace: $("replace").checked };
+    if ($("exception").value.trim() !== "") { body.exception = $("exception").value.trim(); }
     for (const input of form.querySelectorAll("input[type=radio]:checked")) {
       const [section, item] = input.name.split(".");
       if (item === undefined) { body[section] = Number(input.value); }
@@ -90,10 +93,16 @@
       say(`Stored ${result.data.stored} answers of ${result.data.participant} after ${result.data.condition}.`);
       for (const input of form.querySelectorAll("input[type=radio]:checked")) { input.checked = false; }
       $("replace").checked = false;
+      $("exception").value = "";
     } else {
       say(result.data.error || `refused (HTTP ${result.status})`, true);
+      if (result.status === 403) { Bowden.tokenRefused($("token"), $("token-box")); }
     }
   });
 
-  fetch("/api/questionnaires/schema").then((r) => r.json()).then(build);
+  fetch("/api/questionnaires/schema").then((r) => r.json()).then((schema) => {
+    build(schema);
+    if (given.get("participant")) { $("participant").value = given.get("participant"); }
+    if (given.get("condition")) { $("condition").value = given.get("condition"); }
+  });
 })();
