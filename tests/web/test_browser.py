@@ -128,7 +128,9 @@ def test_the_display_trace_follows_a_simulated_trial(server, browser):
     display.screenshot(path=str(ARTIFACTS / "display.png"))
     console.screenshot(path=str(ARTIFACTS / "console.png"), full_page=True)
     display.wait_for_function("() => !bowdenDisplay.running()")
-    console.wait_for_function("() => document.getElementById('last-result').textContent.includes('completed')")
+    console.wait_for_function(
+        "() => document.getElementById('last-result').textContent.includes('completed')"
+    )
     assert "duration" in console.inner_text("#last-result")
     display.screenshot(path=str(ARTIFACTS / "display-end.png"))
 
