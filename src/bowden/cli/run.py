@@ -49,11 +49,14 @@ from bowden.cli._suit import (
 )
 from bowden.contracts import CONDITIONS, SPEEDS
 from bowden.errors import BowdenError, ParameterError, StoreError
+from bowden.hardware.trigger import open_trigger
 from bowden.model import CompensationModel
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row
 from bowden.runtime.loop import StepController
+from bowden.runtime.lsl_outlets import LslOutlets
 from bowden.runtime.signals import stop_on_signals
 from bowden.runtime.slack import SlackTakeUp
+from bowden.runtime.trial_sync import TrialSync
 from bowden.web.reference import TrialReference
 from bowden.web.trial_setup import TrialSetup
 from bowden.web.validation import participant_id
@@ -127,6 +130,27 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     web.add_argument(
         "--port", type=int, default=8765, help="with --serve: port (default 8765; 0 picks a free one)"
+    )
+    sync = parser.add_argument_group("synchronisation with an EMG amplifier (see bowden emg import)")
+    sync.add_argument(
+        "--lsl",
+        action="store_true",
+        help="publish Lab Streaming Layer streams while the trial runs: bowden's markers and the loop's "
+        "signals (needs the lsl extra)",
+    )
+    sync.add_argument(
+        "--lsl-wait",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="with --lsl: wait up to S seconds for a recorder (LabRecorder) to connect before the trial",
+    )
+    sync.add_argument(
+        "--trigger",
+        metavar="SPEC",
+        help="raise a digital line at the trial's start, lower it at its end: gpio:CHIP:LINE (e.g. "
+        "gpio:/dev/gpiochip1:28, BeagleBone P9_12; needs the gpio extra) or 'command:PROGRAM ARGS' "
+        "with {level} for 1/0",
     )
     add_safety_arguments(parser)
     add_can_arguments(parser)
@@ -207,6 +231,7 @@ def run_trial(
     setup: TrialSetup | None = None,
     server: ServerThread | None = None,
     slack: SlackTakeUp | None = None,
+    sync: TrialSync | None = None,
 ) -> LoopReport:
     """Run one trial of ``controller`` on ``backend`` (SIGINT/SIGTERM stop it safely).
 
@@ -241,10 +266,53 @@ def run_trial(
     if recorder is not None:
         loop.recorder_failure = lambda: recorder.failure
         loop.on_event = recorder.event
+    if sync is not None:
+        sinks.append(sync.row)
     loop.realtime = realtime_config(args)
     with _Status(sinks) as status, stop_on_signals(loop.request_stop):
         loop.record = status
-        return loop.run()
+        report = loop.run()
+    if sync is not None:
+        sync.finish(stop_time_s=report.stop_time_s, reason=report.reason, clean=report.clean)
+    return report
+
+
+def _trial_sync(
+    args: argparse.Namespace,
+    stack: ExitStack,
+    recorder: Recorder | None,
+    reference: TrialReference,
+    participant: str,
+    condition: str | None,
+) -> TrialSync | None:
+    """The trial's trigger line and LSL outlets (``--trigger``, ``--lsl``); None when neither is asked."""
+    if not args.lsl and args.trigger is None:
+        return None
+    trigger = open_trigger(args.trigger) if args.trigger is not None else None
+    if trigger is not None:
+        stack.callback(trigger.close)
+    lsl = None
+    if args.lsl:
+        lsl = LslOutlets(rate_hz=args.rate)
+        stack.callback(lsl.close)
+        _say(f"LSL: publishing {lsl.marker_source_id} and {lsl.loop_source_id}")
+        if args.lsl_wait > 0.0 and not lsl.wait_for_consumers(args.lsl_wait):
+            _say(f"LSL: no recorder connected within {args.lsl_wait:g} s; starting anyway")
+    onsets = [reference.start_s + k * reference.cycle.period_s for k in range(reference.repetitions)]
+    session = {
+        "participant": participant,
+        "condition": condition,
+        "speed": args.speed,
+        "store": args.record.name if args.record is not None else None,
+    }
+    return TrialSync(
+        trial_id=recorder.trial_id if recorder is not None else None,
+        trigger=trigger,
+        lsl=lsl,
+        on_event=recorder.event if recorder is not None else None,
+        repetition_onsets_s=onsets,
+        session=session,
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -280,6 +348,7 @@ def run(args: argparse.Namespace) -> int:
     with ExitStack() as stack:
         server = stack.enter_context(_serving(args, model)) if args.serve else None
         recorder = Recorder(args.record, trial).start() if trial is not None else None
+        sync = _trial_sync(args, stack, recorder, reference, participant, condition)
         report: LoopReport | None = None
         backend: Backend | None = None
         error = "the run did not finish"
@@ -298,6 +367,7 @@ def run(args: argparse.Namespace) -> int:
                 setup=setup,
                 server=server,
                 slack=slack,
+                sync=sync,
             )
             error = ""
             if recorder is not None:
@@ -333,6 +403,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"health: {report.describe_health()}")
     if report.realtime:
         print(f"real-time settings: {report.realtime}")
+    if sync is not None and sync.error is not None:
+        print(f"sync: the trigger failed ({sync.error}); this trial has no sync events")
     if recorder is not None:
         gap_ms = 1e3 * recorder.stats.max_commit_gap_s
         print(
