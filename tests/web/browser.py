@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -53,3 +55,14 @@ def contrast(first: str, second: str) -> float:
 
     high, low = sorted((luminance(first), luminance(second)), reverse=True)
     return (high + 0.05) / (low + 0.05)
+
+
+def screenshot(page: Any, name: str, **options: Any) -> None:
+    """Save a screenshot under ``test-artifacts/web/``; with ``BOWDEN_DOC_SCREENSHOTS=DIR`` also in DIR
+    (``docs/images/web`` holds the ones docs/web.md shows)."""
+    ARTIFACTS.mkdir(parents=True, exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / name), **options)
+    docs = os.environ.get("BOWDEN_DOC_SCREENSHOTS")
+    if docs:
+        Path(docs).mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(ARTIFACTS / name, Path(docs) / name)

@@ -16,7 +16,7 @@ from bowden.model import CompensationModel
 from bowden.web.server import ServeConfig, ServerThread
 from bowden.web.suits import SimulatedBackend
 
-from .browser import ARTIFACTS, CHROMIUM, TABLET_PORTRAIT, Windows, chromium, contrast
+from .browser import CHROMIUM, TABLET_PORTRAIT, Windows, chromium, contrast, screenshot
 from .conftest import SHORT_PROTOCOL, TOKEN
 
 sync_api = pytest.importorskip("playwright.sync_api")
@@ -121,7 +121,6 @@ def test_after_a_restart_a_console_with_the_old_token_can_paste_the_new_one(serv
 
 
 def test_a_portrait_tablet_reads_well_and_meets_the_contrast_and_target_sizes(server, browser):
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
     display = browser.new_page(TABLET_PORTRAIT)
     display.goto(f"{server.url}/display")
     display.wait_for_function("() => bowdenDisplay.connected()")
@@ -145,7 +144,7 @@ def test_a_portrait_tablet_reads_well_and_meets_the_contrast_and_target_sizes(se
     assert float(width.removesuffix("px")) >= 2.0
     assert contrast(outline, page) >= 3.0
     assert contrast(re.match(r"rgba?\([^)]*\)", shadow).group(0), button) >= 3.0
-    console.screenshot(path=str(ARTIFACTS / "console-portrait.png"), full_page=True)
+    screenshot(console, "console-portrait.png", full_page=True)
 
     display.wait_for_function("() => bowdenDisplay.running() && bowdenDisplay.lastT() > 2.0")
     # No trace over the grid labels: they are drawn last, on the page colour.
@@ -167,7 +166,7 @@ def test_a_portrait_tablet_reads_well_and_meets_the_contrast_and_target_sizes(se
         [REFERENCE_RGB, MEASURED_RGB],
     )
     assert covered == []
-    display.screenshot(path=str(ARTIFACTS / "display-portrait.png"))
+    screenshot(display, "display-portrait.png")
     display.wait_for_function("() => !bowdenDisplay.running()", timeout=60_000)
     assert display.evaluate("bowdenDisplay.headline()") == "Done: 10 of 10 — rest"
     width = display.evaluate("bowdenDisplay.headlineWidth()")
@@ -182,6 +181,6 @@ def test_a_portrait_tablet_reads_well_and_meets_the_contrast_and_target_sizes(se
         const i = input.getBoundingClientRect();
         return [Math.max(r.width, i.width), Math.max(r.height, i.height)]; })""")
     assert min(w for w, _ in sizes) >= 44 and min(h for _, h in sizes) >= 44
-    page.screenshot(path=str(ARTIFACTS / "questionnaire-portrait.png"), full_page=True)
+    screenshot(page, "questionnaire-portrait.png", full_page=True)
     for window in (display, console, page):
         window.context.close()

@@ -19,7 +19,7 @@ from bowden.runtime.store_schema import STORE_FILE_NAME
 from bowden.web.server import ServeConfig, ServerThread
 from bowden.web.suits import SimulatedBackend
 
-from .browser import ARTIFACTS, CHROMIUM, Windows, chromium
+from .browser import CHROMIUM, Windows, chromium, screenshot
 from .conftest import SHORT_PROTOCOL
 
 sync_api = pytest.importorskip("playwright.sync_api")
@@ -71,14 +71,13 @@ def answer(browser: Windows, url: str, token: str, participant: str, condition: 
     for site in FATIGUE_SITES:
         page.locator(f"[id='fatigue.{site}-2']").check()
     if condition == "no_suit":
-        page.screenshot(path=str(ARTIFACTS / "session-questionnaire.png"), full_page=True)
+        screenshot(page, "session-questionnaire.png", full_page=True)
     page.click("#submit")
     wait_text(page, "message", f"Stored 23 answers of {participant} after {condition}.")
     page.context.close()
 
 
 def test_an_operator_runs_a_whole_session_restarts_the_server_and_analyzes_it(tmp_path: Path) -> None:
-    ARTIFACTS.mkdir(parents=True, exist_ok=True)
     store, port = tmp_path / STORE_FILE_NAME, free_port()
     with chromium(sync_api) as browser:
         with server(store, port, FIRST_TOKEN) as first:
@@ -101,12 +100,12 @@ def test_an_operator_runs_a_whole_session_restarts_the_server_and_analyzes_it(tm
             order = first.web.desk.store.latest().order
             assert order[0] == "no_suit"
             assert console.locator("#plan tbody tr").count() == 4
-            console.screenshot(path=str(ARTIFACTS / "session-plan.png"), full_page=True)
+            screenshot(console, "session-plan.png", full_page=True)
             # First condition; the questionnaires are prompted after it, and the break timer runs.
             run_next(console, 1)
             wait_text(console, "questionnaire-due", f"after {CONDITION_LABELS[order[0]]}")
             assert console.is_visible("#break-timer")
-            console.screenshot(path=str(ARTIFACTS / "session-questionnaire-due.png"), full_page=True)
+            screenshot(console, "session-questionnaire-due.png", full_page=True)
             answer(browser, url, FIRST_TOKEN, "P01", order[0])
             console.wait_for_function("() => document.getElementById('questionnaire-due').hidden")
             # Redo the first trial (the cuff slipped): the trial is kept and marked, the step runs again.
@@ -123,14 +122,14 @@ def test_an_operator_runs_a_whole_session_restarts_the_server_and_analyzes_it(tm
             console.press("#token", "Enter")
             wait_text(console, "connection", "live")
             wait_text(console, "next-text", "Next: trial 3 of 4")  # resumed from the store
-            console.screenshot(path=str(ARTIFACTS / "session-resumed.png"), full_page=True)
+            screenshot(console, "session-resumed.png", full_page=True)
             run_next(console, 3)
             answer(browser, url, SECOND_TOKEN, "P01", order[2])
             run_next(console, 4)
             answer(browser, url, SECOND_TOKEN, "P01", order[3])
             wait_text(console, "next-text", "The plan is complete.")
             wait_text(console, "progress", "4 of 4 trials")
-            console.screenshot(path=str(ARTIFACTS / "session-complete.png"), full_page=True)
+            screenshot(console, "session-complete.png", full_page=True)
             console.context.close()
 
     assert main(["analyze", str(tmp_path), "--quiet"]) == 0
