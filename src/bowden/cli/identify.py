@@ -1,5 +1,8 @@
 """``bowden identify BENCH... -o model.json [--figure fig.png]``: bench recordings to a compensation model.
 
+Writes model.json version 2: the paper's lines and, identified from the same recording, the dynamic
+compensation (:mod:`bowden.identify.dynamic`; ``--paper-only`` leaves it out).
+
 Reads one or several bench recordings (CSV or Parquet), runs the paper's identification (see
 :mod:`bowden.identify`), writes the versioned ``model.json`` with provenance, prints the summary
 (lines, both R², n, implied k, single-bend check, warnings) and optionally draws the regression
@@ -14,9 +17,11 @@ import sys
 from pathlib import Path
 
 from bowden.cli._outputs import check_output_file, refuse_overwriting_inputs
-from bowden.errors import OutputFileError
+from bowden.errors import FitError, OutputFileError, ParameterError
+from bowden.identify.dynamic import DEFAULT_IMU_LATENCY_S, format_dynamic
 from bowden.identify.estimator import TransmissionIdentifier
 from bowden.identify.figure import save_identification_figure
+from bowden.identify.friction_figure import save_friction_figure
 from bowden.identify.preprocess import LOWERING, RAISING, PreprocessSettings
 from bowden.model.model_file import save_model
 
@@ -65,11 +70,29 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--ignore-extra-columns", action="store_true", help="ignore columns outside the bench contract"
     )
+    parser.add_argument(
+        "--imu-latency-ms",
+        type=float,
+        default=1e3 * DEFAULT_IMU_LATENCY_S,
+        help="age of the suit's IMU samples on arrival, for the dynamic compensation's estimator (50)",
+    )
+    parser.add_argument(
+        "--paper-only", action="store_true", help="write the paper's lines only (model.json without dynamic)"
+    )
+    parser.add_argument(
+        "--friction-figure", type=Path, help="also draw the dynamic friction against cable velocity"
+    )
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     _check_outputs(args.output, args.figure, args.bench)
+    if args.friction_figure is not None:
+        _check_outputs(args.output, args.friction_figure, args.bench)
+        if args.paper_only:
+            raise ParameterError("--friction-figure draws the dynamic model, which --paper-only leaves out")
+    if not 0.0 <= args.imu_latency_ms <= 200.0:
+        raise ParameterError(f"--imu-latency-ms must be in [0, 200] ms, got {args.imu_latency_ms:g}")
     settings = PreprocessSettings(
         cutoff_hz=args.cutoff_hz,
         min_speed_rad_s=math.radians(args.min_speed_deg_s),
@@ -81,6 +104,8 @@ def run(args: argparse.Namespace) -> int:
         preprocessing=settings,
         pulley_radius_m=args.pulley_radius_mm / 1000.0,
         min_samples_per_direction=args.min_samples,
+        dynamic=not args.paper_only,
+        imu_latency_s=args.imu_latency_ms / 1000.0,
     )
     if args.ignore_extra_columns:
         from bowden.identify.recording import read_bench_recording
@@ -90,11 +115,22 @@ def run(args: argparse.Namespace) -> int:
         identifier.fit(args.bench)
     save_model(identifier.model_, args.output)
     print(identifier.summary_.format())
+    dynamic = identifier.model_.dynamic
+    if dynamic is not None:
+        print(format_dynamic(dynamic))
+    elif identifier.dynamic_error_ is not None:
+        print(f"No dynamic compensation: {identifier.dynamic_error_}; the model holds the paper's lines only")
     print(f"Model written to {args.output}")
     if args.figure is not None:
         fits = {RAISING: identifier.raising_fit_, LOWERING: identifier.lowering_fit_}
         save_identification_figure(identifier.selection_, fits, args.figure)
         print(f"Figure written to {args.figure}")
+    if args.friction_figure is not None:
+        if dynamic is None:
+            raise FitError(f"no friction figure: {identifier.dynamic_error_}")
+        radius = identifier.model_.pulley_radius_m
+        save_friction_figure(identifier.selection_, dynamic, radius, args.friction_figure)
+        print(f"Friction figure written to {args.friction_figure}")
     if identifier.summary_.warnings:
         print(f"bowden identify: {len(identifier.summary_.warnings)} warning(s), see above", file=sys.stderr)
     return 0

@@ -30,6 +30,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="redo every stage from scratch (a store holding trials this command did not record, such "
         "as live recordings, is refused even then)",
     )
+    parser.add_argument(
+        "--compensation", choices=("paper", "dynamic"), default="paper",
+        help="the paper's friction compensation (default) or the dynamic one identified from the same bench",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=run)
 
@@ -41,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
         repetitions=args.repetitions,
         quick_bench=args.quick_bench,
         store_emg=not args.no_emg,
+        compensation=args.compensation,
     )
     result = run_study(settings, args.out, force=args.force, progress=StageProgress(enabled=not args.quiet))
     print(f"study directory  {result.directory}")

@@ -34,9 +34,10 @@ from bowden.model.compensation import CompensationModel
 from bowden.model.dynamic import DynamicCompensation, DynamicFitStats
 from bowden.model.lines import CompensationLine
 
-# NGIMU orientation over OSC/UDP on WiFi arrives some tens of ms old; 30 ms sits in the middle of the
-# 10–50 ms the simulated family spans, so a wrong guess is off by at most 20 ms (docs/control.md).
-DEFAULT_IMU_LATENCY_S = 0.03
+# NGIMU orientation over OSC/UDP on WiFi arrives some tens of ms old. Assuming too much latency costs
+# little and too little costs much (docs/control.md), so the default sits at the top of the 10–50 ms
+# the simulated family spans.
+DEFAULT_IMU_LATENCY_S = 0.05
 # Ramps: accelerating or braking harder than this (the steady-state limit is 15 °/s²) while moving.
 MIN_RAMP_ACCELERATION_RAD_S2 = 2.0
 MIN_RAMP_SAMPLES = 50
@@ -126,8 +127,12 @@ def _steady_design(selection: SteadyStateSelection) -> tuple[NDArray[np.float64]
     return design, f.motor_torque_nm[mask]
 
 
-def _coulomb(raising: CompensationLine, lowering: CompensationLine, tension: NDArray[np.float64],
-             direction: NDArray[np.float64]) -> NDArray[np.float64]:
+def _coulomb(
+    raising: CompensationLine,
+    lowering: CompensationLine,
+    tension: NDArray[np.float64],
+    direction: NDArray[np.float64],
+) -> NDArray[np.float64]:
     up = raising.intercept_nm + raising.slope_m * tension
     down = lowering.intercept_nm + lowering.slope_m * tension
     return down + (up - down) * 0.5 * (direction + 1.0)
@@ -177,8 +182,12 @@ def _regimes(selection: SteadyStateSelection, ramps: NDArray[np.bool_]) -> dict[
             & selection.criteria["elevation"]
             & selection.criteria["torque"]
         )
-    return {"steady raising": selection.raising, "steady lowering": selection.lowering, "ramps": ramps,
-            "turns": turning}
+    return {
+        "steady raising": selection.raising,
+        "steady lowering": selection.lowering,
+        "ramps": ramps,
+        "turns": turning,
+    }
 
 
 def _rms(values: NDArray[np.float64]) -> float:
@@ -194,7 +203,8 @@ def _rms_dynamic(
     predicted = _coulomb(model.raising, model.lowering, f.tension_n[mask], np.sign(velocity))
     predicted += np.clip(
         model.viscous_nm_s_rad * velocity + model.inertia_kg_m2 * f.motor_acceleration_rad_s2[mask],
-        -model.max_dynamic_nm, model.max_dynamic_nm,
+        -model.max_dynamic_nm,
+        model.max_dynamic_nm,
     )
     return _rms(f.motor_torque_nm[mask] - predicted)
 
@@ -205,3 +215,28 @@ def _rms_paper(selection: SteadyStateSelection, mask: NDArray[np.bool_], model: 
     direction = np.sign(f.motor_velocity_rad_s[mask])
     predicted = _coulomb(model.raising, model.lowering, f.tension_n[mask], direction)
     return _rms(f.motor_torque_nm[mask] - predicted)
+
+
+def format_dynamic(dynamic: DynamicCompensation) -> str:
+    """The dynamic model as ``bowden identify`` prints it: parameters, uncertainties, fit per regime."""
+    fit = dynamic.fit
+    drag = f"{1e3 * dynamic.viscous_nm_s_rad:.2f} mNm·s/rad"
+    inertia = f"{1e3 * dynamic.inertia_kg_m2:.3f} g·m²"
+    if fit is not None:
+        drag += f" ± {1e3 * fit.viscous_se_nm_s_rad:.2f}"
+        inertia += f" ± {1e3 * fit.inertia_se_kg_m2:.3f}"
+    up, down = dynamic.raising, dynamic.lowering
+    lines = [
+        "Dynamic compensation (recommended; build_controller(compensation='paper') forces the paper's):",
+        f"  Coulomb lines: raising {up.intercept_nm:+.4f} Nm + {1e3 * up.slope_m:.3f} mm·T,"
+        f" lowering {down.intercept_nm:+.4f} Nm + {1e3 * down.slope_m:.3f} mm·T",
+        f"  drag {drag}, inertia {inertia}, IMU latency assumed {1e3 * dynamic.imu_latency_s:.0f} ms",
+    ]
+    if fit is not None and fit.regime_rms_nm:
+        paper = dict(fit.paper_rms_nm)
+        lines.append("  torque residual RMS per regime (dynamic / paper's lines):")
+        for name, value in fit.regime_rms_nm:
+            lines.append(
+                f"    {name:16s} {1e3 * value:7.1f} / {1e3 * paper.get(name, float('nan')):7.1f} mNm"
+            )
+    return "\n".join(lines)

@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bowden import __version__
 from bowden.errors import FitError, ParameterError, RecordingError
-from bowden.identify.dynamic import DynamicIdentification, identify_dynamic
+from bowden.identify.dynamic import DEFAULT_IMU_LATENCY_S, DynamicIdentification, identify_dynamic
 from bowden.identify.preprocess import (
     DIRECTIONS,
     LOWERING,
@@ -54,6 +54,7 @@ _PARAMETERS = (
     "limits",
     "thresholds",
     "dynamic",
+    "imu_latency_s",
 )
 
 
@@ -108,6 +109,10 @@ class TransmissionIdentifier:
         Also identify the dynamic compensation (:mod:`bowden.identify.dynamic`) and store it in the
         model (version 2), which then recommends it. When the recording cannot support it (one spool
         speed), the model keeps the paper's lines only and ``dynamic_error_`` says why.
+    imu_latency_s
+        Age of the suit's IMU samples on arrival, stored in the dynamic model for its estimator
+        (not visible in the bench recording; default
+        :data:`bowden.identify.dynamic.DEFAULT_IMU_LATENCY_S`).
     """
 
     def __init__(
@@ -122,6 +127,7 @@ class TransmissionIdentifier:
         limits: RecordingLimits | None = None,
         thresholds: SummaryThresholds | None = None,
         dynamic: bool = True,
+        imu_latency_s: float = DEFAULT_IMU_LATENCY_S,
     ) -> None:
         self.preprocessing = preprocessing or PreprocessSettings()
         self.pulley_radius_m = pulley_radius_m
@@ -132,6 +138,7 @@ class TransmissionIdentifier:
         self.limits = limits or RecordingLimits()
         self.thresholds = thresholds or SummaryThresholds()
         self.dynamic = dynamic
+        self.imu_latency_s = imu_latency_s
         self._validate()
 
     def _validate(self) -> None:
@@ -157,6 +164,9 @@ class TransmissionIdentifier:
             raise ParameterError(f"tune must be positive, got {self.tune!r}")
         if not isinstance(self.dynamic, bool):
             raise ParameterError(f"dynamic must be True or False, got {self.dynamic!r}")
+        latency = self.imu_latency_s
+        if isinstance(latency, bool) or not isinstance(latency, int | float) or not 0.0 <= latency <= 0.2:
+            raise ParameterError(f"imu_latency_s must be in [0, 0.2] s, got {latency!r}")
         count = self.min_samples_per_direction
         if isinstance(count, bool) or not isinstance(count, int) or count < 3:
             raise ParameterError(f"min_samples_per_direction must be an integer >= 3, got {count!r}")
@@ -268,7 +278,8 @@ class TransmissionIdentifier:
         self.dynamic_error_: str | None = None
         if self.dynamic:
             try:
-                self.dynamic_ = identify_dynamic(selection, self.model_)
+                latency = float(self.imu_latency_s)
+                self.dynamic_ = identify_dynamic(selection, self.model_, imu_latency_s=latency)
             except FitError as error:
                 self.dynamic_error_ = str(error)
             else:

@@ -87,9 +87,12 @@ class DynamicCompensation:
         Rotor, gearbox and spool inertia at the spool, kg·m² (AK60-6 with spool ≈ 1.5e-3).
     imu_latency_s
         Age of the IMU's samples when they arrive; the estimator predicts across it. Range [0, 0.2] s.
+        Too high costs little (the reversal is seen a little early); too low costs much (the old
+        direction's line is held into the turn), so when unsure, err high.
     reversal_hysteresis_rad_s
-        Predicted elevation speed beyond which the reversal state takes a new direction; above the
-        estimator's velocity noise so that a wearer at rest never toggles it.
+        Predicted elevation speed beyond which the reversal state takes a new direction (0.05 rad/s,
+        3°/s); several times the estimator's velocity noise at rest (≈ 0.005 rad/s with the NGIMU's
+        gyro), so that a wearer at rest never toggles it.
     reversal_time_s
         Time constant with which the reversal state moves to the new direction (a step in torque at
         a turn would excite the cable).
@@ -102,8 +105,8 @@ class DynamicCompensation:
     lowering: CompensationLine
     viscous_nm_s_rad: float
     inertia_kg_m2: float
-    imu_latency_s: float = 0.03
-    reversal_hysteresis_rad_s: float = 0.1
+    imu_latency_s: float = 0.05
+    reversal_hysteresis_rad_s: float = 0.05
     reversal_time_s: float = 0.01
     max_dynamic_nm: float = 0.6
     fit: DynamicFitStats | None = None

@@ -12,8 +12,8 @@ Format (version 2; version 1 is the same without ``dynamic`` and still loads)::
       "provenance": {"source_files": [...], "source_sha256": [...], "created_utc": "...",
                      "tool": "bowden identify", "tool_version": "0.1.0", "notes": ""} | null,
       "dynamic": {"raising": {"intercept_nm": ..., "slope_m": ...}, "lowering": {...},
-                  "viscous_nm_s_rad": 0.04, "inertia_kg_m2": 0.0015, "imu_latency_s": 0.03,
-                  "reversal_hysteresis_rad_s": 0.1, "reversal_time_s": 0.01, "max_dynamic_nm": 0.6,
+                  "viscous_nm_s_rad": 0.04, "inertia_kg_m2": 0.0015, "imu_latency_s": 0.05,
+                  "reversal_hysteresis_rad_s": 0.05, "reversal_time_s": 0.01, "max_dynamic_nm": 0.6,
                   "fit": {"n": ..., "viscous_se_nm_s_rad": ..., "inertia_se_kg_m2": ...,
                           "regime_rms_nm": {...}, "paper_rms_nm": {...}}
                           | null} | null

@@ -24,7 +24,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from bowden import __version__
 from bowden import contracts as c
@@ -66,6 +66,9 @@ class StudySettings:
         Use a reduced bench protocol (for tests and demonstrations) instead of the paper's.
     store_emg
         Keep the raw 2 kHz sEMG of every trial in the store (16-bit, as EDF files do).
+    compensation
+        ``"paper"`` (the paper's method, the default: the study reproduces the paper) or ``"dynamic"``
+        (the dynamic compensation identified from the same bench, :mod:`bowden.model.dynamic`).
     """
 
     participants: int = 17
@@ -73,8 +76,11 @@ class StudySettings:
     repetitions: int = c.REPETITIONS_PER_TRIAL
     quick_bench: bool = False
     store_emg: bool = True
+    compensation: Literal["paper", "dynamic"] = "paper"
 
     def __post_init__(self) -> None:
+        if self.compensation not in ("paper", "dynamic"):
+            raise ParameterError(f"compensation must be 'paper' or 'dynamic', got {self.compensation!r}")
         if not 2 <= self.participants <= 200:
             raise ParameterError(f"participants must be between 2 and 200, got {self.participants}")
         if not 1 <= self.repetitions <= 50:
@@ -230,7 +236,7 @@ def _check_directory_is_ours(out: Path, settings: StudySettings, *, force: bool)
                 f"{out} holds {', '.join(results)} but no settings.json, so they cannot be checked against "
                 "these settings: use another --out directory, or --force to start again"
             )
-    elif stored != asdict(settings):
+    elif {"compensation": "paper", **stored} != asdict(settings):  # runs before it existed were the paper's
         raise ParameterError(
             f"{out} holds a study run with other settings ({settings_file}); "
             "use another --out directory or --force to start again"
@@ -280,7 +286,7 @@ def _trials_stage(
     store: StudyStore,
     progress: StageProgress,
 ) -> tuple[int, int]:
-    protocol = ProtocolSettings(repetitions=settings.repetitions)
+    protocol = ProtocolSettings(repetitions=settings.repetitions, compensation=settings.compensation)
     done = {(t.participant, t.condition, t.speed) for t in store.completed_trials()}
     answered = set(store.questionnaires()["participant"])
     total = len(cohort) * len(protocol.conditions) * len(protocol.speeds)
