@@ -1,0 +1,55 @@
+"""The dynamic compensation against the paper's on simulated suits, each identified on its own bench."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from bowden import contracts as c
+from bowden.errors import ParameterError
+from bowden.protocol.bench import BenchProtocol
+from bowden.sim.plant_family import DEVELOPMENT_PLANT, named_plants, random_plants
+from bowden.study.compensation_comparison import ComparisonSettings, compare_on_plant, summarise
+
+QUICK = ComparisonSettings(
+    participants=1,
+    conditions=(c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_50),
+    speeds=("V1", "V3"),
+    repetitions=3,
+    bench=BenchProtocol(spool_speeds_rad_s=(1.0, 3.0, 6.0), loads_nm=(1.0, 3.0), repetitions=1),
+)
+
+
+@pytest.mark.parametrize("name", ["sticky", "imu-10ms"])
+def test_dynamic_compensation_beats_the_paper_on_a_suit_it_was_not_developed_on(name: str) -> None:
+    plant = next(p for p in named_plants() if p.name == name)
+    rows = compare_on_plant(plant, QUICK)
+    assert len(rows) == 2 * 2 * 2  # compensations × conditions × speeds
+    assert np.isfinite(rows[["tension_rmse_n", "onset_peak_pct", "onset_dip_pct"]].to_numpy()).all()
+    table = summarise(rows).iloc[0]
+    assert table["rmse_ratio"] < 0.6
+    assert table["peak_ratio"] < 0.6
+    assert table["worse_conditions"] == 0
+
+
+def test_the_family_differs_where_suits_differ_and_random_suits_are_reproducible() -> None:
+    plants = named_plants()
+    assert plants[0].name == DEVELOPMENT_PLANT
+    assert len({p.name for p in plants}) == len(plants)
+    assert len({repr(p.suit) for p in plants}) == len(plants)
+    drawn = random_plants(3, 7)
+    assert drawn == random_plants(3, 7) and drawn != random_plants(3, 8)
+    assert all(0.01 <= p.suit.imu.latency_s <= 0.05 for p in drawn)
+    with pytest.raises(ParameterError, match="count"):
+        random_plants(0, 1)
+
+
+def test_summary_counts_cells_where_the_dynamic_compensation_is_worse() -> None:
+    plant = next(p for p in named_plants() if p.name == "coulomb")
+    rows = compare_on_plant(plant, replace(QUICK, conditions=(c.CONDITION_SUPPORT_50,), speeds=("V2",)))
+    worse = rows.copy()
+    worse.loc[worse["compensation"] == "dynamic", "tension_rmse_n"] = 99.0
+    assert summarise(worse).iloc[0]["worse_conditions"] == 1
+    assert summarise(rows).iloc[0]["worse_conditions"] == 0
