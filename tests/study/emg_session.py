@@ -59,15 +59,16 @@ class Session:
     store: Path  # trials with their sync events, no EMG (the lab's store after `bowden run`)
     offset_s: float
     drift_ppm: float
+    first_zero_s: float = TRIAL_ZEROS_S[0]
 
     def host_time(self, n: np.ndarray) -> np.ndarray:
         """True host time of amplifier sample n, s."""
-        start = TRIAL_ZEROS_S[0] - self.offset_s
+        start = self.first_zero_s - self.offset_s
         return start + np.asarray(n, dtype=np.float64) / (RATE_HZ * (1.0 + 1e-6 * self.drift_ppm))
 
     def amplifier_sample(self, host_s: float) -> float:
         """Amplifier sample position (fractional) of a host time."""
-        start = TRIAL_ZEROS_S[0] - self.offset_s
+        start = self.first_zero_s - self.offset_s
         return (host_s - start) * RATE_HZ * (1.0 + 1e-6 * self.drift_ppm)
 
     @property
@@ -117,13 +118,22 @@ class Session:
         return line
 
 
-def simulate_session(directory: Path, *, offset_s: float = 3.7, drift_ppm: float = 80.0) -> Session:
-    """Three simulated trials recorded into ``directory/study.db`` with their sync events."""
+def simulate_session(
+    directory: Path,
+    *,
+    offset_s: float = 3.7,
+    drift_ppm: float = 80.0,
+    zeros_s: Sequence[float] = TRIAL_ZEROS_S,
+) -> Session:
+    """Three simulated trials recorded into ``directory/study.db`` with their sync events.
+
+    ``zeros_s`` are the host times of the trials' loop time zero (default: a 20-minute session).
+    """
     participant = generate_cohort(0)[0]
     model = CompensationModel.from_friction(k=0.1)
     store = directory / "study.db"
     trials = []
-    for index, (condition, zero) in enumerate(zip(CONDITIONS, TRIAL_ZEROS_S, strict=True)):
+    for index, (condition, zero) in enumerate(zip(CONDITIONS, zeros_s, strict=True)):
         sim = simulate_trial(
             participant,
             condition,
@@ -145,7 +155,9 @@ def simulate_session(directory: Path, *, offset_s: float = 3.7, drift_ppm: float
         trial = Trial(trial_id=0, info=info, samples=samples, emg_v=emg, zero_host_s=zero)
         trial.trial_id = _record(store, trial)
         trials.append(trial)
-    return Session(trials=trials, store=store, offset_s=offset_s, drift_ppm=drift_ppm)
+    return Session(
+        trials=trials, store=store, offset_s=offset_s, drift_ppm=drift_ppm, first_zero_s=zeros_s[0]
+    )
 
 
 def _record(store: Path, trial: Trial) -> int:
@@ -223,7 +235,7 @@ def write_xdf(session: Session, path: Path, *, recorder_drift_ppm: float = 80.0)
     from .xdf_writer import XdfWriter
 
     def recorder_clock(host_s: np.ndarray) -> np.ndarray:
-        return 123.456 + (np.asarray(host_s) - TRIAL_ZEROS_S[0]) * (1.0 + 1e-6 * recorder_drift_ppm)
+        return 123.456 + (np.asarray(host_s) - session.first_zero_s) * (1.0 + 1e-6 * recorder_drift_ppm)
 
     writer = XdfWriter(path)
     writer.stream(
@@ -259,3 +271,12 @@ def write_xdf(session: Session, path: Path, *, recorder_drift_ppm: float = 80.0)
         writer.clock_offset(stream_id, float(stamps[0]), 0.0)
         writer.clock_offset(stream_id, float(stamps[-1]), 0.0)
     writer.close({1: len(emg), 2: len(markers)})
+
+
+def write_csv(session: Session, path: Path) -> None:
+    """A CSV export of an amplifier: its own time column (s), channels in µV, the trigger input."""
+    emg = session.emg_uv()
+    frame = pd.DataFrame(emg, columns=list(SAGA_LABELS))
+    frame.insert(0, TRIAL_TIME, np.arange(len(emg)) / RATE_HZ)
+    frame[TRIGGER] = session.trigger(ramp_samples=2.0)
+    frame.to_csv(path, index=False, float_format="%.17g")

@@ -28,6 +28,7 @@ from .emg_session import (
     Session,
     direct_store,
     simulate_session,
+    write_csv,
     write_edf,
     write_xdf,
 )
@@ -286,3 +287,13 @@ def test_analyze_reports_which_trials_had_emg_and_from_which_file(session, store
     text = report.read_text()
     assert "EMG of trials 1, 2: imported from P01_part.edf (synchronised by trigger: drift +80.0 ppm" in text
     assert "EMG of trial 3: none" in text
+
+
+def test_a_csv_export_is_imported_like_an_edf(tmp_path, capsys):
+    short = simulate_session(tmp_path, zeros_s=(100.0, 131.0, 170.0), offset_s=2.2)
+    path = tmp_path / "export.csv"
+    write_csv(short, path)
+    args = ["emg", "import", str(short.store), str(path), "--trigger-channel", TRIGGER, *MAP]
+    assert main([*args, "--csv-volts-per-unit", "1e-6"]) == 0
+    assert "imported EMG of trial(s) 1, 2, 3 (by trigger: 6 sync events" in capsys.readouterr().out
+    assert max(_alignment_errors(short, short.store).values()) < 1e-6
