@@ -53,3 +53,25 @@ def test_summary_counts_cells_where_the_dynamic_compensation_is_worse() -> None:
     worse.loc[worse["compensation"] == "dynamic", "tension_rmse_n"] = 99.0
     assert summarise(worse).iloc[0]["worse_conditions"] == 1
     assert summarise(rows).iloc[0]["worse_conditions"] == 0
+
+
+def test_a_dynamic_study_reports_both_compensations_on_the_same_trials(tmp_path) -> None:
+    from bowden.study.pipeline import StudySettings, run_study
+
+    settings = StudySettings(
+        participants=2, repetitions=2, quick_bench=True, store_emg=False, compensation="dynamic"
+    )
+    result = run_study(settings, tmp_path / "study")
+    report = result.report.read_text(encoding="utf-8")
+    section = report[report.index("Beyond the paper: dynamic compensation") :]
+    assert "Paper against dynamic compensation" in section and "(simulated)" in section
+    assert section.count("<img") == 1
+    for label in ("pre", "25%", "50%"):
+        assert f">{label}<" in section
+    # The study itself ran with the dynamic compensation, and says so in its settings.
+    assert '"compensation": "dynamic"' in (tmp_path / "study" / "settings.json").read_text()
+    with pytest.raises(ParameterError, match="other settings"):
+        run_study(
+            StudySettings(participants=2, repetitions=2, quick_bench=True, store_emg=False),
+            tmp_path / "study",
+        )

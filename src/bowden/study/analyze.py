@@ -26,7 +26,7 @@ import dataclasses
 import json
 import logging
 import os
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, Literal
@@ -94,6 +94,7 @@ def analyze_store(
     timings: dict[str, float] | None = None,
     repetitions: int | None = None,
     workers: int | None = None,
+    appendix: Callable[[HtmlDocument], object] | None = None,
 ) -> AnalysisReport:
     """Analyse every completed trial of a store, fit the statistics, write the report.
 
@@ -103,6 +104,7 @@ def analyze_store(
     of cycles every trial must hold; None takes each trial's own from its metadata, else the paper's 10.
     The first repetition of each trial is dropped (adaptation) unless no trial holds more than one.
     ``workers`` trials are analysed at a time (None: one per CPU core); results do not depend on it.
+    ``appendix`` adds sections of its own at the end of the report (``bowden study --compensation``).
 
     Raises
     ------
@@ -191,6 +193,8 @@ def analyze_store(
         if kind == "mixed":
             _label_mixed(document, kept)
         _session_sections(document, facts)
+        if appendix is not None:
+            appendix(document)
         report = document.write(report_path)
     return AnalysisReport(
         report=report,

@@ -14,7 +14,7 @@ elevation (not the controller's own, delayed or predicted, view of it):
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -27,6 +27,8 @@ from bowden.model import AssistanceParameters, CompensationModel, CuffGeometry, 
 from bowden.protocol.bench import BenchProtocol
 from bowden.sim import ProtocolSettings, generate_cohort, simulate_trial
 from bowden.sim.bench import run_bench
+from bowden.sim.parameters import SuitParameters
+from bowden.sim.participants import PAPER_COHORT_SIZE
 from bowden.sim.plant_family import FamilyPlant
 from bowden.sim.results import TRUE_ELEVATION, TRUE_TENSION, TrialSimulation, phase_masks
 
@@ -41,6 +43,7 @@ class ComparisonSettings:
 
     participants: int = 3
     cohort_seed: int = 0
+    cohort_size: int = PAPER_COHORT_SIZE
     conditions: tuple[str, ...] = (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50)
     speeds: tuple[str, ...] = c.SPEEDS
     repetitions: int = 5
@@ -90,11 +93,21 @@ def trial_errors(trial: TrialSimulation, reference: NDArray[np.float64]) -> dict
     }
 
 
-def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.DataFrame:
-    """One row per participant, condition, speed and compensation on one suit."""
-    model = identify_plant(plant, settings)
-    participants = generate_cohort(settings.cohort_seed)[: settings.participants]
-    rows = []
+@dataclass(frozen=True, eq=False)
+class ComparedTrial:
+    """One trial of the comparison with the reference it is judged against."""
+
+    compensation: str
+    trial: TrialSimulation
+    reference_n: NDArray[np.float64]
+
+
+def compared_trials(
+    model: CompensationModel, suit: SuitParameters, settings: ComparisonSettings
+) -> Iterator[ComparedTrial]:
+    """The same participants, conditions, speeds and noise with either compensation."""
+    cohort = generate_cohort(settings.cohort_seed, n_participants=settings.cohort_size)
+    participants = cohort[: settings.participants]
     for compensation in COMPENSATIONS:
         protocol = ProtocolSettings(
             conditions=settings.conditions,
@@ -107,26 +120,26 @@ def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.Dat
                 for speed in settings.speeds:
                     seed = 1000 * index + 10 * c.CONDITIONS.index(condition) + c.SPEEDS.index(speed)
                     trial = simulate_trial(
-                        participant,
-                        condition,
-                        speed,
-                        model=model,
-                        suit=plant.suit,
-                        settings=protocol,
-                        seed=seed,
+                        participant, condition, speed, model=model, suit=suit, settings=protocol, seed=seed
                     )
-                    reference = reference_tension(trial, protocol, plant.suit.geometry)
-                    errors = trial_errors(trial, reference)
-                    rows.append(
-                        {
-                            "plant": plant.name,
-                            "participant": participant.participant_id,
-                            "condition": condition,
-                            "speed": speed,
-                            "compensation": compensation,
-                            **errors,
-                        }
-                    )
+                    reference = reference_tension(trial, protocol, suit.geometry)
+                    yield ComparedTrial(compensation, trial, reference)
+
+
+def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.DataFrame:
+    """One row per participant, condition, speed and compensation on one suit."""
+    model = identify_plant(plant, settings)
+    rows = [
+        {
+            "plant": plant.name,
+            "participant": item.trial.participant.participant_id,
+            "condition": item.trial.condition,
+            "speed": item.trial.speed,
+            "compensation": item.compensation,
+            **trial_errors(item.trial, item.reference_n),
+        }
+        for item in compared_trials(model, plant.suit, settings)
+    ]
     return pd.DataFrame(rows)
 
 

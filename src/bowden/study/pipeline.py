@@ -36,11 +36,14 @@ from bowden.model.model_file import load_model, save_model
 from bowden.runtime.recorder import TrialInfo
 from bowden.sim.batch import ProtocolSettings, condition_order, simulate_trial, trial_seed
 from bowden.sim.bench import BenchProtocol, run_bench
-from bowden.sim.parameters import check_seed
+from bowden.sim.parameters import SuitParameters, check_seed
 from bowden.sim.participants import VirtualParticipant, generate_cohort
 from bowden.sim.questionnaires import questionnaire_answers
 from bowden.sim.results import TrialSimulation
 from bowden.study.analyze import AnalysisReport, analyze_store
+from bowden.study.compensation_comparison import ComparisonSettings
+from bowden.study.compensation_report import compensation_section
+from bowden.study.html import HtmlDocument
 from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE, read_trial_origins
 from bowden.study.progress import StageProgress
 from bowden.study.store import StudyStore
@@ -172,6 +175,19 @@ def run_study(
         with timer.stage("trials"):
             simulated, skipped = _trials_stage(settings, cohort, model, store, progress)
 
+    appendix = None
+    if settings.compensation == "dynamic":
+        comparison = ComparisonSettings(
+            participants=min(3, settings.participants),
+            cohort_seed=settings.seed,
+            cohort_size=settings.participants,
+            repetitions=settings.repetitions,
+        )
+
+        def appendix(document: HtmlDocument) -> object:
+            with progress.spinner("comparing with the paper's compensation"):
+                return compensation_section(document, model, SuitParameters(), comparison)
+
     with timer.stage("analysis, statistics and report"):
         analysis = analyze_store(
             store_path,
@@ -180,6 +196,7 @@ def run_study(
             bench_path=bench_path,
             progress=progress,
             timings=timer.seconds,
+            appendix=appendix,
         )
     return StudyResult(
         directory=out,
