@@ -8,9 +8,11 @@ Pages (static files of this package, nothing fetched from elsewhere):
 
 API: ``GET /api/options``, ``/api/status``, ``/api/questionnaires/schema`` are public and change
 nothing; ``POST /api/trial/start``, ``/api/trial/stop``, ``/api/questionnaires`` and
-``GET /api/questionnaires``, ``/api/console/status`` need the token. A request is read (at most
-32 KiB), its token checked, and then validated in full before anything changes, so a refused
-request (403 token, 400 invalid, 409 conflict, 413 too large, 415 wrong type) changes nothing.
+``GET /api/questionnaires``, ``/api/console/status`` need the token, as do the registry and the
+session plans (:mod:`bowden.web.session_routes`). A request from a page of another origin is refused;
+one from here is read (at most 32 KiB, :mod:`bowden.web.http`), its token checked, and then validated
+in full before anything changes, so a refused request (403 token or origin, 400 invalid, 409
+conflict, 413 too large, 415 wrong type) changes nothing.
 """
 
 from __future__ import annotations

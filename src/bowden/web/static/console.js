@@ -284,6 +284,7 @@
     requestAnimationFrame(animate);
   }
 
+  document.addEventListener("bowden-registered", loadRegistry);
   window.bowdenConsole = { running: () => running, stopRetrying: () => stopRetry !== null };
   loadOptions().then(() => { connect(); loadRegistry(); requestAnimationFrame(animate); });
 })();

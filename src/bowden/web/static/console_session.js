@@ -45,6 +45,7 @@ const BowdenSession = (() => {
     const data = await call("POST", "/api/participants", registration());
     if (data) {
       say(data.registered ? `${data.participant} registered.` : `${data.participant} was registered already.`);
+      document.dispatchEvent(new CustomEvent("bowden-registered"));  // the trial form reads the registry
     }
   }
 
