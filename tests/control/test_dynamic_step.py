@@ -53,7 +53,7 @@ def test_the_model_recommends_its_dynamic_compensation_and_paper_forces_the_line
     )
     bare = replace(MODEL, dynamic=None)
     assert build_controller(model=bare, support=0.5, subject=SUBJECT).compensation == "paper"
-    with pytest.raises(ParameterError, match="version 2"):
+    with pytest.raises(ParameterError, match="dynamic part"):
         build_controller(model=bare, support=0.5, subject=SUBJECT, compensation="dynamic")
 
 

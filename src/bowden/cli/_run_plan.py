@@ -15,7 +15,7 @@ from typing import Any, Final, Literal
 
 from bowden import __version__
 from bowden.contracts import BACKEND_CAN, BACKEND_SIM, CONDITION_SUPPORT, CONDITION_SUPPORT_50
-from bowden.control import build_controller
+from bowden.control import ControllerLimits, build_controller
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel, Subject
 from bowden.model.anthropometry import arm_model
@@ -111,12 +111,25 @@ def wearer(args: argparse.Namespace) -> Subject:
 
 
 def controller_for(
-    model: CompensationModel, support: Support, subject: Subject, hand_load_kg: float
+    model: CompensationModel,
+    support: Support,
+    subject: Subject,
+    hand_load_kg: float,
+    *,
+    compensation: Literal["paper", "dynamic"] | None = None,
+    rate_hz: float = 500.0,
 ) -> StepController:
-    """The condition's controller: none (zero torque) without the suit, else the sensorless one."""
+    """The condition's controller: none (zero torque) without the suit, else the sensorless one.
+
+    Its nominal period is the loop's, which the dynamic compensation's estimator is tuned for.
+    """
     if support is None:
         return NoAssistance()
-    return build_controller(model=model, support=support, subject=subject, hand_load_kg=hand_load_kg)
+    limits = ControllerLimits(nominal_period_s=1.0 / rate_hz)
+    return build_controller(
+        model=model, support=support, subject=subject, hand_load_kg=hand_load_kg, limits=limits,
+        compensation=compensation,
+    )
 
 
 # The wearer's flags, the registry's value each stands for, and the value without a registration.
@@ -210,8 +223,13 @@ def trial_setup_of(
     )
 
 
-def trial_info(args: argparse.Namespace, setup: TrialSetup, reference: TrialReference) -> TrialInfo:
-    """The trial's row in the store; its metadata follows the keys ``bowden serve`` writes."""
+def trial_info(
+    args: argparse.Namespace, setup: TrialSetup, reference: TrialReference, compensation: str | None = None
+) -> TrialInfo:
+    """The trial's row in the store; its metadata follows the keys ``bowden serve`` writes.
+
+    ``compensation`` is the one the controller uses (None: no controller, the no-suit condition).
+    """
     # The simulated arm follows the reference and --serve shows it; otherwise (the real suit, no
     # display) nobody follows it and the trial holds whatever number of cycles the wearer made.
     followed = args.backend == BACKEND_SIM or args.serve
@@ -219,6 +237,7 @@ def trial_info(args: argparse.Namespace, setup: TrialSetup, reference: TrialRefe
         "source": "bowden run --serve" if args.serve else "bowden run",
         "backend": BACKEND_SIM if args.backend == BACKEND_SIM else BACKEND_CAN,
         "rate_hz": args.rate,
+        "compensation": compensation,
         "bowden_version": __version__,
         "model": str(args.model) if args.model else "ideal (simulation)",
         **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},

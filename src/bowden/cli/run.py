@@ -88,6 +88,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument("--duration", type=float, default=30.0, help="run length in s (default 30)")
     parser.add_argument("--rate", type=float, default=500.0, help="control rate in Hz (default 500)")
+    parser.add_argument(
+        "--compensation", choices=("paper", "dynamic"),
+        help="friction compensation (default: the model's recommendation, dynamic in a version-2 model)",
+    )
     parser.add_argument("--record", type=Path, help="study store (SQLite) to record every cycle into")
     parser.add_argument(
         "--participant", default="P00",
@@ -337,13 +341,15 @@ def run(args: argparse.Namespace) -> int:
     slack = slack_config(args, model.pulley_radius_m)
     fill_wearer(args, participant)
     subject = wearer(args)
-    controller = controller_for(model, support, subject, args.hand_load)
+    controller = controller_for(
+        model, support, subject, args.hand_load, compensation=args.compensation, rate_hz=args.rate
+    )
     setup = trial = None
     if condition is not None:
         setup = trial_setup_of(args, participant, condition, support, reference, subject)
     if args.record is not None:
         assert setup is not None  # a recorded trial has a condition (checked above)
-        trial = trial_info(args, setup, reference)
+        trial = trial_info(args, setup, reference, getattr(controller, "compensation", None))
         record_participant(args.record, participant, subject, args.hand_load)
     with ExitStack() as stack:
         server = stack.enter_context(_serving(args, model)) if args.serve else None

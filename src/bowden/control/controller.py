@@ -93,11 +93,13 @@ class Controller:
                 model.dynamic, model.pulley_radius_m, arm, geometry, assistance, limits
             )
             self.step, self._state = step, _StepState(reset=reset, torque_nm=torque_nm)
-        else:
+        elif compensation == "dynamic":
             raise ParameterError(
-                f"compensation must be 'paper' or 'dynamic' (the latter needs a model identified with "
-                f"its dynamic part, model.json version 2), got {compensation!r}"
+                "compensation 'dynamic' needs a model with its dynamic part (model.json version 2, written "
+                "by bowden identify); this model holds the paper's lines only"
             )
+        else:
+            raise ParameterError(f"compensation must be 'paper' or 'dynamic', got {compensation!r}")
 
     def reset(self) -> None:
         """Forget the last command: the next torque ramps up from zero again."""
