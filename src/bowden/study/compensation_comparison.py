@@ -162,7 +162,7 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
     """Per suit: each measure averaged over participants, conditions and speeds, and dynamic/paper ratios.
 
     ``worse_conditions`` counts the (condition, speed) cells where the dynamic compensation's mean
-    tension RMSE exceeds the paper's.
+    tension RMSE exceeds the paper's, ``worse_peak_conditions`` those where its lowering-onset peak does.
     """
     means = rows.groupby(["plant", "compensation"], sort=False)[
         ["tension_rmse_n", "onset_peak_pct", "onset_dip_pct"]
@@ -174,8 +174,10 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
             out[f"{measure}_{compensation}"] = table[(measure, compensation)]
     out["rmse_ratio"] = out["tension_rmse_n_dynamic"] / out["tension_rmse_n_paper"]
     out["peak_ratio"] = out["onset_peak_pct_dynamic"] / out["onset_peak_pct_paper"]
-    cells = rows.groupby(["plant", "condition", "speed", "compensation"], sort=False)["tension_rmse_n"].mean()
-    cell_table = cells.unstack("compensation")
-    worse = (cell_table["dynamic"] > cell_table["paper"]).groupby(level="plant", sort=False).sum()
-    out["worse_conditions"] = worse.reindex(out.index).astype(int)
+    counted = (("tension_rmse_n", "worse_conditions"), ("onset_peak_pct", "worse_peak_conditions"))
+    for measure, column in counted:
+        cells = rows.groupby(["plant", "condition", "speed", "compensation"], sort=False)[measure].mean()
+        cell_table = cells.unstack("compensation")
+        worse = (cell_table["dynamic"] > cell_table["paper"]).groupby(level="plant", sort=False).sum()
+        out[column] = worse.reindex(out.index).astype(int)
     return out.reset_index()
