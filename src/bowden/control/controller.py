@@ -24,9 +24,10 @@ from typing import Literal, NamedTuple
 from bowden.control.command import Command, StepFunction, fault_command
 from bowden.control.dynamic_step import compile_dynamic_step
 from bowden.control.faults import Limit
+from bowden.control.folding import fold
 from bowden.control.limits import ControllerLimits
 from bowden.errors import ParameterError
-from bowden.model.anthropometry import STANDARD_GRAVITY_M_S2, ArmModel, Subject, arm_model
+from bowden.model.anthropometry import ArmModel, Subject, arm_model
 from bowden.model.assistance import AssistanceParameters
 from bowden.model.compensation import CompensationModel
 from bowden.model.geometry import CuffGeometry
@@ -126,29 +127,15 @@ def _compile_step(
     limits: ControllerLimits,
 ) -> tuple[StepFunction, _StepState]:
     """Fold every constant into a step closure; return it with accessors of its state."""
-    a, b = geometry.exit_distance_m, geometry.anchor_distance_m
-    ab, aabb, two_ab = a * b, a * a + b * b, 2.0 * a * b
-    psi = geometry.rest_angle_rad
-    # support·g·Σmd turns τ_g(θ)·support into one multiply by sin θ; NaN pretension marks the law.
-    if assistance.is_pretension:
-        pretension, support_moment = assistance.pretension_n, 0.0
-    else:
-        pretension = _NAN
-        support_moment = float(assistance.support) * STANDARD_GRAVITY_M_S2 * arm.total_moment_kg_m
-    floor = assistance.floor_tension_n
-    max_tension = limits.max_tension_n
+    (
+        ab, aabb, two_ab, psi, pretension, support_moment, floor, max_tension,
+        min_torque, max_torque, max_rate, nominal_dt, elev_min, elev_max, max_vel, max_motor_vel,
+    ) = fold(arm, geometry, assistance, limits)
+    min_vel, min_motor_vel = -max_vel, -max_motor_vel
     low_intercept, low_slope = model.lowering.intercept_nm, model.lowering.slope_m
     d_intercept = model.raising.intercept_nm - low_intercept
     d_slope = model.raising.slope_m - low_slope
     blend_mid, blend_steep = model.blend_midpoint_rad_s, model.blend_steepness_s_rad
-    min_torque, max_torque = limits.min_torque_nm, limits.max_torque_nm
-    max_rate, nominal_dt = limits.max_torque_rate_nm_s, limits.nominal_period_s
-    elev_min = limits.elevation_min_rad
-    elev_max = min(limits.elevation_max_rad, geometry.max_elevation_rad)
-    max_vel = limits.max_elevation_velocity_rad_s
-    min_vel = -max_vel
-    max_motor_vel = limits.max_motor_velocity_rad_s
-    min_motor_vel = -max_motor_vel
     last_torque = 0.0
     last_time = _NAN
 

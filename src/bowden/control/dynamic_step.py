@@ -14,8 +14,9 @@ from collections.abc import Callable
 
 from bowden.control.command import Command, StepFunction, fault_command
 from bowden.control.faults import Limit
+from bowden.control.folding import fold
 from bowden.control.limits import ControllerLimits
-from bowden.model.anthropometry import STANDARD_GRAVITY_M_S2, ArmModel
+from bowden.model.anthropometry import ArmModel
 from bowden.model.assistance import AssistanceParameters
 from bowden.model.dynamic import DynamicCompensation
 from bowden.model.elevation_estimator import estimator_gains
@@ -37,16 +38,11 @@ def compile_dynamic_step(
     limits: ControllerLimits,
 ) -> tuple[StepFunction, Callable[[], None], Callable[[], float]]:
     """Fold every constant into a step closure; return it with ``reset`` and ``last torque`` accessors."""
-    a, b = geometry.exit_distance_m, geometry.anchor_distance_m
-    ab, aabb, two_ab = a * b, a * a + b * b, 2.0 * a * b
-    psi = geometry.rest_angle_rad
-    if assistance.is_pretension:
-        pretension, support_moment = assistance.pretension_n, 0.0
-    else:
-        pretension = _NAN
-        support_moment = float(assistance.support) * STANDARD_GRAVITY_M_S2 * arm.total_moment_kg_m
-    floor = assistance.floor_tension_n
-    max_tension = limits.max_tension_n
+    (
+        ab, aabb, two_ab, psi, pretension, support_moment, floor, max_tension,
+        min_torque, max_torque, max_rate, nominal_dt, elev_min, elev_max, max_vel, max_motor_vel,
+    ) = fold(arm, geometry, assistance, limits)
+    min_vel, min_motor_vel = -max_vel, -max_motor_vel
     low_intercept, low_slope = dynamic.lowering.intercept_nm, dynamic.lowering.slope_m
     d_intercept = dynamic.raising.intercept_nm - low_intercept
     d_slope = dynamic.raising.slope_m - low_slope
@@ -59,14 +55,6 @@ def compile_dynamic_step(
     gains = estimator_gains(period, dynamic.imu_latency_s)
     (k00, k01), (k10, k11), (k20, k21), (k30, k31) = gains.gain
     latency, half_dt2 = gains.latency_s, 0.5 * period * period
-    min_torque, max_torque = limits.min_torque_nm, limits.max_torque_nm
-    max_rate, nominal_dt = limits.max_torque_rate_nm_s, limits.nominal_period_s
-    elev_min = limits.elevation_min_rad
-    elev_max = min(limits.elevation_max_rad, geometry.max_elevation_rad)
-    max_vel = limits.max_elevation_velocity_rad_s
-    min_vel = -max_vel
-    max_motor_vel = limits.max_motor_velocity_rad_s
-    min_motor_vel = -max_motor_vel
     # Estimator (θ, θ̇, θ̈, gyro bias), reversal state and target, last command.
     th = w = acc = bias = 0.0
     started = False
