@@ -90,9 +90,9 @@ class DynamicCompensation:
         Too high costs little (the reversal is seen a little early); too low costs much (the old
         direction's line is held into the turn), so when unsure, err high.
     reversal_hysteresis_rad_s
-        Predicted elevation speed beyond which the reversal state takes a new direction (0.05 rad/s,
-        3°/s); several times the estimator's velocity noise at rest (≈ 0.005 rad/s with the NGIMU's
-        gyro), so that a wearer at rest never toggles it.
+        Predicted elevation speed beyond which the reversal state takes a new direction (0.07 rad/s,
+        4°/s); seven times the estimator's predicted-velocity noise at rest (≈ 0.01 rad/s with the
+        NGIMU's gyro), so that a wearer at rest never toggles it.
     reversal_time_s
         Time constant with which the reversal state moves to the new direction (a step in torque at
         a turn would excite the cable).
@@ -106,7 +106,7 @@ class DynamicCompensation:
     viscous_nm_s_rad: float
     inertia_kg_m2: float
     imu_latency_s: float = 0.05
-    reversal_hysteresis_rad_s: float = 0.05
+    reversal_hysteresis_rad_s: float = 0.07
     reversal_time_s: float = 0.01
     max_dynamic_nm: float = 0.6
     fit: DynamicFitStats | None = None

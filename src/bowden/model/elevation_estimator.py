@@ -22,9 +22,11 @@ import scipy.linalg
 
 from bowden.errors import ParameterError
 
-# A 60–180 °/s minimum-jerk movement of 80° has jerk peaks of 20–150 rad/s³; 55 rad/s³ per step of
-# process noise follows the turns of the fastest without letting gyro noise through at rest.
-DEFAULT_JERK_SD_RAD_S3 = 55.0
+# Process noise of the white-jerk model, per step. Chosen on the default simulated suit (only): 15 rad/s³
+# follows the turns of 60–180 °/s movements as well as 55 did there, and keeps the predicted velocity's
+# noise at rest at ≈ 0.01 rad/s (1 σ) with the NGIMU's gyro, a seventh of the reversal hysteresis;
+# at 55 it was 0.018 rad/s and the command toggled between the lines at rest (tested).
+DEFAULT_JERK_SD_RAD_S3 = 15.0
 DEFAULT_ELEVATION_NOISE_RAD = math.radians(0.3)
 DEFAULT_GYRO_NOISE_RAD_S = math.radians(1.5)
 DEFAULT_BIAS_WALK_RAD_S = 1e-5  # per step: a bias that drifts over minutes, not within a movement

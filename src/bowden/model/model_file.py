@@ -13,7 +13,7 @@ Format (version 2; version 1 is the same without ``dynamic`` and still loads)::
                      "tool": "bowden identify", "tool_version": "0.1.0", "notes": ""} | null,
       "dynamic": {"raising": {"intercept_nm": ..., "slope_m": ...}, "lowering": {...},
                   "viscous_nm_s_rad": 0.04, "inertia_kg_m2": 0.0015, "imu_latency_s": 0.05,
-                  "reversal_hysteresis_rad_s": 0.05, "reversal_time_s": 0.01, "max_dynamic_nm": 0.6,
+                  "reversal_hysteresis_rad_s": 0.07, "reversal_time_s": 0.01, "max_dynamic_nm": 0.6,
                   "fit": {"n": ..., "viscous_se_nm_s_rad": ..., "inertia_se_kg_m2": ...,
                           "regime_rms_nm": {...}, "paper_rms_nm": {...}}
                           | null} | null
