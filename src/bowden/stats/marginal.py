@@ -26,7 +26,7 @@ from scipy import optimize, special
 
 from bowden.errors import FitError
 from bowden.stats.design import Design, FloatArray
-from bowden.stats.glmm import GlmmOptions, GlmmResult, _result
+from bowden.stats.glmm_result import GlmmOptions, GlmmResult, glmm_result
 
 
 @dataclass(frozen=True)
@@ -275,7 +275,7 @@ def fit_marginal_ml(design: Design, start: GlmmResult, *, n_nodes: int, options:
         raise FitError("the marginal likelihood has no maximum here (Hessian not negative definite)")
     p = design.x.shape[1]
     model.loglik(theta)  # leaves the conditional modes of the final estimates in model.modes
-    return _result(
+    return glmm_result(
         design,
         "laplace" if n_nodes == 1 else f"agq{n_nodes}",
         theta[:p],
