@@ -104,6 +104,18 @@ CONDITION_SUPPORT: Final[dict[str, float | str | None]] = {
 # Movement speeds: peak elevation speed of the minimum-jerk reference, deg/s (paper: V1-V3).
 SPEEDS: Final = ("V1", "V2", "V3")
 SPEED_PEAK_DEG_S: Final = {"V1": 60.0, "V2": 120.0, "V3": 180.0}
+
+# A lab's own conditions and speeds (bowden.protocol.catalogue: say support_70 at 70 % support, V4 at
+# 240 deg/s) are named by one rule: a letter, then up to 23 letters, digits or underscores. The
+# paper's names follow it too; so does the database's CHECK of the questionnaires table.
+PROTOCOL_NAME_PATTERN: Final = re.compile(r"[A-Za-z][A-Za-z0-9_]{0,23}")
+PROTOCOL_NAME_RULE: Final = "a letter, then up to 23 letters, digits or underscores (e.g. support_70, V4)"
+
+
+def is_protocol_name(text: object) -> bool:
+    """Whether ``text`` is a condition or speed name by the one rule (the whole string)."""
+    return isinstance(text, str) and PROTOCOL_NAME_PATTERN.fullmatch(text) is not None
+
 REPETITIONS_PER_TRIAL: Final = 10
 ELEVATION_LOW_DEG: Final = 20.0
 ELEVATION_HIGH_DEG: Final = 100.0

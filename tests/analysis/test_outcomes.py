@@ -229,7 +229,7 @@ def test_bad_trials_are_named():
     with pytest.raises(RecordingError, match=r"participant P04, support_25, V3: .*moment_arm_m"):
         analyse_study([({"participant": "P04", "condition": "support_25", "speed": "V3"}, trial)])
     with pytest.raises(ParameterError, match="condition must be one of"):
-        analyse_study([({"participant": "P04", "condition": "support_99", "speed": "V3"}, make_trial("V3"))])
+        analyse_study([({"participant": "P04", "condition": "support 99", "speed": "V3"}, make_trial("V3"))])
     with pytest.raises(ParameterError, match="lacks 'speed'"):
         analyse_study([({"participant": "P04", "condition": "no_suit"}, make_trial("V3"))])
 

@@ -136,9 +136,9 @@ def test_newer_schema_is_refused(tmp_path: Path) -> None:
 
 def test_trial_info_validation() -> None:
     with pytest.raises(ParameterError, match="condition"):
-        TrialInfo(participant="P1", condition="fifty")
+        TrialInfo(participant="P1", condition="fifty %")
     with pytest.raises(ParameterError, match="speed"):
-        TrialInfo(participant="P1", condition="support_50", speed="fast")
+        TrialInfo(participant="P1", condition="support_50", speed="fast!")
     with pytest.raises(ParameterError, match="support"):
         TrialInfo(participant="P1", condition="support_50", support=1.5)
     with pytest.raises(ParameterError, match="participant"):

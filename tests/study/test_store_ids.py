@@ -65,7 +65,7 @@ def test_valid_answers_are_stored(tmp_path: Path) -> None:
         ({"participant": "p7"}, r"row 2: participant 'p7' is not a pseudonymous id"),
         ({"participant": "P07\n"}, r"row 2: participant 'P07\\n' is not a pseudonymous id"),
         ({"participant": "Anna Smith"}, r"row 2: participant 'Anna Smith'"),
-        ({"condition": "fifty"}, r"row 2: unknown condition 'fifty'"),
+        ({"condition": "fifty %"}, r"row 2: condition 'fifty %' is not a condition name"),
         ({"questionnaire": "sus"}, r"row 2: unknown questionnaire 'sus'"),
         ({"item": "knee"}, r"row 2: fatigue has no item 'knee'"),
         ({"score": 25}, r"row 2: score 25 of fatigue.biceps must be a whole number from 1 to 7"),

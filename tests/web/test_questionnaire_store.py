@@ -62,7 +62,8 @@ def test_the_database_itself_refuses_names_and_out_of_range_scores(tmp_path):
     bad_rows = [
         ("Anna", "no_suit", "nordic", "hips", 1),
         ("P01 Anna", "no_suit", "nordic", "hips", 1),
-        ("P01", "support_75", "nordic", "hips", 1),
+        ("P01", "support 75", "nordic", "hips", 1),  # not a condition name: a space
+        ("P01", "75_support", "nordic", "hips", 1),  # names start with a letter
         ("P01", "no_suit", "nordic", "hips", 8),
         ("P01", "no_suit", "borg_rpe", "rpe", 21),
         ("P01", "no_suit", "sus", "q1", 3),

@@ -103,9 +103,13 @@ class StudyOutcomes:
         per_participant = data.groupby(["participant", "condition", "speed", "phase"])["value"].mean()
         means = per_participant.groupby(["condition", "speed", "phase"]).mean()
         table = pd.DataFrame(means.unstack(["speed", "phase"]))
-        order = [c for c in CONDITIONS if c in table.index]
+        # The paper's conditions and speeds in its order, then a lab's own (sorted): none dropped.
+        order = [*(c for c in CONDITIONS if c in table.index),
+                 *sorted(c for c in table.index if c not in CONDITIONS)]
+        present = {str(column[0]) for column in table.columns}
+        speeds = [*(s for s in SPEEDS if s in present), *sorted(present - set(SPEEDS))]
         columns = pd.MultiIndex.from_tuples(
-            [(s, p) for s in SPEEDS for p in PHASES if (s, p) in table.columns], names=["speed", "phase"]
+            [(s, p) for s in speeds for p in PHASES if (s, p) in table.columns], names=["speed", "phase"]
         )
         return table.reindex(index=order, columns=columns)
 

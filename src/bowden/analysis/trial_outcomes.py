@@ -47,6 +47,7 @@ from bowden.analysis.sparc import SparcParameters, sparc
 from bowden.contracts import (
     CONDITIONS,
     MUSCLES,
+    PROTOCOL_NAME_RULE,
     SPEEDS,
     TRIAL_DESIRED_TENSION,
     TRIAL_ELEVATION,
@@ -55,6 +56,7 @@ from bowden.contracts import (
     TRIAL_REFERENCE_ELEVATION,
     TRIAL_TENSION,
     TRIAL_TIME,
+    is_protocol_name,
 )
 from bowden.errors import ParameterError, RecordingError
 
@@ -98,10 +100,12 @@ class TrialMetadata:
     def __post_init__(self) -> None:
         if not (isinstance(self.participant, str) and self.participant):
             raise ParameterError(f"participant must be a non-empty string, got {self.participant!r}")
-        if self.condition not in CONDITIONS:
-            raise ParameterError(f"condition must be one of {CONDITIONS}, got {self.condition!r}")
-        if self.speed not in SPEEDS:
-            raise ParameterError(f"speed must be one of {SPEEDS}, got {self.speed!r}")
+        # The paper's names, or a lab's own by the one rule (bowden.protocol.catalogue).
+        if self.condition not in CONDITIONS and not is_protocol_name(self.condition):
+            raise ParameterError(f"condition must be one of {CONDITIONS} or {PROTOCOL_NAME_RULE}, "
+                                 f"got {self.condition!r}")
+        if self.speed not in SPEEDS and not is_protocol_name(self.speed):
+            raise ParameterError(f"speed must be one of {SPEEDS} or {PROTOCOL_NAME_RULE}, got {self.speed!r}")
 
     @classmethod
     def coerce(cls, value: TrialMetadata | Mapping[str, Any]) -> TrialMetadata:

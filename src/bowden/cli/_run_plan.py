@@ -14,12 +14,13 @@ from pathlib import Path
 from typing import Any, Final, Literal
 
 from bowden import __version__
-from bowden.contracts import BACKEND_CAN, BACKEND_SIM, CONDITION_SUPPORT, CONDITION_SUPPORT_50
+from bowden.contracts import BACKEND_CAN, BACKEND_SIM, CONDITION_SUPPORT_50
 from bowden.control import ControllerLimits, build_controller
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel, Subject
 from bowden.model.anthropometry import arm_model
 from bowden.model.model_file import load_model
+from bowden.protocol.catalogue import PAPER, Catalogue
 from bowden.runtime import TrialInfo
 from bowden.runtime.loop import StepController
 from bowden.web.reference import TrialReference
@@ -43,26 +44,34 @@ def parse_support(text: str) -> float | Literal["pretension"]:
     return value
 
 
-def support_of(condition: str) -> Support:
+def support_of(condition: str, catalogue: Catalogue = PAPER) -> Support:
     """The support a study condition stands for: the rule ``bowden serve`` applies too."""
-    return condition_support(condition)
+    return condition_support(condition, catalogue)
 
 
-def support_and_condition(support_text: str | None, given: str | None) -> tuple[Support, str | None]:
-    """The run's support and condition, each from the other when absent (``contracts.CONDITION_SUPPORT``).
+def support_and_condition(
+    support_text: str | None, given: str | None, catalogue: Catalogue = PAPER
+) -> tuple[Support, str | None]:
+    """The run's support and condition, each from the other when absent (the ``catalogue``'s).
 
     Neither given: 50 % support. A condition that contradicts the support is refused, so that no
     trial is ever stored under a condition it did not run in. A support no condition has (0.3) gives
     no condition: fine for a free run, refused by :func:`bowden.cli.run.run` when the trial is recorded.
+    A condition the catalogue does not know (the paper's, ``--define-condition``, the store's) is refused.
     """
+    if given is not None and given not in catalogue.condition_names:
+        raise ParameterError(
+            f"--condition {given} is unknown (known: {', '.join(catalogue.condition_names)}); define "
+            "your own with --define-condition NAME=SUPPORT"
+        )
     if support_text is None:
-        return (support_of(given) if given is not None else 0.5), given or CONDITION_SUPPORT_50
+        return (support_of(given, catalogue) if given is not None else 0.5), given or CONDITION_SUPPORT_50
     support = parse_support(support_text)
-    named = [condition for condition, value in CONDITION_SUPPORT.items() if value == support]
+    named = catalogue.conditions_with_support(support)
     if given is None:
         return support, named[0] if named else None
     if given not in named:
-        expected = support_of(given)
+        expected = support_of(given, catalogue)
         wanted = (
             "no --support (no suit: the motor stays at zero torque)"
             if expected is None
@@ -74,13 +83,24 @@ def support_and_condition(support_text: str | None, given: str | None) -> tuple[
     return support, given
 
 
-def run_reference(args: argparse.Namespace) -> TrialReference:
+def speed_peak(args: argparse.Namespace, catalogue: Catalogue = PAPER) -> float:
+    """``--speed``'s peak elevation speed, °/s (the paper's, ``--define-speed``'s or the store's)."""
+    if args.speed not in catalogue.speed_names:
+        raise ParameterError(
+            f"--speed {args.speed} is unknown (known: {', '.join(catalogue.speed_names)}); define "
+            "your own with --define-speed NAME=DEG_S"
+        )
+    return catalogue.peak_deg_s(args.speed)
+
+
+def run_reference(args: argparse.Namespace, catalogue: Catalogue = PAPER) -> TrialReference:
     """The run's reference: ``--lead-in`` of rest, then the whole cycles at ``--speed`` that fit."""
     if not (math.isfinite(args.lead_in) and 0.0 <= args.lead_in <= MAX_LEAD_IN_S):
         raise ParameterError(f"--lead-in must be within 0-{MAX_LEAD_IN_S:g} s, got {args.lead_in}")
-    period = study_reference(args.speed, lead_in_s=0.0, repetitions=1).cycle.period_s
+    peak = speed_peak(args, catalogue)
+    period = study_reference(args.speed, lead_in_s=0.0, repetitions=1, peak_deg_s=peak).cycle.period_s
     repetitions = max(1, min(100, math.floor((args.duration - args.lead_in) / period + 1e-9)))
-    return study_reference(args.speed, lead_in_s=args.lead_in, repetitions=repetitions)
+    return study_reference(args.speed, lead_in_s=args.lead_in, repetitions=repetitions, peak_deg_s=peak)
 
 
 def run_model(args: argparse.Namespace) -> CompensationModel:
@@ -209,12 +229,14 @@ def trial_setup_of(
     support: Support,
     reference: TrialReference,
     subject: Subject,
+    catalogue: Catalogue = PAPER,
 ) -> TrialSetup:
     """The run as the browsers see it (the console's trial fields, also the trial's metadata)."""
     return TrialSetup(
         participant=participant,
         condition=condition,
         speed=args.speed,
+        speed_peak_deg_s=catalogue.peak_deg_s(args.speed),
         support=support,
         repetitions=reference.repetitions,
         lead_in_s=reference.start_s,

@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
+from bowden.cli._protocol_options import add_protocol_arguments, protocol_catalogue
 from bowden.cli._run_plan import (
     controller_for,
     fill_wearer,
@@ -51,6 +52,7 @@ from bowden.contracts import CONDITIONS, SPEEDS
 from bowden.errors import BowdenError, ParameterError, StoreError
 from bowden.hardware.trigger import open_trigger
 from bowden.model import CompensationModel
+from bowden.protocol.catalogue import Catalogue
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row
 from bowden.runtime.loop import StepController
 from bowden.runtime.lsl_outlets import LslOutlets
@@ -100,16 +102,16 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     parser.add_argument(
         "--condition",
-        choices=CONDITIONS,
-        help="study condition (default from --support; must agree with it: no_suit runs "
-        "the motor at zero torque)",
+        help=f"study condition: {', '.join(CONDITIONS)} or one of --define-condition (default from "
+        "--support; must agree with it: no_suit runs the motor at zero torque)",
     )
     parser.add_argument(
         "--speed",
-        choices=SPEEDS,
         default="V1",
-        help="speed of the reference (the sim arm follows it; recorded)",
+        help=f"speed of the reference: {', '.join(SPEEDS)} or one of --define-speed (default V1; the "
+        "sim arm follows it; recorded)",
     )
+    add_protocol_arguments(parser)
     parser.add_argument(
         "--lead-in", type=float, default=2.0, help="rest before the reference starts moving, s (default 2)"
     )
@@ -320,7 +322,11 @@ def _trial_sync(
 
 
 def run(args: argparse.Namespace) -> int:
-    support, condition = support_and_condition(args.support, args.condition)
+    # The conditions and speeds: the paper's, --define-condition/--define-speed and the store's own.
+    catalogue: Catalogue = protocol_catalogue(
+        args, args.record if args.record is not None and args.record.is_file() else None
+    )
+    support, condition = support_and_condition(args.support, args.condition, catalogue)
     participant = participant_id(args.participant, "--participant")
     options = None
     if args.backend == "can":
@@ -336,7 +342,7 @@ def run(args: argparse.Namespace) -> int:
     # opening it enters motor mode): the limits, the reference, the model, the wearer, the
     # controller, and the store, which must open and take the participant.
     LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args))
-    reference = run_reference(args)
+    reference = run_reference(args, catalogue)
     model = run_model(args)
     slack = slack_config(args, model.pulley_radius_m)
     fill_wearer(args, participant)
@@ -346,7 +352,7 @@ def run(args: argparse.Namespace) -> int:
     )
     setup = trial = None
     if condition is not None:
-        setup = trial_setup_of(args, participant, condition, support, reference, subject)
+        setup = trial_setup_of(args, participant, condition, support, reference, subject, catalogue)
     if args.record is not None:
         assert setup is not None  # a recorded trial has a condition (checked above)
         trial = trial_info(args, setup, reference, getattr(controller, "compensation", None))

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
+from bowden.cli._protocol_options import add_protocol_arguments
 from bowden.cli._suit import (
     CanSuitOptions,
     add_can_arguments,
@@ -27,6 +28,7 @@ from bowden.cli._suit import (
 from bowden.contracts import BACKEND_CAN, REPETITIONS_PER_TRIAL, SPEEDS
 from bowden.errors import ParameterError
 from bowden.model.model_file import load_model
+from bowden.protocol.catalogue import catalogue_of
 from bowden.protocol.session_plan import ORDERS, PAPER_BREAK_S, StudyProtocol
 from bowden.runtime.store_schema import STORE_FILE_NAME
 
@@ -36,6 +38,7 @@ if TYPE_CHECKING:
     from bowden.web.trial_setup import TrialSetup
 
 
+_PAPER_CONDITIONS = StudyProtocol().conditions
 # bowden --help marks the command, and running it is one line, while this extra is missing.
 EXTRA = ("web", ("starlette", "uvicorn", "websockets"))
 
@@ -59,8 +62,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     plan.add_argument("--order", choices=ORDERS, default="random",
                       help="order of the support conditions after no suit: drawn from each session's "
                       "seed (random, default) or counterbalanced over participants (latin_square)")
+    plan.add_argument("--conditions", default=",".join(_PAPER_CONDITIONS),
+                      help="the conditions ordered after no suit, the paper's or --define-condition's "
+                      f"(default {','.join(_PAPER_CONDITIONS)})")
     plan.add_argument("--speeds", default=",".join(SPEEDS),
-                      help=f"speeds of every condition, in order (default {','.join(SPEEDS)})")
+                      help="speeds of every condition, in order, the paper's or --define-speed's "
+                      f"(default {','.join(SPEEDS)})")
+    add_protocol_arguments(plan)
     plan.add_argument("--repetitions", type=int, default=REPETITIONS_PER_TRIAL,
                       help=f"repetitions per trial (default {REPETITIONS_PER_TRIAL})")
     plan.add_argument("--lead-in", type=float, default=2.0,
@@ -142,20 +150,31 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
         k = args.friction_k if args.friction_k is not None else _sim_friction_k()
         model = CompensationModel.from_friction(k=k)
     slack = slack_config(args, model.pulley_radius_m)
+    protocol = session_protocol(args)
+    from bowden.web.store_catalogue import checked_catalogue
+
+    checked_catalogue(args.store, protocol.catalogue)  # a name the store gave another meaning: refused now
     return ServeConfig(store_path=args.store, model=model, backend=backend, host=args.host, port=args.port,
                        rate_hz=args.rate_hz, safety=safety, realtime=realtime, slack=slack,
-                       protocol=session_protocol(args))
+                       protocol=protocol)
 
 
 def session_protocol(args: argparse.Namespace) -> StudyProtocol:
-    """The protocol of the session plans, from the flags (errors name the flag)."""
+    """The protocol of the session plans, from the flags (errors name the flag).
+
+    The store's own definitions are checked against ``--define-condition`` and ``--define-speed``
+    when the server opens it (:class:`bowden.web.session_desk.SessionDesk`).
+    """
     speeds = tuple(s.strip() for s in args.speeds.split(",") if s.strip())
+    conditions = tuple(c.strip() for c in args.conditions.split(",") if c.strip())
+    catalogue = catalogue_of(args.define_condition, args.define_speed)
     try:
-        return StudyProtocol(speeds=speeds, repetitions=args.repetitions, lead_in_s=args.lead_in,
-                             break_s=60.0 * args.break_min, order=args.order)
+        return StudyProtocol(conditions=conditions, speeds=speeds, repetitions=args.repetitions,
+                             lead_in_s=args.lead_in, break_s=60.0 * args.break_min, order=args.order,
+                             catalogue=catalogue)
     except ParameterError as error:
-        flags = {"speeds": "--speeds", "repetitions": "--repetitions", "lead_in_s": "--lead-in",
-                 "break_s": "--break-min"}
+        flags = {"conditions": "--conditions", "speeds": "--speeds", "repetitions": "--repetitions",
+                 "lead_in_s": "--lead-in", "break_s": "--break-min"}
         flag = next((f for name, f in flags.items() if f"StudyProtocol.{name}" in str(error)), "--speeds")
         raise ParameterError(f"{flag}: {error}") from None
 

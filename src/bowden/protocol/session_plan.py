@@ -22,11 +22,11 @@ from bowden.contracts import (
     CONDITION_PRETENSION,
     CONDITION_SUPPORT_25,
     CONDITION_SUPPORT_50,
-    CONDITIONS,
     REPETITIONS_PER_TRIAL,
     SPEEDS,
 )
 from bowden.errors import ParameterError
+from bowden.protocol.catalogue import PAPER, Catalogue
 
 Order = Literal["random", "latin_square"]
 ORDERS: Final = ("random", "latin_square")
@@ -54,6 +54,9 @@ class StudyProtocol:
     order
         ``"random"`` (a permutation drawn from the session's seed) or ``"latin_square"``
         (counterbalanced over participants: a Williams design, one row per participant in turn).
+    catalogue
+        The lab's own conditions and speeds (:mod:`bowden.protocol.catalogue`) that ``conditions``
+        and ``speeds`` may name besides the paper's; stored with the plan.
     """
 
     baseline: str | None = CONDITION_NO_SUIT
@@ -63,20 +66,27 @@ class StudyProtocol:
     lead_in_s: float = 2.0
     break_s: float = PAPER_BREAK_S
     order: Order = "random"
+    catalogue: Catalogue = PAPER
 
     def __post_init__(self) -> None:
         named = [*([self.baseline] if self.baseline is not None else []), *self.conditions]
-        unknown = [c for c in named if c not in CONDITIONS]
+        known = self.catalogue.condition_names
+        unknown = [c for c in named if c not in known]
         if unknown:
             raise ParameterError(
-                f"StudyProtocol: unknown condition(s) {unknown} (known: {', '.join(CONDITIONS)})"
+                f"StudyProtocol.conditions: unknown condition(s) {', '.join(map(str, unknown))} "
+                f"(known: {', '.join(known)}; define your own with --define-condition NAME=SUPPORT)"
             )
         if len(set(named)) != len(named) or not self.conditions:
-            raise ParameterError(f"StudyProtocol: the conditions must be distinct and not empty, got {named}")
-        bad = [s for s in self.speeds if s not in SPEEDS]
+            raise ParameterError(
+                f"StudyProtocol.conditions must be distinct and not empty, got {', '.join(named) or 'none'}"
+            )
+        speeds = self.catalogue.speed_names
+        bad = [s for s in self.speeds if s not in speeds]
         if bad or not self.speeds or len(set(self.speeds)) != len(self.speeds):
             raise ParameterError(
-                f"StudyProtocol.speeds must be distinct speeds of {SPEEDS}, got {self.speeds}"
+                f"StudyProtocol.speeds must be distinct speeds of {', '.join(speeds)} (define your own "
+                f"with --define-speed NAME=DEG_S), got {', '.join(map(str, self.speeds)) or 'none'}"
             )
         repetitions = self.repetitions
         if isinstance(repetitions, bool) or not isinstance(repetitions, int) or not 1 <= repetitions <= 30:
@@ -97,6 +107,7 @@ class StudyProtocol:
             "lead_in_s": self.lead_in_s,
             "break_s": self.break_s,
             "order": self.order,
+            "catalogue": self.catalogue.to_json(),
         }
 
     @classmethod
@@ -109,6 +120,7 @@ class StudyProtocol:
             lead_in_s=float(data["lead_in_s"]),
             break_s=float(data["break_s"]),
             order=data["order"],
+            catalogue=Catalogue.from_json(data.get("catalogue")),  # absent: a plan before custom protocols
         )
 
 

@@ -32,7 +32,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Final, Self
 
-from bowden.contracts import CONDITIONS, SPEEDS, TRIAL_COLUMNS, is_participant_id
+from bowden.contracts import PROTOCOL_NAME_RULE, TRIAL_COLUMNS, is_participant_id, is_protocol_name
 from bowden.errors import ParameterError, StoreError
 from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection, create_schema
 
@@ -55,9 +55,10 @@ class TrialInfo:
     participant
         Pseudonymous participant id (never a name): :func:`bowden.contracts.is_participant_id`.
     condition
-        One of ``bowden.contracts.CONDITIONS``.
+        One of ``bowden.contracts.CONDITIONS``, or a lab's own condition
+        (:mod:`bowden.protocol.catalogue`, named by :func:`bowden.contracts.is_protocol_name`).
     speed
-        One of ``bowden.contracts.SPEEDS``, or None for a free run.
+        One of ``bowden.contracts.SPEEDS``, a lab's own speed (the same rule), or None for a free run.
     support
         Gravity-support fraction 0–1, or None (pretension, no suit).
     metadata
@@ -76,10 +77,12 @@ class TrialInfo:
                 f"TrialInfo.participant must be a pseudonymous id (1–4 capital letters then 1–4 digits, "
                 f"e.g. P07; never a name), got {self.participant!r}"
             )
-        if self.condition not in CONDITIONS:
-            raise ParameterError(f"TrialInfo.condition must be one of {CONDITIONS}, got {self.condition!r}")
-        if self.speed is not None and self.speed not in SPEEDS:
-            raise ParameterError(f"TrialInfo.speed must be one of {SPEEDS} or None, got {self.speed!r}")
+        # What a name means (support, peak speed) is the protocol's business; the store takes any
+        # name by the one rule, and the trial records the support it ran.
+        if not is_protocol_name(self.condition):
+            raise ParameterError(f"TrialInfo.condition must be {PROTOCOL_NAME_RULE}, got {self.condition!r}")
+        if self.speed is not None and not is_protocol_name(self.speed):
+            raise ParameterError(f"TrialInfo.speed must be {PROTOCOL_NAME_RULE} or None, got {self.speed!r}")
         if self.support is not None and not (math.isfinite(self.support) and 0.0 <= self.support <= 1.0):
             raise ParameterError(f"TrialInfo.support must be in [0, 1] or None, got {self.support!r}")
         try:

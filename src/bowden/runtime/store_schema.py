@@ -9,11 +9,12 @@ Tables (``STRICT``: a wrong type is an error, not a silent conversion):
 
 ``trials``
     one row per recorded trial: ``id``; ``participant`` (pseudonymous id, never a name);
-    ``condition`` (one of ``contracts.CONDITIONS``); ``speed`` (one of ``contracts.SPEEDS``, or NULL
-    for a free run); ``support`` (fraction of gravity support, NULL for the pretension and no-suit
-    conditions); ``started_utc`` / ``ended_utc`` (ISO 8601; ``ended_utc`` NULL while recording or
-    after a crash); ``stop_reason`` (why the loop stopped); ``metadata`` (a JSON object: rate,
-    backend, model file, software version...).
+    ``condition`` (one of ``contracts.CONDITIONS`` or a lab's own, ``contracts.is_protocol_name``);
+    ``speed`` (one of ``contracts.SPEEDS`` or a lab's own, or NULL for a free run); ``support``
+    (fraction of gravity support, NULL for the pretension and no-suit conditions); ``started_utc`` /
+    ``ended_utc`` (ISO 8601; ``ended_utc`` NULL while recording or after a crash); ``stop_reason``
+    (why the loop stopped); ``metadata`` (a JSON object: rate, backend, model file, software
+    version, the speed's ``speed_peak_deg_s``...).
 ``samples``
     one row per control cycle: ``trial_id`` then the columns of ``contracts.TRIAL_COLUMNS``
     (SI units as named). SQLite has no NaN: a NaN (e.g. no load cell) is stored as NULL.
@@ -41,7 +42,9 @@ from bowden.errors import StoreError
 STORE_FILE_NAME: Final = "study.db"
 
 # 2: the participant registry's columns and the session plans (bowden.web.registry, .session_store).
-SCHEMA_VERSION: Final = 2
+# 3: custom protocols: conditions and speeds named by contracts.is_protocol_name; the questionnaires
+#    table's CHECK follows that rule (bowden.web.questionnaire_store.migrate_questionnaires).
+SCHEMA_VERSION: Final = 3
 
 _INTEGER_COLUMNS: Final = frozenset({TRIAL_STATE, TRIAL_FAULT})
 _REQUIRED_COLUMNS: Final = frozenset({TRIAL_TIME, TRIAL_STATE, TRIAL_FAULT})

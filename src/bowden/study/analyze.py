@@ -18,6 +18,10 @@ skipped; the report's notes and :attr:`AnalysisReport.skipped` name it and say w
 session set aside (stopped early, or redone by the operator, with the reason) and trials left open
 (no end recorded: a recording cut off by a killed server). The report lists the participants as
 registered and the session plans with their condition order (:mod:`bowden.study.sessions`).
+
+Conditions and speeds a lab defined itself (``support_70``, ``V4``) are analysed and kept in the
+outcome table, described in a section of their own and named in the notes; the paper's comparisons
+take the paper's conditions and speeds only (:mod:`bowden.study.custom_protocols`).
 """
 
 from __future__ import annotations
@@ -47,6 +51,14 @@ from bowden.errors import ModelFileError, ParameterError, RecordingError, StoreE
 from bowden.identify import TransmissionIdentifier, plot_identification
 from bowden.model import CompensationModel
 from bowden.model.model_file import model_from_dict
+from bowden.study.custom_protocols import (
+    custom_definitions,
+    custom_notes,
+    custom_section,
+    custom_table,
+    is_paper,
+    paper_part,
+)
 from bowden.study.emg_store import emg_imports, trials_with_emg
 from bowden.study.html import HtmlDocument
 from bowden.study.progress import StageProgress
@@ -157,13 +169,21 @@ def analyze_store(
                     advance(done)
 
         outcomes = _analyse(items(), parameters, workers, store_path, kept, skipped)
-        # The report's notes say which trials are missing and why, and where each trial's EMG came from.
+        # The report's notes say which trials are missing and why, where each trial's EMG came from,
+        # and which conditions and speeds are the lab's own (kept out of the paper's comparisons).
         sources = emg_sources(store, kept)
-        info = dataclasses.replace(outcomes.info, notes=(*skipped, *sources, *outcomes.info.notes))
+        definitions = custom_definitions(store)
+        extra = custom_notes(outcomes.outcomes, definitions)
+        info = dataclasses.replace(outcomes.info, notes=(*skipped, *sources, *extra, *outcomes.info.notes))
         outcomes = dataclasses.replace(outcomes, info=info)
-        store.replace_outcomes(outcomes.outcomes)
+        store.replace_outcomes(outcomes.outcomes)  # every trial's, the custom ones too
+        answers = store.questionnaires()
+        beyond = custom_table(outcomes.outcomes, answers, definitions)
+        if extra:
+            outcomes = paper_part(outcomes)
+            answers = answers[is_paper(answers)] if not answers.empty else answers
         with progress.spinner("fitting the statistics"):
-            statistics = study_statistics(outcomes.outcomes, store.questionnaires())
+            statistics = study_statistics(outcomes.outcomes, answers)
         model = _stored_model(store)
 
     given: DataKind = "simulated" if simulated else "measured"
@@ -192,6 +212,7 @@ def analyze_store(
         document = build_report(inputs)
         if kind == "mixed":
             _label_mixed(document, kept)
+        custom_section(document, beyond)
         _session_sections(document, facts)
         if appendix is not None:
             appendix(document)

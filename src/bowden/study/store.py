@@ -41,16 +41,17 @@ import pandas as pd
 
 from bowden.contracts import (
     BORG_RPE_ITEM,
-    CONDITIONS,
     FATIGUE_SITES,
     MUSCLES,
     NORDIC_SITES,
+    PROTOCOL_NAME_RULE,
     QUESTIONNAIRE_BORG_RPE,
     QUESTIONNAIRE_FATIGUE,
     QUESTIONNAIRE_NORDIC,
     TRIAL_COLUMNS,
     TRIAL_TIME,
     is_participant_id,
+    is_protocol_name,
 )
 from bowden.errors import StoreError
 from bowden.model import Subject
@@ -60,7 +61,7 @@ from bowden.study.export import export_store
 from bowden.study.ownership import made_by_study_pipeline, metadata_object
 
 # One definition of the questionnaire, registry and session tables, shared with the server.
-from bowden.web.questionnaire_store import QUESTIONNAIRES_DDL
+from bowden.web.questionnaire_store import migrate_questionnaires
 from bowden.web.questionnaires import BORG_HIGH, BORG_LOW, LIKERT_HIGH, LIKERT_LOW
 from bowden.web.registry import migrate_participants
 from bowden.web.session_store import SESSION_DDL
@@ -84,7 +85,6 @@ CREATE TABLE IF NOT EXISTS emg (
     PRIMARY KEY (trial_id, muscle)
 ) STRICT
 """,
-    QUESTIONNAIRES_DDL,
     """
 CREATE TABLE IF NOT EXISTS outcomes (
     participant TEXT NOT NULL,
@@ -131,8 +131,8 @@ def _questionnaire_answer(
             f"{where}: participant {participant!r} is not a pseudonymous id (1–4 capital letters then "
             "1–4 digits, e.g. P07; never a name)"
         )
-    if condition not in CONDITIONS:
-        raise StoreError(f"{where}: unknown condition {condition!r} (known: {', '.join(CONDITIONS)})")
+    if not is_protocol_name(condition):
+        raise StoreError(f"{where}: condition {condition!r} is not a condition name ({PROTOCOL_NAME_RULE})")
     if questionnaire not in _QUESTIONNAIRE_ITEMS:
         raise StoreError(
             f"{where}: unknown questionnaire {questionnaire!r} (known: {', '.join(_QUESTIONNAIRE_ITEMS)})"
@@ -178,6 +178,7 @@ class StudyStore:
             create_schema(self._db)
             with self._db:
                 migrate_participants(self._db)  # older stores gain the registry's columns
+                migrate_questionnaires(self._db)  # and lose the paper-only CHECK on conditions
                 for ddl in (*_STUDY_DDL, *SESSION_DDL):
                     self._db.execute(ddl)
         except sqlite3.Error as error:

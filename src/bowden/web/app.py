@@ -34,14 +34,7 @@ from starlette.routing import Mount, Route, WebSocketRoute
 from starlette.staticfiles import StaticFiles
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
-from bowden.contracts import (
-    CONDITION_LABELS,
-    CONDITION_SUPPORT,
-    CONDITIONS,
-    REPETITIONS_PER_TRIAL,
-    SPEED_PEAK_DEG_S,
-    SPEEDS,
-)
+from bowden.contracts import REPETITIONS_PER_TRIAL
 from bowden.errors import RequestError
 from bowden.web.http import Handler, form_encoded, payload, refusals
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, _Client, encode, send
@@ -85,6 +78,7 @@ def create_app(
         rebinding from reaching the API through a browser.
     """
     hub: LiveHub = manager.hub
+    catalogue = desk.catalogue  # the paper's conditions and speeds, the protocol's own and the store's
 
     def authorise(request: Request, data: dict[str, object] | None = None) -> None:
         candidates: list[object] = [request.headers.get(TOKEN_HEADER)]
@@ -101,9 +95,14 @@ def create_app(
     async def options(request: Request) -> Response:
         return JSONResponse({
             "conditions": [
-                {"id": c, "label": CONDITION_LABELS[c], "support": CONDITION_SUPPORT[c]} for c in CONDITIONS
+                {"id": c, "label": catalogue.label(c), "support": catalogue.support(c),
+                 "custom": catalogue.is_custom(c)}
+                for c in catalogue.condition_names
             ],
-            "speeds": [{"id": s, "peak_deg_s": SPEED_PEAK_DEG_S[s]} for s in SPEEDS],
+            "speeds": [
+                {"id": s, "peak_deg_s": catalogue.peak_deg_s(s), "custom": catalogue.is_custom(s)}
+                for s in catalogue.speed_names
+            ],
             "repetitions": REPETITIONS_PER_TRIAL,
             "backend": manager.backend.name,
         })
@@ -112,7 +111,7 @@ def create_app(
         return JSONResponse(manager.status(console=False))
 
     async def schema(request: Request) -> Response:
-        return JSONResponse(questionnaire_schema())
+        return JSONResponse(questionnaire_schema(catalogue))
 
     @refusals
     async def console_status(request: Request) -> Response:
@@ -144,7 +143,7 @@ def create_app(
         data = await payload(request)
         authorise(request, data)
         exception = data.pop(EXCEPTION_FIELD, None)
-        response, replace = parse_response(form_scores(data) if form_encoded(request) else data)
+        response, replace = parse_response(form_scores(data) if form_encoded(request) else data, catalogue)
         # In their place: only after a condition the participant ran (or an exception with a reason).
         excepted = await asyncio.to_thread(
             desk.check_questionnaire, response.participant, response.condition, exception
@@ -165,7 +164,7 @@ def create_app(
         if participant is not None:
             participant = participant_id(participant)
         if condition is not None:
-            condition = choice(condition, CONDITIONS, "condition")
+            condition = choice(condition, catalogue.condition_names, "condition")
         rows = await asyncio.to_thread(questionnaires.rows, participant, condition)
         return JSONResponse({"columns": list(COLUMNS), "rows": [list(r) for r in rows]})
 

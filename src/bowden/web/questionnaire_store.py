@@ -4,7 +4,7 @@ One row per answered item, in the long format the analysis reads::
 
     participant TEXT   pseudonymous id (P01), never a name (contracts.is_participant_id, checked
                        again by the database)
-    condition   TEXT   one of contracts.CONDITIONS
+    condition   TEXT   a condition name by contracts.is_protocol_name (the paper's or a lab's own)
     questionnaire TEXT nordic | borg_rpe | fatigue
     item        TEXT   site name (nordic, fatigue) or "rpe"
     score       INTEGER 1–7 (nordic, fatigue) or 6–20 (borg_rpe)
@@ -14,6 +14,9 @@ keyed by ``(participant, condition, questionnaire, item)``. A submission writes 
 answers for a condition in one transaction: either every item is stored or none is. A second
 submission for the same participant and condition is refused unless it explicitly replaces the first
 (a typo can be corrected, an accidental double submission cannot silently overwrite).
+
+Stores written before custom protocols limited ``condition`` to the paper's four by a CHECK; opening
+one rebuilds the table with the name rule (:func:`migrate_questionnaires`, every answer kept).
 
 The file uses the runtime's connection settings (WAL, ``synchronous=FULL``), so questionnaires can be
 written while a trial is being recorded into the same file.
@@ -26,7 +29,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Final
 
-from bowden.contracts import CONDITIONS, QUESTIONNAIRES
+from bowden.contracts import QUESTIONNAIRES
 from bowden.errors import ConflictError, StoreError
 from bowden.runtime.store_schema import configure_connection, create_schema
 from bowden.web.questionnaires import (
@@ -41,7 +44,6 @@ from bowden.web.questionnaires import (
 # The participant CHECK is contracts.is_participant_id in SQL (only capitals and digits, no capital
 # after a digit, 1–4 capitals then 1–4 digits), so the database refuses what bowden refuses.
 _CAPITALS: Final = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
-_CONDITION_LIST: Final = ", ".join(f"'{c}'" for c in CONDITIONS)
 _QUESTIONNAIRE_LIST: Final = ", ".join(f"'{q}'" for q in QUESTIONNAIRES)
 
 QUESTIONNAIRES_DDL: Final = f"""
@@ -50,7 +52,8 @@ CREATE TABLE IF NOT EXISTS questionnaires (
         CHECK (participant NOT GLOB '*[^A-Z0-9]*' AND participant NOT GLOB '*[0-9]*[A-Z]*'
                AND length(rtrim(participant, '0123456789')) BETWEEN 1 AND 4
                AND length(ltrim(participant, '{_CAPITALS}')) BETWEEN 1 AND 4),
-    condition TEXT NOT NULL CHECK (condition IN ({_CONDITION_LIST})),
+    condition TEXT NOT NULL CHECK (condition GLOB '[A-Za-z]*' AND condition NOT GLOB '*[^A-Za-z0-9_]*'
+                                   AND length(condition) <= 24),
     questionnaire TEXT NOT NULL CHECK (questionnaire IN ({_QUESTIONNAIRE_LIST})),
     item TEXT NOT NULL,
     score INTEGER NOT NULL CHECK (
@@ -62,6 +65,39 @@ CREATE TABLE IF NOT EXISTS questionnaires (
 """
 
 COLUMNS: Final = ("participant", "condition", "questionnaire", "item", "score", "submitted_utc")
+# The CHECK of stores written before custom protocols: the paper's four conditions only.
+_PAPER_ONLY_CHECK: Final = "CHECK (condition IN ("
+
+
+def migrate_questionnaires(connection: sqlite3.Connection) -> None:
+    """Create the table, or rebuild an older one whose CHECK allows only the paper's conditions.
+
+    SQLite cannot change a CHECK in place: the answers are copied into a table of the new layout,
+    which then takes the old one's name (SQLite's documented procedure), inside the caller's
+    transaction, so a failure leaves the old table as it was.
+    """
+    row = connection.execute(
+        "SELECT sql FROM sqlite_master WHERE type = 'table' AND name = 'questionnaires'"
+    ).fetchone()
+    if row is None or _PAPER_ONLY_CHECK not in str(row[0]):
+        connection.execute(QUESTIONNAIRES_DDL)
+        return
+    columns = ", ".join(COLUMNS)
+    connection.execute("SAVEPOINT migrate_questionnaires")  # all or nothing, even outside a transaction
+    try:
+        connection.execute(QUESTIONNAIRES_DDL.replace(
+            "CREATE TABLE IF NOT EXISTS questionnaires", "CREATE TABLE questionnaires_migrated"
+        ))
+        connection.execute(
+            f"INSERT INTO questionnaires_migrated ({columns}) SELECT {columns} FROM questionnaires"
+        )
+        connection.execute("DROP TABLE questionnaires")
+        connection.execute("ALTER TABLE questionnaires_migrated RENAME TO questionnaires")
+    except BaseException:
+        connection.execute("ROLLBACK TO migrate_questionnaires")
+        connection.execute("RELEASE migrate_questionnaires")
+        raise
+    connection.execute("RELEASE migrate_questionnaires")
 
 
 class QuestionnaireStore:
@@ -85,7 +121,7 @@ class QuestionnaireStore:
         try:
             with self._connect() as connection, connection:
                 create_schema(connection)  # the version stamp and the trial tables, as the recorder's
-                connection.execute(QUESTIONNAIRES_DDL)
+                migrate_questionnaires(connection)
         except sqlite3.Error as error:
             raise StoreError(f"cannot open the study store {self.path}: {error}") from None
 

@@ -22,16 +22,17 @@ from typing import Any, Final
 
 from bowden.contracts import (
     BORG_RPE_ITEM,
-    CONDITION_LABELS,
-    CONDITIONS,
     FATIGUE_SITES,
     NORDIC_SITES,
+    PROTOCOL_NAME_RULE,
     QUESTIONNAIRE_BORG_RPE,
     QUESTIONNAIRE_FATIGUE,
     QUESTIONNAIRE_NORDIC,
     QUESTIONNAIRES,
+    is_protocol_name,
 )
 from bowden.errors import RequestError
+from bowden.protocol.catalogue import PAPER, Catalogue
 from bowden.web.validation import choice, no_unknown_fields, participant_id, whole_number_in
 
 NORDIC: Final = QUESTIONNAIRE_NORDIC
@@ -99,7 +100,8 @@ class QuestionnaireResponse:
     participant
         Pseudonymous id (``P01``).
     condition
-        One of ``bowden.contracts.CONDITIONS``.
+        One of ``bowden.contracts.CONDITIONS`` or a lab's own (``contracts.is_protocol_name``; which
+        ones a server accepts is its protocol's catalogue, :func:`parse_response`).
     nordic
         Discomfort 1–7 per site of :data:`NORDIC_SITES`, in that order.
     borg_rpe
@@ -116,7 +118,8 @@ class QuestionnaireResponse:
 
     def __post_init__(self) -> None:
         participant_id(self.participant)
-        choice(self.condition, CONDITIONS, "condition")
+        if not is_protocol_name(self.condition):
+            raise RequestError(f"condition: must be {PROTOCOL_NAME_RULE}")
         if len(self.nordic) != len(NORDIC_SITES):
             raise RequestError(f"nordic: expected {len(NORDIC_SITES)} scores, got {len(self.nordic)}")
         if len(self.fatigue) != len(FATIGUE_SITES):
@@ -174,8 +177,12 @@ def _nest_form_fields(payload: Mapping[str, object]) -> dict[str, object]:
     return nested
 
 
-def parse_response(payload: Mapping[str, object]) -> tuple[QuestionnaireResponse, bool]:
+def parse_response(
+    payload: Mapping[str, object], catalogue: Catalogue = PAPER
+) -> tuple[QuestionnaireResponse, bool]:
     """Validate a submitted questionnaire; return it and whether it may replace a stored one.
+
+    The condition is one of ``catalogue``'s (the paper's and the protocol's own).
 
     Accepts the JSON shape ``{"participant", "condition", "nordic": {site: score}, "borg_rpe",
     "fatigue": {site: score}, "replace": bool}`` or the same as flat form fields
@@ -200,7 +207,7 @@ def parse_response(payload: Mapping[str, object]) -> tuple[QuestionnaireResponse
         raise RequestError("replace: expected true or false")
     response = QuestionnaireResponse(
         participant=participant_id(data["participant"]),
-        condition=choice(data["condition"], CONDITIONS, "condition"),
+        condition=choice(data["condition"], catalogue.condition_names, "condition"),
         nordic=_scores(data[NORDIC], NORDIC_SITES, NORDIC),
         borg_rpe=whole_number_in(data[BORG_RPE], BORG_LOW, BORG_HIGH, BORG_RPE),
         fatigue=_scores(data[FATIGUE], FATIGUE_SITES, FATIGUE),
@@ -208,10 +215,10 @@ def parse_response(payload: Mapping[str, object]) -> tuple[QuestionnaireResponse
     return response, replace
 
 
-def questionnaire_schema() -> dict[str, object]:
-    """What the browser form shows: sites with labels, scales with their verbal anchors."""
+def questionnaire_schema(catalogue: Catalogue = PAPER) -> dict[str, object]:
+    """What the browser form shows: conditions, sites with labels, scales with their verbal anchors."""
     return {
-        "conditions": [{"id": c, "label": CONDITION_LABELS[c]} for c in CONDITIONS],
+        "conditions": [{"id": c, "label": catalogue.label(c)} for c in catalogue.condition_names],
         NORDIC: {
             "title": "Discomfort (modified Nordic questionnaire)",
             "low": LIKERT_LOW,

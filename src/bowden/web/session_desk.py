@@ -13,12 +13,12 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from bowden.contracts import CONDITION_LABELS
 from bowden.errors import ConflictError, RequestError
 from bowden.protocol.session_plan import StudyProtocol
 from bowden.web.live import ROLE_CONSOLE, LiveHub
 from bowden.web.registry import Participant, Registry
 from bowden.web.session_store import Session, SessionStore
+from bowden.web.store_catalogue import checked_catalogue
 from bowden.web.trial_setup import TrialSetup, condition_support, parse_setup
 from bowden.web.trials import TrialManager
 
@@ -45,6 +45,11 @@ class SessionDesk:
         Runs the trials (its end messages update the plan).
     protocol
         The protocol new sessions follow.
+
+    Raises
+    ------
+    ParameterError
+        If the protocol defines a condition or speed the store knows with another meaning.
     """
 
     def __init__(self, store_path: Path, manager: TrialManager, protocol: StudyProtocol) -> None:
@@ -53,6 +58,8 @@ class SessionDesk:
         self.manager = manager
         self.hub: LiveHub = manager.hub
         self.protocol = protocol
+        # The names trials and questionnaires outside a plan may use: the protocol's and the store's.
+        self.catalogue = checked_catalogue(store_path, protocol.catalogue)
         latest = self.store.latest()
         self.current: int | None = None if latest is None else latest.session_id
         manager.finished_listeners.append(self._trial_ended)
@@ -81,11 +88,13 @@ class SessionDesk:
             raise ConflictError(f"session {session_id} has no trial left to run")
         participant = self.registry.get(session.participant)
         step = state.step
+        catalogue = session.protocol.catalogue  # the plan's own, as stored with it
         setup = TrialSetup(
             participant=participant.participant,
             condition=step.condition,
             speed=step.speed,
-            support=condition_support(step.condition),
+            speed_peak_deg_s=catalogue.peak_deg_s(step.speed),
+            support=condition_support(step.condition, catalogue),
             repetitions=step.repetitions,
             lead_in_s=session.protocol.lead_in_s,
             subject=participant.subject,
@@ -132,7 +141,7 @@ class SessionDesk:
         if known is not None:
             registered = known.to_json()
             payload = {**{k: registered[k] for k in _ANTHROPOMETRICS if registered[k] is not None}, **payload}
-        setup = parse_setup(payload)
+        setup = parse_setup(payload, self.catalogue)
         if known is None:
             return setup, Participant(participant=setup.participant, subject=setup.subject,
                                       arm_side=None, hand_load_kg=setup.hand_load_kg)
@@ -178,7 +187,7 @@ class SessionDesk:
         steps = [
             {
                 "position": s.step.position, "condition": s.step.condition,
-                "label": CONDITION_LABELS[s.step.condition], "speed": s.step.speed,
+                "label": session.protocol.catalogue.label(s.step.condition), "speed": s.step.speed,
                 "repetitions": s.step.repetitions, "state": s.state, "trial_id": s.trial_id,
                 "skip_reason": s.skip_reason,
                 "attempts": [{"trial_id": t, "status": st, "reason": r} for t, st, r in s.attempts],

@@ -2,8 +2,9 @@
 
 The operator console sends participant, condition, speed, support, repetitions and the wearer's
 anthropometrics (the controller's gravity model needs them; they are not identifying). The support is
-the condition's (``contracts.CONDITION_SUPPORT``), the rule ``bowden run`` applies too: a support
-that contradicts the condition is refused, so no trial is stored under a condition it did not run in.
+the condition's and the reference's peak the speed's (the protocol's :class:`Catalogue`: the paper's
+names and a lab's own), the rule ``bowden run`` applies too: a support that contradicts the condition
+is refused, so no trial is stored under a condition it did not run in.
 """
 
 from __future__ import annotations
@@ -14,19 +15,15 @@ from dataclasses import dataclass
 from typing import Final, Literal
 
 from bowden.contracts import (
-    CONDITION_NO_SUIT,
-    CONDITION_PRETENSION,
-    CONDITION_SUPPORT,
-    CONDITIONS,
     ELEVATION_HIGH_DEG,
     ELEVATION_LOW_DEG,
     REPETITIONS_PER_TRIAL,
     SPEED_PEAK_DEG_S,
-    SPEEDS,
 )
 from bowden.control import Command, build_controller
-from bowden.errors import RequestError
+from bowden.errors import ParameterError, RequestError
 from bowden.model import CompensationModel, Subject
+from bowden.protocol.catalogue import PAPER, Catalogue
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.runtime.loop import StepController
 from bowden.web.reference import TrialReference
@@ -48,9 +45,10 @@ class TrialSetup:
     participant
         Pseudonymous id (``P01``).
     condition, speed
-        From ``contracts.CONDITIONS`` and ``contracts.SPEEDS``.
+        Names of the protocol's catalogue (``contracts.CONDITIONS`` and ``contracts.SPEEDS``, or a
+        lab's own).
     support
-        Gravity-support fraction, ``"pretension"``, or None (no suit).
+        Gravity-support fraction, ``"pretension"``, or None (no suit): the condition's.
     repetitions
         Raise-and-lower cycles (paper: 10).
     lead_in_s
@@ -59,6 +57,9 @@ class TrialSetup:
         The wearer's anthropometrics (controller gravity model).
     hand_load_kg
         Weight held in the hand (paper: 0.5 kg).
+    speed_peak_deg_s
+        The reference's peak elevation speed, °/s; None: the paper's speed's (a paper speed with
+        another peak is refused).
     """
 
     participant: str
@@ -69,11 +70,24 @@ class TrialSetup:
     lead_in_s: float = 2.0
     subject: Subject
     hand_load_kg: float = 0.5
+    speed_peak_deg_s: float | None = None
+
+    def __post_init__(self) -> None:
+        paper = SPEED_PEAK_DEG_S.get(self.speed)
+        if self.speed_peak_deg_s is None:
+            if paper is None:
+                raise ParameterError(f"speed {self.speed}: not the paper's, give its peak (speed_peak_deg_s)")
+            object.__setattr__(self, "speed_peak_deg_s", paper)
+        elif paper is not None and not math.isclose(self.speed_peak_deg_s, paper, rel_tol=1e-9):
+            raise ParameterError(
+                f"speed {self.speed} is the paper's {paper:g} °/s, not {self.speed_peak_deg_s:g}"
+            )
 
     @property
     def reference(self) -> TrialReference:
         """The minimum-jerk reference shown during this trial."""
-        return study_reference(self.speed, lead_in_s=self.lead_in_s, repetitions=self.repetitions)
+        return study_reference(self.speed, lead_in_s=self.lead_in_s, repetitions=self.repetitions,
+                               peak_deg_s=self.speed_peak_deg_s)
 
     @property
     def duration_s(self) -> float:
@@ -97,29 +111,33 @@ class TrialSetup:
             "mass_kg": self.subject.mass_kg,
             "sex": self.subject.sex,
             "hand_load_kg": self.hand_load_kg,
+            "speed_peak_deg_s": self.speed_peak_deg_s,
         }
 
 
-def study_reference(speed: str, *, lead_in_s: float, repetitions: int) -> TrialReference:
-    """The paper's reference at ``speed``: rest, ``repetitions`` cycles between the study's elevations."""
+def study_reference(
+    speed: str, *, lead_in_s: float, repetitions: int, peak_deg_s: float | None = None
+) -> TrialReference:
+    """The study's reference at ``speed``: rest, ``repetitions`` cycles between the study's elevations.
+
+    ``peak_deg_s``: the speed's peak elevation speed, °/s (None: the paper's speed's).
+    """
+    peak = SPEED_PEAK_DEG_S[speed] if peak_deg_s is None else peak_deg_s
     cycle = MinimumJerkCycle(
         low_rad=math.radians(ELEVATION_LOW_DEG),
         high_rad=math.radians(ELEVATION_HIGH_DEG),
-        peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]),
+        peak_speed_rad_s=math.radians(peak),
     )
     return TrialReference(cycle=cycle, start_s=lead_in_s, repetitions=repetitions)
 
 
-def condition_support(condition: str) -> float | Literal["pretension"] | None:
-    """The support a condition stands for (``contracts.CONDITION_SUPPORT``): the one rule of serve and run."""
-    value = CONDITION_SUPPORT[condition]
-    if value is None:
-        return None
-    return "pretension" if isinstance(value, str) else float(value)
+def condition_support(condition: str, catalogue: Catalogue = PAPER) -> float | Literal["pretension"] | None:
+    """The support a condition stands for (the catalogue's): the one rule of serve and run."""
+    return catalogue.support(condition)
 
 
-def parse_setup(payload: Mapping[str, object]) -> TrialSetup:
-    """Validate the console's start request.
+def parse_setup(payload: Mapping[str, object], catalogue: Catalogue = PAPER) -> TrialSetup:
+    """Validate the console's start request (conditions and speeds of ``catalogue``).
 
     Raises
     ------
@@ -132,17 +150,18 @@ def parse_setup(payload: Mapping[str, object]) -> TrialSetup:
     for required in ("participant", "condition", "speed", "height_m", "mass_kg", "sex"):
         if required not in data:
             raise RequestError(f"trial: the field {required!r} is missing")
-    condition = choice(data["condition"], CONDITIONS, "condition")
-    support = condition_support(condition)
+    condition = choice(data["condition"], catalogue.condition_names, "condition")
+    support = condition_support(condition, catalogue)
     raw_support = data.get("support")
     if raw_support not in (None, ""):
-        if condition in (CONDITION_NO_SUIT, CONDITION_PRETENSION):
+        if not isinstance(support, float):
             raise RequestError(f"support: the {condition} condition has no support fraction to set")
         if number_in(raw_support, 0.0, 1.0, "support") != support:
             # One rule with bowden run: a trial is stored under the condition it ran in.
             raise RequestError(
                 f"support: {condition} means support {support}; a trial runs its condition's support"
             )
+    speed = choice(data["speed"], catalogue.speed_names, "speed")
     sex = choice(data["sex"], ("female", "male"), "sex")
     subject = Subject(
         height_m=number_in(data["height_m"], 1.0, 2.3, "height_m"),
@@ -152,7 +171,8 @@ def parse_setup(payload: Mapping[str, object]) -> TrialSetup:
     return TrialSetup(
         participant=participant_id(data["participant"]),
         condition=condition,
-        speed=choice(data["speed"], SPEEDS, "speed"),
+        speed=speed,
+        speed_peak_deg_s=catalogue.peak_deg_s(speed),
         support=support,
         repetitions=integer_in(data.get("repetitions", REPETITIONS_PER_TRIAL), 1, 30, "repetitions"),
         lead_in_s=number_in(data.get("lead_in_s", 2.0), 0.0, 10.0, "lead_in_s"),
