@@ -135,3 +135,9 @@ def test_significance_colour_table(analyses: list) -> None:  # type: ignore[type
     styled = significance_styler(table).to_html()
     assert change_colour(pct) in styled
     assert isinstance(table, pd.DataFrame) and table.shape == (2, 12)
+    # The paper's gate: no stars for an outcome whose condition term is not significant (p >= 0.05).
+    assert analyses[1].tests.loc["condition", "p"] >= 0.05
+    null_p = table.loc["Null", [(c, "p") for c, _ in table.columns[::2]]].to_numpy(dtype=float)
+    assert np.isnan(null_p).all()
+    ungated = significance_table(analyses, only_if_significant=False)
+    assert np.isfinite(ungated.loc["Null", [(c, "p") for c, _ in ungated.columns[::2]]].to_numpy(dtype=float)).all()

@@ -227,10 +227,15 @@ def friedman_test(
     counts = frame.groupby(["p", "c"], sort=False).size().unstack("c").reindex(columns=list(levels))
     table = counts.to_numpy(dtype=float)
     if np.isnan(table).any() or np.unique(table).size != 1:
-        uneven = counts.index[(np.isnan(table) | (table != table[0, 0])).any(axis=1)].tolist()
+        # The count most cells have is the design; the culprits are the participants who differ from it
+        # (comparing with the first participant would name everyone when the first is the culprit).
+        finite = table[np.isfinite(table)]
+        values, frequency = np.unique(finite, return_counts=True)
+        expected = values[np.argmax(frequency)] if finite.size else 1.0
+        uneven = counts.index[(np.isnan(table) | (table != expected)).any(axis=1)].tolist()
         raise OutcomeTableError(
-            f"every participant needs the same number of scores in every {condition!r}; "
-            f"check participant(s) {uneven}"
+            f"every participant needs the same number of scores in every {condition!r} "
+            f"({int(expected)} here); check participant(s) {uneven}"
         )
     reps = int(table[0, 0])
     frame["k"] = frame.groupby(["p", "c"], sort=False).cumcount()

@@ -78,6 +78,11 @@ def fit_gamma_glmm(
 
 def fit_design(design: Design, options: GlmmOptions) -> GlmmResult:
     """Fit a prepared :class:`Design` (see :func:`fit_gamma_glmm`)."""
+    if design.y.size and float(np.ptp(design.y)) == 0.0:
+        raise FitError(
+            f"every value is {float(design.y[0]):g}: a constant outcome has no condition or speed effect "
+            "to model (the dispersion is zero)"
+        )
     pql = _fit_pql(design, options, "REML" if options.method == "pql-reml" else "ML")
     if options.method in ("pql-reml", "pql-ml"):
         return pql

@@ -93,6 +93,8 @@ def _profile_slope(
     c = xtz - sums.xs.T @ (d * zs)
     beta = np.linalg.solve(a, c)
     quad = ztz - float(np.sum(d * zs * zs)) - float(c @ beta)
+    if not quad > 0.0:  # a response the fixed effects explain exactly: no residual variance to split
+        raise FitError("the linear mixed model has no residual variance (the response is fitted exactly)")
     resid_sums = zs - sums.xs @ beta
     dof = n_obs - a.shape[0] if reml else n_obs
     slope = dof * (-float(np.sum(dd * resid_sums**2))) / quad + float(np.sum(sums.n / (1.0 + sums.n * ratio)))

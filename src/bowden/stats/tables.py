@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import html
+import math
 from collections.abc import Sequence
 from typing import Any, Literal
 
@@ -137,9 +138,17 @@ def pairwise_table(
 
 
 def significance_table(
-    analyses: Sequence[OutcomeAnalysis], *, factor: Literal["condition", "speed"] = "condition"
+    analyses: Sequence[OutcomeAnalysis],
+    *,
+    factor: Literal["condition", "speed"] = "condition",
+    only_if_significant: bool = True,
+    alpha: float = 0.05,
 ) -> pd.DataFrame:
     """Percent change and Holm p of each comparison per outcome (numbers behind the colour table).
+
+    ``only_if_significant``: as the paper, pairwise p-values (and so the stars) are given only where the
+    factor's Type-III test has p < ``alpha``; elsewhere ``p`` is NaN (a blank cell) and only the colour
+    of the change remains.
 
     Returns
     -------
@@ -151,10 +160,11 @@ def significance_table(
     records: dict[str, dict[tuple[str, str], float]] = {}
     for analysis in analyses:
         pairs = analysis.condition_pairs if factor == "condition" else analysis.speed_pairs
+        show = not only_if_significant or _num(analysis.tests.loc[factor, "p"]) < alpha
         cells: dict[tuple[str, str], float] = {}
         for _, row in pairs.iterrows():
             cells[(_contrast_label(row), "percent")] = float(row["percent_change"])
-            cells[(_contrast_label(row), "p")] = float(row["p_holm"])
+            cells[(_contrast_label(row), "p")] = float(row["p_holm"]) if show else math.nan
         records[analysis.name] = cells
     table = pd.DataFrame.from_dict(records, orient="index")
     table.columns = pd.MultiIndex.from_tuples([tuple(col) for col in table.columns])
