@@ -1,4 +1,4 @@
-"""Meta-tests: the dependency rules of DESIGN.md and the controller contract hold."""
+"""Meta-tests: the dependency rules of docs/design.md and the controller contract hold."""
 
 import ast
 import math
@@ -40,7 +40,7 @@ def test_pure_layers_never_import_the_outer_layers(layer):
 
 
 def test_controller_contract_of_design_md(tmp_path):
-    # The snippet of DESIGN.md "Controller", run as written.
+    # The controller contract of docs/design.md, run as written.
     from bowden.control import build_controller
     from bowden.model import CompensationModel, Subject
 

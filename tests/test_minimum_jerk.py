@@ -8,7 +8,7 @@ from bowden.protocol import MinimumJerkCycle, minimum_jerk_position
 
 
 def test_paper_cycle_duration_from_reference():
-    # REFERENCE §5: 80° at 60 °/s peak -> T = 1.875 * 80 / 60 = 2.5 s per movement.
+    # Flash & Hogan 1985: 80° at 60 °/s peak -> T = 1.875 * 80 / 60 = 2.5 s per movement.
     cycle = MinimumJerkCycle(peak_speed_rad_s=math.radians(60.0))
     assert cycle.movement_duration_s == pytest.approx(2.5)
     assert cycle.period_s == pytest.approx(5.0)

@@ -16,7 +16,7 @@ EMG RMS    before      adaptive    as described  plain       30 Hz high-pass pur
 
 "adaptive" is the default (denoised template, section gate with a bootstrap covariance penalty
 pooled per section type); "as described" the same with both off (Petersen et al. 2020 as
-REFERENCE §5 gives it); "pure EMG" is the adaptive method run on EMG without any ECG at the true
+Petersen et al. 2020 give it); "pure EMG" is the adaptive method run on EMG without any ECG at the true
 R-peaks (it should change nothing; 18.8 dB as described). ``benchmarks/ecg_sar.py`` prints this
 table and the same for bowden.sim's EMG; docs/study.md discusses where the method still loses
 (sim's EMG at 1000 µV, within the noise of a gate estimated from one bootstrap draw).

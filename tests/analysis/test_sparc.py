@@ -9,7 +9,7 @@ from bowden.errors import ParameterError, RecordingError
 
 
 def test_published_gaussian_value():
-    # Balasubramanian et al. 2015 (REFERENCE §5): exp(-5 t²), t = -1…0.99 step 0.01, 100 Hz.
+    # Balasubramanian et al. 2015 ("Methods"): exp(-5 t²), t = -1…0.99 step 0.01, 100 Hz.
     t = np.arange(-100, 100) / 100.0
     assert sparc(np.exp(-5.0 * t**2), 100.0) == pytest.approx(-1.41403, abs=1e-4)
 

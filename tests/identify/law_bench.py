@@ -2,7 +2,7 @@
 
 The paper's protocol (section "Data acquisition"): the spool runs at quasi-constant velocities while
 the mannequin arm holds a constant load torque; raising and lowering sweeps cover 20°–110°. Here the
-arm's cable moment arm r(θ) grows linearly from 5 cm at 20° to 12 cm at 110° (REFERENCE §3), the
+arm's cable moment arm r(θ) grows linearly from 5 cm at 20° to 12 cm at 110° (docs/design.md), the
 load cell reads T_out = load / r(θ), and the motor torque follows the law exactly:
 
     raising  (spool velocity > 0): τ = b_r + R·T_out·(1 + k)/(1 − k)

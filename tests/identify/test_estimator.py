@@ -138,7 +138,7 @@ def test_implausible_slope_is_a_fit_error() -> None:
     ],
 )
 def test_lines_a_pulley_cannot_give_are_a_unit_error(column: str, factor: float, hint: str) -> None:
-    # sqrt(m_raise·m_lower) is R/c whatever the friction (REFERENCE §1); beyond a factor 2 it is units.
+    # sqrt(m_raise·m_lower) is R/c whatever the friction (supplement, eq. S5); beyond a factor 2 it is units.
     frame = law_bench_frame()
     frame[column] *= factor
     with pytest.raises(FitError, match=hint):
@@ -146,7 +146,7 @@ def test_lines_a_pulley_cannot_give_are_a_unit_error(column: str, factor: float,
 
 
 def test_torque_constant_error_breaks_the_single_k_check() -> None:
-    # A torque constant 15 % high (REFERENCE §6) scales both slopes: k is unchanged, the geometric
+    # A torque constant 15 % high (CubeMars data: ±15 %) scales both slopes: k is unchanged, the geometric
     # mean of the slopes moves 15 % away from the pulley radius.
     frame = law_bench_frame()
     frame[BENCH_MOTOR_TORQUE] *= 1.15

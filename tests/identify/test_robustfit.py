@@ -12,7 +12,7 @@ import scipy.stats
 from bowden.errors import FitError
 from bowden.identify import robustfit
 
-# MATLAB's public parity case (REFERENCE §2): robustfit(x, y) with the default bisquare weights.
+# MATLAB's public parity case (MathWorks robustfit documentation): robustfit(x, y), default bisquare.
 PARITY_X = np.arange(1.0, 11.0)
 PARITY_Y = np.array([3.1, 5.2, 6.9, 9.1, 11.0, 12.9, 15.2, 17.1, 19.0, 5.0])
 PARITY_B = (1.08223788958791, 1.9947584179332)

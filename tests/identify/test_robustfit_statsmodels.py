@@ -7,7 +7,7 @@ reproduces RLM to rounding, while robustfit differs from it by far more than rou
 1. no leverage adjustment of the residuals (MATLAB divides them by sqrt(1 − h));
 2. scale = median |r| / norm.ppf(0.75), re-estimated from every new fit's residuals, without dropping
    the p − 1 smallest (statsmodels 0.14+ uses ``mad(resid, center=0)``, i.e. about zero like MATLAB,
-   not about the median as REFERENCE §2 says of older versions);
+   not about the median as older statsmodels versions did);
 3. standard errors from Huber's H1 sandwich instead of MATLAB's s²·(XᵀX)⁻¹ with s shrunk towards the
    OLS sigma.
 """

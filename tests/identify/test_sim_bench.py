@@ -61,7 +61,7 @@ def test_identified_model_controls_the_simulated_suit() -> None:
     # Closed loop: the controller with the identified model on the simulated suit, 50 % support.
     # It must track far better than ignoring friction (k = 0, the naive R·T law) and better than the
     # right k without the motor-friction intercepts, and stay under the paper's worst tension RMSE
-    # (9.07 N, Table of tension RMSE; REFERENCE §6 puts its 50 % support values at 6.1–8.2 N).
+    # (9.07 N, Table of tension RMSE; the paper's 50 % support values are 6.1–8.2 N).
     batch = pytest.importorskip("bowden.sim.batch")
     participants = pytest.importorskip("bowden.sim.participants")
     results = pytest.importorskip("bowden.sim.results")

@@ -9,7 +9,8 @@ from bowden.model import STANDARD_GRAVITY_M_S2, Subject, arm_gravity_torque_nm, 
 
 
 def test_reference_man_matches_hand_derivation():
-    # REFERENCE §3: 75 kg, 1.75 m man -> 10.9 Nm at 90 deg for the arm, +3.0 Nm for 0.5 kg in the hand.
+    # docs/design.md, "Cuff geometry and gravity" (de Leva 1996): 75 kg, 1.75 m man -> 10.9 Nm at 90 deg
+    # for the arm, +3.0 Nm for 0.5 kg in the hand.
     man = Subject(height_m=1.75, mass_kg=75.0, sex="male")
     arm_only = arm_gravity_torque_nm(man, math.pi / 2, hand_load_kg=0.0)
     with_load = arm_gravity_torque_nm(man, math.pi / 2, hand_load_kg=0.5)
@@ -47,7 +48,7 @@ def test_scales_with_mass_and_stature():
 
 
 def test_inertia_is_plausible():
-    # REFERENCE §6: I ~ 0.45-0.65 kg m^2 for the arm with a hand-held load.
+    # de Leva 1996 segments: I ~ 0.45-0.65 kg m^2 for the arm with a hand-held load.
     arm = arm_model(Subject(height_m=1.70, mass_kg=63.0, sex="female"), hand_load_kg=0.5)
     assert 0.3 < arm.moment_of_inertia_kg_m2 < 0.7
 

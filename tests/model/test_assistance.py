@@ -38,7 +38,8 @@ def test_floor_and_pretension():
 
 
 def test_paper_reference_torque_magnitude():
-    # REFERENCE §3: the paper's numbers imply a reference torque near 3.8 Nm at 50 % (cycle average).
+    # docs/design.md, "Cuff geometry": the paper's numbers imply a reference torque near 3.8 Nm at 50 %
+    # (cycle average).
     thetas = [math.radians(20.0 + 80.0 * i / 200) for i in range(201)]
     half = AssistanceParameters(support=0.5)
     mean = sum(desired_joint_torque_nm(t, ARM, GEOMETRY, half) for t in thetas) / len(thetas)

@@ -20,7 +20,7 @@ def make_model(**kwargs):
 
 
 def test_blend_defining_property_paper_values():
-    # REFERENCE §1: w(-1) = 0.01, w(+1) = 0.99, B = ln(99)/(v99 - M) = 4.595 s/rad.
+    # docs/design.md, "Sigmoid sign": w(-1) = 0.01, w(+1) = 0.99, B = ln(99)/(v99 - M) = 4.595 s/rad.
     model = make_model()
     assert model.blend_weight(-1.0) == pytest.approx(0.01, abs=1e-12)
     assert model.blend_weight(1.0) == pytest.approx(0.99, abs=1e-12)

@@ -9,7 +9,7 @@ from bowden.model import CuffGeometry
 
 
 def test_default_geometry_reference_values():
-    # REFERENCE §3: r(20 deg) ~ 0.05 m and r(110 deg) ~ 0.12 m; hand-computed 0.04912 and 0.11994.
+    # docs/design.md, "Cuff geometry": r(20 deg) ~ 0.05 m, r(110 deg) ~ 0.12 m; by hand 0.04912, 0.11994.
     g = CuffGeometry()
     assert g.moment_arm_m(math.radians(20.0)) == pytest.approx(0.04912, abs=1e-5)
     assert g.moment_arm_m(math.radians(110.0)) == pytest.approx(0.11994, abs=1e-5)

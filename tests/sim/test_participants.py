@@ -34,7 +34,7 @@ def test_cohort_is_reproducible_and_seed_dependent() -> None:
 
 def test_arm_dynamics_in_the_documented_range() -> None:
     for p in generate_cohort(0):
-        assert 0.3 < p.inertia_kgm2 < 1.0  # REFERENCE §6: 0.45–0.65 kg·m² for an average adult
+        assert 0.3 < p.inertia_kgm2 < 1.0  # de Leva 1996 segments: 0.45–0.65 kg·m² for an average adult
         assert 5.0 < p.gravity_torque_nm < 20.0
 
 

@@ -1,4 +1,4 @@
-"""Friedman's test and MATLAB's Bonferroni multcompare (REFERENCE §1; MATLAB's documented example)."""
+"""Friedman's test and MATLAB's Bonferroni multcompare (MATLAB's documentation and its popcorn example)."""
 
 from __future__ import annotations
 

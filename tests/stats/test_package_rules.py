@@ -1,4 +1,4 @@
-"""Package rules of bowden.stats: executed docstring examples and DESIGN.md's forbidden imports."""
+"""Package rules of bowden.stats: executed docstring examples and docs/design.md's forbidden imports."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """Spectral arc length (SPARC), the smoothness measure of Balasubramanian et al. (2015).
 
 Balasubramanian S., Melendez-Calderon A., Roby-Brami A., Burdet E. (2015) "On the analysis of
-movement smoothness", J NeuroEng Rehabil 12:112. Written from the paper's definition (REFERENCE §5):
+movement smoothness", J NeuroEng Rehabil 12:112. Written from that paper's definition ("Methods"):
 
 1. zero-pad the speed profile to 2^(ceil(log2 N) + padlevel) samples and take |FFT|, normalised by
    its maximum (the DC bin for a non-negative speed profile);

@@ -39,7 +39,7 @@ __all__ = ["DEFAULT_IMU_PORT", "Backend", "CanSuitOptions", "add_can_arguments",
            "open_sim_backend", "require_hardware_extra"]
 
 DEFAULT_IMU_PORT: Final = 8000
-CAN_BITRATE: Final = 1_000_000  # the AK60-6's CAN speed (REFERENCE §4)
+CAN_BITRATE: Final = 1_000_000  # the AK60-6's CAN speed (CubeMars driver manual V1.0.8 §5.3)
 MAX_CALIBRATION_S: Final = 30.0
 
 

@@ -7,9 +7,10 @@ MUX[14:12] (0: AIN0−AIN1 differential), PGA[11:9] (full scale ±6.144, 4.096, 
 disables the comparator).
 
 In continuous mode the conversion register always holds the latest result, so a read returns at once;
-single shot would busy-wait 1/rate per sample (REFERENCE §4). The reader thread polls at the data rate
-and time-stamps each value with the loop's clock; the control loop only ever takes the latest sample,
-so I²C never blocks it. The load cell is for evaluation: the controller never needs it.
+single shot would busy-wait 1/rate per sample (TI ADS1115 data sheet, SBAS444, "Operating modes"). The
+reader thread polls at the data rate and time-stamps each value with the loop's clock; the control loop
+only ever takes the latest sample, so I²C never blocks it. The load cell is for evaluation: the
+controller never needs it.
 
 Registers go over SMBus block transfers (big-endian as on the wire): SMBus "word" transfers are
 little-endian and would swap the bytes.

@@ -1,7 +1,7 @@
 """Bit-exact frames of the T-motor (CubeMars) AK60-6 V1.1 in MIT mode.
 
-Source: CubeMars AK-series driver manual V1.0.8, §5.3 (MIT/"servo-less" mode), as summarised in
-REFERENCE §4. CAN 2.0, 1 Mbit/s, standard 11-bit identifier = motor id.
+Source: CubeMars AK-series driver manual V1.0.8, §5.3 (MIT/"servo-less" mode). CAN 2.0, 1 Mbit/s,
+standard 11-bit identifier = motor id.
 
 Special frames (8 data bytes): ``FF FF FF FF FF FF FF FC`` enters motor mode, ``… FD`` exits it,
 ``… FE`` makes the current position zero (the motor is silent for ~0.5–1.5 s afterwards).
@@ -87,7 +87,7 @@ class AK60Limits:
         Upper end of the damping gain field (Nm·s/rad). 5.
     temperature_offset_c, temperature_scale_c
         Temperature byte → °C as ``offset + scale·byte``. The scale on V1.1 is unverified
-        (REFERENCE §4); newer CubeMars documents give byte − 40.
+        (CubeMars driver manual V1.0.8); newer CubeMars documents give byte − 40.
     """
 
     position_rad: float = 12.5

@@ -1,10 +1,11 @@
 """Humeral elevation from one upper-arm IMU: quaternion → elevation, gyro → elevation velocity.
 
-With the trunk upright, elevation is the angle between the humerus and the downward vertical
-(REFERENCE §4): θ = arccos(−(R(q)·a)_z), where q is the sensor orientation (sensor → earth, NGIMU
-North-West-Up frame, z up) and a the humeral axis in the sensor frame. ``a`` comes from a static
-arm-down pose q₀: there the humerus points down, so a = R(q₀)ᵀ·(0, 0, −1). Only the vertical
-component is used, so no heading (magnetometer, unreliable near the motor) is needed.
+With the trunk upright, elevation is the angle between the humerus and the downward vertical (angles as
+the ISB recommends, Wu et al. 2005, J Biomech 38:981): θ = arccos(−(R(q)·a)_z), where q is the sensor
+orientation (sensor → earth, NGIMU North-West-Up frame, z up) and a the humeral axis in the sensor
+frame. ``a`` comes from a static arm-down pose q₀: there the humerus points down, so a = R(q₀)ᵀ·(0, 0,
+−1). Only the vertical component is used, so no heading (magnetometer, unreliable near the motor) is
+needed.
 
 Elevation velocity comes from the gyro, not from Euler angles (the plane of elevation is undefined
 with the arm hanging, Wu et al. 2005): with u = R(q)·a and d = (0, 0, −1), θ = arccos(d·u) and

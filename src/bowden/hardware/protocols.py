@@ -1,7 +1,7 @@
 """The device protocols the runtime loop drives.
 
 A real suit (AK60-6 over CAN, NGIMU over UDP, ADS1115 over I2C) and the simulated suit both implement
-these. Units are SI, signs as DESIGN.md: motor torque > 0 pulls the cable, spool velocity > 0 reels
+these. Units are SI, signs as docs/design.md: motor torque > 0 pulls the cable, spool velocity > 0 reels
 it in, elevation velocity > 0 while raising. Devices are context managers: leaving the ``with`` block
 leaves the suit safe (zero torque, motor mode exited) whatever happened inside it.
 """

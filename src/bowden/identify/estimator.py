@@ -224,8 +224,9 @@ class TransmissionIdentifier:
         """Refuse lines whose scale no transmission explains: wrong units, or a torque that did not move.
 
         Under the single-bend law sqrt(m_raise·m_lower) = R/c (R the pulley radius, c the true over the
-        assumed torque constant; REFERENCE §1), whatever the friction. c is uncertain by ±15 %
-        (REFERENCE §4), so a ratio beyond 2 either way is a unit or recording error, not friction.
+        assumed torque constant; the paper's supplement, eq. S5), whatever the friction. c is uncertain
+        by ±15 % (CubeMars AK60-6 data: 0.068–0.087 Nm/A), so a ratio beyond 2 either way is a unit or
+        recording error, not friction.
         """
         ratio = math.sqrt(raising_slope_m * lowering_slope_m) / self.pulley_radius_m
         if 1.0 / MAX_SLOPE_SCALE <= ratio <= MAX_SLOPE_SCALE:

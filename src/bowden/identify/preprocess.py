@@ -7,7 +7,8 @@
    gap or from one trial into the next.
 3. Spool acceleration is the derivative of the filtered velocity (second-order central differences).
 4. Keep steady-state samples: |speed| > 15 °/s, |acceleration| < 15 °/s², 20° < elevation < 90°,
-   torque > 0 (the paper's "TDU_acc < 15 °/s" is read as |acceleration| < 15 °/s², REFERENCE §1).
+   torque > 0 (the paper's "TDU_acc < 15 °/s" is read as |acceleration| < 15 °/s², our reading of the
+   paper's "Model identification").
 5. Split them by the sign of the filtered spool velocity: > 0 raising (cable reeled in), < 0 lowering.
 
 Every threshold is a field of :class:`PreprocessSettings`. The forward-backward filter squares the

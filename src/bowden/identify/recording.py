@@ -1,4 +1,4 @@
-"""Reading and validating bench recordings (the input of identification, DESIGN.md contract).
+"""Reading and validating bench recordings (the input of identification, docs/design.md "Contracts").
 
 A bench recording is CSV or Parquet, one row per sample, with exactly the columns
 ``time_s, motor_torque_nm, motor_velocity_rad_s, tension_n, elevation_rad`` (names from

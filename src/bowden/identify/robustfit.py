@@ -3,7 +3,7 @@
 The paper fitted its two compensation lines with MATLAB R2023a ``robustfit`` (section "Model
 identification"). This module computes the same numbers, following MathWorks' documented algorithm
 (``robustfit`` reference page, "Algorithms"; DuMouchel & O'Brien 1989; Street, Carroll & Ruppert
-1988) as summarised in REFERENCE §2:
+1988) as MATLAB documents it (robustfit, Statistics and Machine Learning Toolbox):
 
 1. Ordinary least squares through a column-pivoted QR factorisation of X = [1, x].
 2. Leverage h = min(0.9999, rowsum(Q²)) of that OLS fit; residuals are adjusted as r/sqrt(1 − h).
@@ -14,9 +14,9 @@ identification"). This module computes the same numbers, following MathWorks' do
 5. Standard errors: s_final²·(XᵀX)⁻¹ from the OLS R factor, where s_final is the larger of the robust
    sigma (Street et al. with O'Brien's leverage term) and a weighted mean of it and the OLS sigma.
 
-It also reports two coefficients of determination (REFERENCE §1), labelled, because MATLAB's
-``robustfit`` returns none and the paper's 0.9940/0.9906 most likely came from ``fitlm`` with
-``'RobustOpts','on'``:
+It also reports two coefficients of determination (MATLAB fitlm with 'RobustOpts', and OLS),
+labelled, because MATLAB's ``robustfit`` returns none and the paper's 0.9940/0.9906 most likely
+came from ``fitlm`` with ``'RobustOpts','on'``:
 
 * ``r_squared_fitlm_robust`` = SSR / (SSR + dfe·s_final²), SSR = Σ(ŷ − ȳ)² — what ``fitlm`` prints;
 * ``r_squared_ols`` = the ordinary least-squares R², equal to corr(x, y)² for one predictor.
@@ -270,7 +270,7 @@ def robustfit(
     Notes
     -----
     Algorithm: MathWorks ``robustfit`` documentation ("Algorithms"), DuMouchel & O'Brien (1989),
-    Street, Carroll & Ruppert (1988), REFERENCE §2. MATLAB's public parity case (x = 1..10,
+    Street, Carroll & Ruppert (1988), Am Stat 42:152. MATLAB's public parity case (x = 1..10,
     y = 3.1 5.2 6.9 9.1 11 12.9 15.2 17.1 19 5) gives b = [1.08223788958791, 1.9947584179332].
     """
     if not (tune > 0.0 and math.isfinite(tune)):

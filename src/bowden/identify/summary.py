@@ -1,6 +1,6 @@
 """What an identification found, in words: lines, fit quality, implied friction, warnings.
 
-The single-bend law (paper, supplement §1; REFERENCE §1) predicts motor-torque slopes
+The single-bend law (paper, supplement §1) predicts motor-torque slopes
 m_raise = R(1+k)/(1−k) and m_lower = R(1−k)/(1+k) for a pulley radius R and friction factor
 k = μ·sin(φ/2). Two consequences are checked:
 
@@ -117,7 +117,7 @@ class IdentificationSummary:
     warnings: tuple[str, ...]
 
     def format(self) -> str:
-        """A plain-text report for the terminal (R² labelled by definition, see REFERENCE §1)."""
+        """A plain-text report for the terminal (each R² labelled by its definition: fitlm robust, OLS)."""
         lines = ["Identified compensation lines (motor torque = intercept + slope · tension):"]
         header = (
             f"  {'direction':<10}{'n':>8}  {'intercept [Nm]':>20}  {'slope [mm]':>18}"

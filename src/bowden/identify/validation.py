@@ -39,7 +39,8 @@ class RecordingLimits:
     max_abs_elevation_rad
         Humeral elevation beyond ±π rad (180°) means the column is in degrees.
     max_abs_motor_torque_nm
-        The AK60-6 peaks at 9 Nm (REFERENCE §4); beyond 50 Nm the column is in mNm or raw counts.
+        The AK60-6 peaks at 9 Nm (CubeMars AK60-6 specification); beyond 50 Nm the column is in mNm or raw
+        counts.
     max_abs_motor_velocity_rad_s
         The AK60-6 is limited to 45–50 rad/s; beyond 100 rad/s the column is in deg/s or rpm.
     max_abs_tension_n

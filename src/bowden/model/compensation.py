@@ -7,7 +7,8 @@ cable travel, and a sigmoid in humeral elevation velocity blends them:
     M = (θ̇₀₀₁ + θ̇₀₉₉)/2,                     B = ln(99) / (θ̇₀₉₉ − M)
 
 so that w(θ̇₀₀₁) = 0.01 and w(θ̇₀₉₉) = 0.99, which is how the paper defines the blend. The paper prints
-B = ln(99)/(θ̇₀₀₁ − M), which is negative and blends the wrong way round (REFERENCE §1); the defining
+B = ln(99)/(θ̇₀₀₁ − M), which is negative and blends the wrong way round (paper, "Control architecture",
+eq. of the sigmoid); the defining
 property is implemented, and tested.
 """
 

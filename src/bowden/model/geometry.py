@@ -9,7 +9,8 @@ to the cable line (law of cosines for the cable length) is
 
 The paper does not publish its geometry; the defaults (a = 0.12 m, b = 0.18 m, ψ = 160°) give
 r(20°) ≈ 0.05 m and r(110°) ≈ 0.12 m, an average lever arm near the ≈ 0.10 m the paper's numbers imply
-(REFERENCE §3). The cable can only support the arm while α > 0.
+(docs/design.md, "Cuff geometry"; the paper does not publish its geometry). The cable can only support the
+arm while α > 0.
 """
 
 from __future__ import annotations

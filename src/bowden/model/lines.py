@@ -42,7 +42,8 @@ class LineFitStats:
     """How well a compensation line was identified.
 
     ``r_squared_ols`` is corr(y, ŷ)² (equal to ordinary R² for a line); ``r_squared_robust`` is
-    fitlm's robust definition SSR/(SSR + dfe·s²) with the robust scale s (REFERENCE §1).
+    fitlm's robust definition SSR/(SSR + dfe·s²) with the robust scale s (MATLAB fitlm with 'RobustOpts',
+    "Coefficient of determination").
     """
 
     n: int

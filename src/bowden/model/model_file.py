@@ -53,7 +53,8 @@ _DYNAMIC_NUMBERS = (
 _FIT_FIELDS = ("n", "r_squared_ols", "r_squared_robust", "robust_scale_nm", "intercept_se_nm", "slope_se_m")
 
 # The torque a line gives at zero tension is the transmission's own friction and drag. The suit's
-# AK60-6 peaks at 9 Nm (REFERENCE §4; rated 3 Nm): an intercept beyond that is not friction the motor
+# AK60-6 peaks at 9 Nm (CubeMars AK60-6 specification; rated 3 Nm): an intercept beyond that is not
+# friction the motor
 # could overcome but a unit or sign error (e.g. mNm), and it would command the motor's full torque.
 MAX_INTERCEPT_NM = 9.0
 # R² is a fraction of variance in [0, 1]; rounding may put an exact fit a hair outside.

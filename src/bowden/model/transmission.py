@@ -12,7 +12,7 @@ T_out = T_in · exp(−s·μ·Φ).
 
 Identification fits motor torque = intercept + slope·T_out per direction. With torque = R·T_in the
 ideal slopes are R·(1+k)/(1−k) raising and R·(1−k)/(1+k) lowering, so their ratio
-((1+k)/(1−k))² recovers k (REFERENCE §1).
+((1+k)/(1−k))² recovers k (supplement, eq. S5).
 """
 
 from __future__ import annotations

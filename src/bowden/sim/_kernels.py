@@ -1,6 +1,6 @@
 """Compiled physics of the simulated suit: one fixed plant step and loops over many of them.
 
-The plant (REFERENCE §6) is, from the motor to the arm:
+The plant (docs/simulation.md) is, from the motor to the arm:
 
 * **motor**: current-loop lag (exact exponential), torque-constant error, torque limit, rotor inertia,
   viscous friction and Coulomb friction integrated by time stepping (Moreau 1988: the friction
@@ -14,7 +14,7 @@ The plant (REFERENCE §6) is, from the motor to the arm:
   the normal force (the lubricant or liner shearing). Because the node is massless, each step solves
   its position exactly (implicit Euler, piecewise linear), which is stable for any step;
 * **distal segment** (textile, tissue, cable to the anchor): a damped spring that only pulls;
-* **anchor** on the arm through the cuff geometry (REFERENCE §3): path length
+* **anchor** on the arm through the cuff geometry (docs/design.md, "Cuff geometry"): path length
   ``L(θ) = sqrt(a² + b² − 2ab·cos(ψ − θ))`` whose derivative is minus the moment arm ``r(θ)``;
 * **arm**: prescribed kinematics, or a rigid body driven by an external torque (mannequin motor or a
   virtual participant's muscles), gravity, passive damping and soft joint stops.
@@ -154,7 +154,8 @@ N_RECORD = 7
 
 @jit
 def path_length_m(p: NDArray[np.float64], th: float) -> float:
-    """Distance from the cable exit above the shoulder to the anchor on the humerus (REFERENCE §3)."""
+    """Distance from the cable exit above the shoulder to the anchor on the humerus (docs/design.md, "Cuff
+    geometry")."""
     a = p[P_GEOM_A]
     b = p[P_GEOM_B]
     return math.sqrt(a * a + b * b - 2.0 * a * b * math.cos(p[P_GEOM_PSI] - th))
@@ -162,7 +163,8 @@ def path_length_m(p: NDArray[np.float64], th: float) -> float:
 
 @jit
 def moment_arm_m(p: NDArray[np.float64], th: float) -> float:
-    """Moment arm of the cable about the shoulder, ``r = ab·sin α / L``, α = ψ − θ (REFERENCE §3)."""
+    """Moment arm of the cable about the shoulder, ``r = ab·sin α / L``, α = ψ − θ (docs/design.md, "Cuff
+    geometry")."""
     a = p[P_GEOM_A]
     b = p[P_GEOM_B]
     alpha = p[P_GEOM_PSI] - th

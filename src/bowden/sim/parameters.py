@@ -1,7 +1,7 @@
 """Parameters of the simulated suit, each with its source and its valid range.
 
 Defaults reproduce the paper's suit (Bardi et al., sensorless tension control of a cable-driven
-exosuit) as far as it is published; where the paper is silent the value comes from REFERENCE §6 (a
+exosuit) as far as it is published; where the paper is silent the value comes from docs/simulation.md (a
 plant that behaves like the paper's suit) or from the device's manual, and the docstring says so.
 Every class is a frozen keyword-only dataclass validated on construction: a value outside its range
 raises :class:`bowden.errors.ParameterError` naming the field.
@@ -45,7 +45,7 @@ class MotorParameters:
     spool_radius_m
         Pulley radius; paper: 70 mm diameter PLA pulley → 0.035 m. Range (0.005, 0.2].
     rotor_inertia_kgm2
-        Rotor + gearbox + spool inertia reflected to the output shaft; REFERENCE §6: ≈ 1.5e-3. No
+        Rotor + gearbox + spool inertia reflected to the output shaft; ≈ 1.5e-3. No
         AK60-6 value is published that we could find; its larger sibling AK80-6 (same 6:1 gear) has a
         rotor inertia of 6.07e-5 kg·m² (T-motor manual, quoted in the DFKI double-pendulum
         documentation; identified there as 6.1e-5–8.8e-5), i.e. 2.2e-3–3.2e-3 kg·m² after the gear
@@ -53,7 +53,8 @@ class MotorParameters:
         70 mm PLA spool adds ≈ 3e-5, so 1.5e-3 sits in the plausible band and values above ≈ 3e-3 are
         not supported. Range (1e-5, 0.05].
     coulomb_friction_nm
-        Coulomb friction of motor and gearbox at the output; REFERENCE §6: 0.05–0.25 Nm. 0.08 Nm,
+        Coulomb friction of motor and gearbox at the output; 0.05–0.25 Nm (an assumed range around
+        the DFKI identification below). 0.08 Nm,
         the low end of the 0.08–0.19 Nm DFKI identified on the AK80-6 with a pendulum bearing: the
         paper's pretension RMSE at 60 °/s (2.75 N) leaves little room for the ≈ R⁻¹·τ_c error it
         causes wherever the blend of the two lines is undecided, and at 0.06 Nm the largest
@@ -63,13 +64,15 @@ class MotorParameters:
         Viscous friction at the output: 0.005 Nm·s/rad, within the 0.004–0.011 Nm·s/rad DFKI identified
         on the AK80-6 (double-pendulum ``model_parameters`` files, tmotors_v1.0/v2.0). Range [0, 0.1].
     current_loop_time_constant_s
-        First-order lag of the driver's current (torque) loop; REFERENCE §6: ≈ 1 ms. Range (1e-5, 0.05].
+        First-order lag of the driver's current (torque) loop; ≈ 1 ms (an assumption: no AK60-6 value is
+        published). Range (1e-5, 0.05].
     torque_constant_ratio
         Delivered torque per commanded (and per reported) torque: the true torque constant over the one
-        the driver assumes. REFERENCE §4: the AK60-6 constant is uncertain within 0.068–0.087 Nm/A; §6:
+        the driver assumes. The AK60-6 constant is uncertain within 0.068–0.087 Nm/A (CubeMars' data
+        sheet against its manual);
         ±15 % is the largest single source of error. Range [0.5, 1.5].
     torque_limit_nm
-        Saturation of the delivered torque; AK60-6 peak 9 Nm (REFERENCE §4). Range (0, 50].
+        Saturation of the delivered torque; AK60-6 peak 9 Nm (CubeMars AK60-6 specification). Range (0, 50].
     """
 
     spool_radius_m: float = 0.035
@@ -92,7 +95,7 @@ class MotorParameters:
 
 @dataclass(frozen=True, kw_only=True)
 class SheathParameters:
-    """Bowden sheath friction as one lumped bend (supplement of the paper, REFERENCE §1 and §6).
+    """Bowden sheath friction as one lumped bend (supplement of the paper, eq. S1–S5).
 
     The normal force on the cable is ``sin(φ/2)·(T_in + T_out)``; the friction coefficient times
     ``sin(φ/2)`` is the single number ``k`` of the paper's transmission law, so the parameters are
@@ -101,17 +104,17 @@ class SheathParameters:
     Parameters
     ----------
     kinetic_coefficient
-        ``k = μ_k·sin(φ/2)`` while the cable slides fast, on the identification bench. REFERENCE §6:
+        ``k = μ_k·sin(φ/2)`` while the cable slides fast, on the identification bench. docs/simulation.md:
         0.05–0.15, the paper's 50 % support RMSE between 0.10 and 0.15. 0.10 here: with the sheath
         drag below, larger values make the slow movements' errors at 50 % support exceed the
         medium ones' (the hysteresis band at each reversal scales with k and lasts longest at
         60 °/s), which the paper does not show (docs/simulation.md). Range [0, 0.5].
     static_to_kinetic_ratio
-        Breakaway over kinetic coefficient; REFERENCE §6: 1.0–1.6. Range [1, 3], and the static
+        Breakaway over kinetic coefficient; 1.0–1.6 assumed. Range [1, 3], and the static
         coefficient must stay below 0.6 so that the sheath can still transmit tension.
     stribeck_velocity_m_s
         Slip speed over which friction falls from static to kinetic, ``k(v) = k_k + (k_s − k_k)·
-        exp(−(v/v_s)²)`` (Stribeck curve, Olsson et al. 1998, Eur J Control 4:176). REFERENCE §6:
+        exp(−(v/v_s)²)`` (Stribeck curve, Olsson et al. 1998, Eur J Control 4:176). docs/simulation.md:
         ≈ 3 mm/s. Range (1e-5, 0.1].
     stick_velocity_m_s
         Slip speed below which a sliding cable that is inside the static friction cone sticks again.
@@ -132,7 +135,8 @@ class SheathParameters:
         0.07–0.35 N between 60 and 120 °/s at 50 % support (paper 0.32 N); 24 N·s/m leaves only
         0.02–0.03 N there for seeds 0 and 2, 20 N·s/m inverts it (docs/simulation.md). The bench
         does not contradict it: lowering R² 0.9992 in fitlm's robust definition (the paper's 0.9906
-        most likely is that one, REFERENCE §1) and 0.9896 as OLS R². It moves only the intercepts
+        most likely is that one: MATLAB fitlm with 'RobustOpts') and 0.9896 as OLS R². It moves only
+        the intercepts
         of the identified lines, by ``R²·c_v·|ω|/(1 ∓ k)``, never their slopes. Range [0, 100].
     """
 
@@ -167,10 +171,12 @@ class TransmissionParameters:
     Parameters
     ----------
     cable_stiffness_n_m
-        Spool to sheath exit: Dyneema cable and the sheath's axial compliance. REFERENCE §6: ≈ 3e4 N/m.
+        Spool to sheath exit: Dyneema cable and the sheath's axial compliance. ≈ 3e4 N/m (an
+        assumption: not published for the paper's suit).
         Range [1e3, 1e6].
     distal_stiffness_n_m
-        Sheath exit to the arm anchor: cable, textile cuff and soft tissue. REFERENCE §6: 2e3–1e4 N/m.
+        Sheath exit to the arm anchor: cable, textile cuff and soft tissue. 2e3–1e4 N/m (an assumed
+        range for textile and tissue).
         Range [200, 1e5].
     distal_damping_ns_m
         Damping of the distal segment (textile and tissue are lossy). Not published; 600 N·s/m is
@@ -257,7 +263,8 @@ class ArmParameters:
     ----------
     inertia_kgm2
         Moment of inertia about the shoulder including any hand load. Human arms with 0.5 kg in the
-        hand: 0.45–0.65 kg·m² (REFERENCE §6); the mannequin's lighter arm defaults here. Range
+        hand: 0.45–0.65 kg·m² (de Leva 1996 segments, J Biomech 29:1223); the mannequin's lighter arm
+        defaults here. Range
         (1e-3, 5].
     gravity_torque_nm
         Gravity torque with the arm horizontal (90°); the arm's gravity torque is this times sin θ.
@@ -265,7 +272,8 @@ class ArmParameters:
     damping_nms_rad
         Passive viscous damping of the joint. Range [0, 10].
     min_elevation_rad, max_elevation_rad
-        Soft joint stops; the cuff geometry needs the arm below the cable exit (REFERENCE §3).
+        Soft joint stops; the cuff geometry needs the arm below the cable exit (docs/design.md, "Cuff
+        geometry").
     """
 
     inertia_kgm2: float = 0.08
@@ -291,7 +299,8 @@ class SuitParameters:
     Parameters
     ----------
     motor, sheath, transmission, geometry, imu, load_cell
-        The parts; ``geometry`` is the cuff geometry shared with the controller (REFERENCE §3).
+        The parts; ``geometry`` is the cuff geometry shared with the controller (docs/design.md, "Cuff
+        geometry").
     substep_s
         Fixed integration step of the plant. Every stiff part (cable on the rotor, current loop,
         sheath node, friction) is integrated implicitly; the arm on the distal spring is explicit and

@@ -2,7 +2,7 @@
 
 Written from the description of the adaptive template subtraction of Petersen E., Sauer J.,
 Graßhoff J., Rostalski P. (2020) "Removing cardiac artifacts from single-channel respiratory
-electromyograms", IEEE Access 8:30905–30917 (REFERENCE §5), not from its toolbox's code:
+electromyograms", IEEE Access 8:30905–30917, not from its toolbox's code:
 
 1. beats are cut at the midpoints between consecutive R-peaks;
 2. the template of a beat is the mean of the ``template_beats`` (40) beats centred on it, aligned
@@ -60,7 +60,7 @@ _BOOTSTRAP_BEATS = 32  # beats refitted per draw (the penalty is pooled over the
 
 @dataclass(frozen=True, kw_only=True)
 class EcgRemovalParameters:
-    """Settings of :func:`emg_remove_ecg` (defaults: REFERENCE §5, Petersen et al. 2020).
+    """Settings of :func:`emg_remove_ecg` (defaults: Petersen et al. 2020).
 
     Parameters
     ----------
@@ -126,7 +126,7 @@ def emg_remove_ecg(
     channels
         Channels to clean; ``None`` cleans all. Other channels pass through unchanged.
     parameters
-        Algorithm settings; defaults reproduce REFERENCE §5.
+        Algorithm settings; defaults reproduce Petersen et al. 2020.
 
     Returns
     -------

@@ -1,7 +1,7 @@
 """The per-beat fit of the adaptive ECG template subtraction (see :mod:`bowden.analysis.emg.ecg`).
 
 Alignment by cross-correlation and the search over QRS stretch variants, each with a least-squares
-scale and offset per P/QRS/T section (Petersen et al. 2020, IEEE Access 8:30905; REFERENCE §5), for
+scale and offset per P/QRS/T section (Petersen et al. 2020, IEEE Access 8:30905), for
 all beats and all variants at once:
 
 - the shifts are scored by one product of the QRS templates with a sliding window view of the

@@ -1,9 +1,10 @@
 """R-peak detection in ECG-contaminated EMG (Pan & Tompkins 1985, adapted to sEMG).
 
-Used by the ECG removal of :mod:`bowden.analysis.emg.ecg` (REFERENCE §5: "R-peaks (Pan–Tompkins-like,
-≥ 300 ms apart) on a high-passed copy or a cleaner channel"). The detector works on a band-passed copy
-of the raw channel: the high-pass removes baseline drift and movement artefacts, the low-pass keeps
-the QRS complex (most of its energy lies in 5–30 Hz) while suppressing most of the EMG (50–150 Hz).
+Used by the ECG removal of :mod:`bowden.analysis.emg.ecg` (Petersen et al. 2020, IEEE Access 8:30905:
+R-peaks at least 300 ms apart, found on a high-passed copy or on a cleaner channel). The detector works
+on a band-passed copy of the raw channel: the high-pass removes baseline drift and movement artefacts,
+the low-pass keeps the QRS complex (most of its energy lies in 5–30 Hz) while suppressing most of the
+EMG (50–150 Hz).
 
 Steps, after Pan J., Tompkins W.J. (1985) "A real-time QRS detection algorithm", IEEE Trans Biomed
 Eng 32(3):230–236: derivative, squaring, moving-window integration (150 ms), candidate peaks at least
@@ -75,7 +76,7 @@ def emg_detect_r_peaks(
         Channel to detect on: a contaminated muscle or a cleaner reference (an ECG lead). ``None``
         requires a single-channel signal.
     min_rr_s
-        Refractory interval: two R-peaks are never closer than this, s (REFERENCE §5: 300 ms).
+        Refractory interval: two R-peaks are never closer than this, s (Petersen et al. 2020: 300 ms).
     band_hz
         Pass band of the detection copy, Hz.
     min_rr_fraction

@@ -1,6 +1,6 @@
 """The EMG signal container: samples, channel names and the sampling rate travel together.
 
-Choice (DESIGN.md "the sampling rate travels with the data"): a small frozen dataclass rather than
+Choice (the sampling rate travels with the data): a small frozen dataclass rather than
 ``DataFrame.attrs``. pandas does not promise to carry ``attrs`` through every operation (concat,
 arithmetic, groupby drop or mangle them), so a rate stored there can vanish silently; a dataclass
 cannot lose its rate, is checked once on construction, and mypy sees the field. Every ``emg_<verb>``

@@ -1,6 +1,6 @@
 """A simulated AK60-6 in MIT mode on a python-can bus.
 
-It does what the firmware does (CubeMars driver manual V1.0.8 §5.3, REFERENCE §4): listens for frames
+It does what the firmware does (CubeMars driver manual V1.0.8 §5.3): listens for frames
 addressed to its id, enters and leaves motor mode on the special frames, sets its zero (and is silent
 for a while afterwards), turns each command into a torque τ = τ_ff + Kp(p_des − p) + Kd(v_des − v)
 applied to the simulated plant while in motor mode, and answers every frame it heard with a real

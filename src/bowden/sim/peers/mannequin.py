@@ -1,7 +1,7 @@
 """The bench's mannequin motor as a plant for an :class:`~bowden.sim.peers.AK60Peer`.
 
 On the mannequin bench a second AK-series motor drives the arm's shoulder joint in torque control and
-loads the cable (REFERENCE: the paper's "Data acquisition"). :class:`MannequinJoint` gives the peer
+loads the cable (the paper's "Data acquisition"). :class:`MannequinJoint` gives the peer
 what it asks of a plant — ``command_motor`` and ``command_motor_mit`` returning a
 :class:`~bowden.hardware.protocols.MotorState` — with the joint's angle, velocity and load: its
 torque is the load on the arm (> 0 pulls the arm down, against the cable), its position the

@@ -3,7 +3,7 @@
 At ``rate_hz`` it reads the arm's elevation from the simulated plant and sends what an NGIMU would:
 one bundle with ``/sensors`` (gyro °/s, accelerometer g, magnetometer µT, barometer hPa, all in the
 sensor frame) and one with ``/quaternion`` (w, x, y, z; sensor → earth, North-West-Up), each with an
-NTP time tag (NGIMU user manual, "OSC messages"; REFERENCE §4).
+NTP time tag (NGIMU user manual, "OSC messages").
 
 The arm raises in a vertical plane at heading ``heading_rad`` (flexion when 0: the humerus swings
 from straight down towards North), and the sensor sits on the arm with an arbitrary ``mounting``
