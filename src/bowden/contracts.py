@@ -1,6 +1,6 @@
 """Names shared by every part of bowden: recording columns, study conditions and speeds, muscles.
 
-These are the contracts of DESIGN.md written down once. Identification, the runtime recorder, the
+These are the contracts of docs/design.md written down once. Identification, the runtime recorder, the
 simulator, the analysis and the study store all import their column names from here, so a rename
 is one edit and a typo is an import error rather than a silently empty column.
 """
@@ -64,7 +64,7 @@ BACKEND_SIM: Final = "sim"
 BACKEND_CAN: Final = "can"
 SIMULATED_BACKENDS: Final = frozenset({BACKEND_SIM, "simulation"})
 
-# Participants are pseudonymous ids only (DESIGN.md): 1-4 capital letters then 1-4 digits, such as
+# Participants are pseudonymous ids only (docs/design.md): 1-4 capital letters then 1-4 digits, such as
 # P01 or S007. Digits are required and lower case refused, so a name can never be stored by mistake.
 PARTICIPANT_ID_PATTERN: Final = re.compile(r"[A-Z]{1,4}[0-9]{1,4}")
 

@@ -3,7 +3,7 @@
 The control loop never touches the database: :meth:`Recorder.record` only appends a tuple to a
 ``queue.SimpleQueue`` (a lock-free C append, well under a microsecond). A writer thread
 batches what arrived and commits at least every ``commit_interval_s`` (default 0.1 s, so with the
-time a commit takes, well inside the 0.2 s of DESIGN.md) into the SQLite store of
+time a commit takes, well inside the 0.2 s of docs/design.md) into the SQLite store of
 :mod:`bowden.runtime.store_schema` (WAL journal, ``synchronous=FULL``). A ``kill -9`` therefore loses
 only rows not yet committed and never corrupts what was (tested by killing a recording process).
 

@@ -2,7 +2,7 @@
 
 Why SQLite: it is in the standard library (nothing to install on the BeagleBone), one file per study,
 and its write-ahead log makes every committed transaction survive a crash or ``kill -9`` of the
-writer — the property the recorder needs (DESIGN.md: lose at most the last 0.2 s, never what was
+writer — the property the recorder needs (docs/design.md: lose at most the last 0.2 s, never what was
 committed). Readers (the live console, the analysis) can read while a trial is being written.
 
 Tables (``STRICT``: a wrong type is an error, not a silent conversion):

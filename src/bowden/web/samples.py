@@ -4,7 +4,7 @@ The loop's rows (``bowden.contracts.TRIAL_COLUMNS``) become one JSON-ready messa
 display's (time, reference and measured elevation in degrees, and each row's wall stamp and
 sequence number for the latency benchmark) and the console's, which adds the tensions — desired,
 estimated from the measured motor torque, load cell —, the torques and the fault flags. Degrees
-only here, at the edge (DESIGN.md).
+only here, at the edge (docs/design.md, "Contracts").
 """
 
 from __future__ import annotations
