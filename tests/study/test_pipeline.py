@@ -41,6 +41,26 @@ def test_every_stage_ran_and_the_report_is_labelled_simulated(study):
     assert "<script" not in text and "http://" not in text and "https://" not in text
 
 
+def test_every_caption_of_a_simulated_report_says_simulated(study):
+    text = study.report.read_text(encoding="utf-8")
+    captions = re.findall(r"<caption>(.*?)</caption>", text, re.S)
+    captions += re.findall(r"<figcaption>(.*?)</figcaption>", text, re.S)
+    assert len(captions) >= 15
+    unlabelled = [c for c in captions if "simulated" not in c.lower()]
+    assert not unlabelled, unlabelled
+
+
+def test_the_report_has_the_papers_questionnaire_figures_and_whole_cycle_iemg(study):
+    text = study.report.read_text(encoding="utf-8")
+    assert "Median discomfort per body site and condition, seen from behind" in text  # the Nordic map
+    assert "Borg RPE (6–20) per condition" in text and "perceived fatigue (1–7) per condition" in text
+    assert "iEMG over the entire cycle: mean (SD) and GLMM p-values, simulated" in text
+    # Wide tables scroll in their own box; no table shows a bare 0, 1, 2… index column.
+    assert text.count('<div class="table-scroll">') >= text.count("<table")
+    assert not re.search(r"<tbody>\s*<tr>\s*<th>0</th>", text)
+    assert "<td>None</td>" not in text  # unknown values read as missing
+
+
 def test_outcomes_are_finite_and_stored(study):
     with StudyStore(study.store) as store:
         outcomes = store.outcomes()

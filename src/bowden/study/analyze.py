@@ -207,6 +207,7 @@ def analyze_store(
         identification_figure=figure,
         identification_text=text,
         timings=dict(timings or {}),
+        questionnaires=answers,
     )
     with progress.spinner("writing the report"):
         document = build_report(inputs)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
@@ -9,6 +11,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from bowden.contracts import CONDITION_LABELS, CONDITIONS, SPEED_PEAK_DEG_S, SPEEDS
+from bowden.stats.tables import significance_code
 
 # The paper's colours: no suit purple, pretension blue, 25 % red, 50 % yellow.
 CONDITION_COLOURS = {
@@ -83,10 +86,14 @@ def _band(
         ax.fill_between(x, mean - sd, mean + sd, color=colour, alpha=0.2, linewidth=0)
 
 
-def condition_boxplots(data: pd.DataFrame, ylabel: str, title: str) -> Figure:
+def condition_boxplots(
+    data: pd.DataFrame, ylabel: str, title: str, comparisons: Sequence[tuple[str, str, float]] = ()
+) -> Figure:
     """Boxplots per speed and condition of participants' means, one dot per participant (paper style).
 
     ``data``: columns participant, condition, speed, value (repetition level; averaged here).
+    ``comparisons``: (condition, condition, p) of the pairwise comparisons over the speeds grouped;
+    those with p < 0.05 are marked on every panel, as the paper marks them.
     """
     means = data.groupby(["participant", "condition", "speed"], as_index=False)["value"].mean()
     figure = _figure(10.0, 3.4)
@@ -105,6 +112,27 @@ def condition_boxplots(data: pd.DataFrame, ylabel: str, title: str) -> Figure:
             ax.scatter(i + rng.uniform(-0.12, 0.12, values.size), values, s=9, color="black", zorder=3)
         ax.set_xticks(range(1, len(present) + 1), [CONDITION_LABELS[c] for c in present])
         ax.set_title(f"{speed} ({SPEED_PEAK_DEG_S[speed]:.0f} °/s)")
+    if comparisons and not means.empty:
+        positions = {condition: float(i) for i, condition in enumerate(present, start=1)}
+        top = float(means["value"].max())
+        for ax in axes:
+            significance_brackets(ax, positions, comparisons, top)
     axes[0].set_ylabel(ylabel)
     figure.suptitle(title)
     return figure
+
+
+def significance_brackets(
+    ax: Axes, positions: dict[str, float], comparisons: Sequence[tuple[str, str, float]], top: float
+) -> None:
+    """Brackets between condition positions for comparisons with p < 0.05, stacked above ``top``."""
+    shown = [(a, b, p) for a, b, p in comparisons if p < 0.05 and a in positions and b in positions]
+    low, high = ax.get_ylim()
+    step = 0.07 * (high - low)
+    for level, (a, b, p) in enumerate(shown):
+        y = top + step * (level + 0.6)
+        x1, x2 = sorted((positions[a], positions[b]))
+        ax.plot([x1, x1, x2, x2], [y - 0.25 * step, y, y, y - 0.25 * step], color="black", linewidth=0.8)
+        ax.text(0.5 * (x1 + x2), y, significance_code(p), ha="center", va="bottom", fontsize=9)
+    if shown:
+        ax.set_ylim(low, max(high, top + step * (len(shown) + 1)))

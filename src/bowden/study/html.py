@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from bowden._atomic_file import existing_head, write_text_atomically
@@ -33,15 +34,27 @@ pre { white-space: pre-wrap; font-size: 0.85em; }
 .banner { background: #fff4d6; border: 1px solid #e0b84a; padding: .6em 1em; margin: 1em 0; }
 .note { color: #555; font-size: 0.92em; }
 .side-by-side { display: flex; gap: 2em; flex-wrap: wrap; align-items: flex-start; }
+.table-scroll { overflow-x: auto; max-width: 100%; }
 """
 
 
 @dataclass
 class HtmlDocument:
-    """Accumulates body fragments and writes them as one HTML file."""
+    """Accumulates body fragments and writes them as one HTML file.
+
+    ``caption_label`` (e.g. ``"simulated"``) is added to every table and figure caption that does not
+    already say it, so that no table of a simulated report can be quoted as if it were measured.
+    """
 
     title: str
     parts: list[str] = field(default_factory=list)
+    caption_label: str = ""
+
+    def _caption(self, caption: str) -> str:
+        label = self.caption_label
+        if label and label.lower() not in caption.lower():
+            return f"{caption} ({label})"
+        return caption
 
     def heading(self, text: str, level: int = 2) -> None:
         self.parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
@@ -62,21 +75,35 @@ class HtmlDocument:
             # pandas would give the index names a header row of their own, empty but for them; the row
             # labels (simulated/paper, pre/25%/50%, V1-V3) say what they are.
             frame = frame.set_axis(frame.index.set_names([None] * frame.index.nlevels), axis="index")
-        body = frame.to_html(float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True)
+        # Unknown values (None in object columns, e.g. a registry's optional fields) read as missing.
+        objects = frame.columns[(frame.dtypes == np.dtype(object)).to_numpy()]
+        if len(objects):
+            frame = frame.copy()
+            frame[objects] = frame[objects].where(frame[objects].notna(), float("nan"))
+        # A bare 0, 1, 2… index says nothing: leave it out.
+        plain_index = isinstance(frame.index, pd.RangeIndex) and frame.index.name is None
+        body = frame.to_html(
+            float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True,
+            index=not plain_index,
+        )
         opening_end = body.index(">") + 1  # after pandas' "<table ...>"
+        caption = html.escape(self._caption(caption))
+        # Wide tables scroll inside their own box instead of widening the page.
         self.parts.append(
-            f"{body[:opening_end]}<caption>{html.escape(caption)}</caption>{body[opening_end:]}"
+            f'<div class="table-scroll">{body[:opening_end]}<caption>{caption}</caption>'
+            f"{body[opening_end:]}</div>"
         )
 
     def raw_table(self, table_html: str) -> None:
-        """An HTML table made elsewhere (e.g. a pandas Styler), inserted as is."""
-        self.parts.append(table_html)
+        """An HTML table made elsewhere (e.g. a pandas Styler), inserted as is (in a scrolling box)."""
+        self.parts.append(f'<div class="table-scroll">{table_html}</div>')
 
     def figure(self, fig: Any, caption: str, dpi: int = 110) -> None:
         """Embed a matplotlib figure (with a canvas attached) as a PNG data URI."""
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
         data = base64.b64encode(buffer.getvalue()).decode("ascii")
+        caption = self._caption(caption)
         self.parts.append(
             f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
             f"<figcaption>{html.escape(caption)}</figcaption></figure>"

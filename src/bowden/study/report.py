@@ -25,13 +25,20 @@ from bowden.analysis.outcomes import (
     TORQUE_RMSE,
     StudyOutcomes,
 )
-from bowden.contracts import CONDITION_LABELS, CONDITIONS, SPEEDS
+from bowden.contracts import (
+    CONDITION_LABELS,
+    CONDITIONS,
+    QUESTIONNAIRE_BORG_RPE,
+    QUESTIONNAIRE_FATIGUE,
+    SPEEDS,
+)
 from bowden.model import CompensationModel
 from bowden.model.transmission import friction_from_slopes
 from bowden.stats import effects_table, pairwise_table, significance_html, significance_table
-from bowden.study import figures, paper_values
+from bowden.stats.analysis import OutcomeAnalysis
+from bowden.study import figures, paper_values, questionnaire_figures
 from bowden.study.html import HtmlDocument
-from bowden.study.statistics import StudyStatistics, outcome_data
+from bowden.study.statistics import KINEMATIC_LABELS, MUSCLE_LABELS, StudyStatistics, outcome_data
 
 
 @dataclass
@@ -48,6 +55,7 @@ class ReportInputs:
     identification_figure: object | None = None
     identification_text: str = ""
     timings: dict[str, float] = field(default_factory=dict)
+    questionnaires: pd.DataFrame = field(default_factory=pd.DataFrame)  # the long answers table
 
 
 def _tracking_table(outcomes: StudyOutcomes, measure: str) -> pd.DataFrame | None:
@@ -128,11 +136,25 @@ def _model_table(model: CompensationModel) -> pd.DataFrame:
     return pd.DataFrame(rows).set_index("line")
 
 
+def _condition_comparisons(analysis: OutcomeAnalysis | None) -> list[tuple[str, str, float]]:
+    """(condition, condition, Holm p) over the speeds grouped, where the condition effect has p < 0.05."""
+    if analysis is None:
+        return []
+    condition_p = analysis.tests["p"].astype(float).get("condition", float("nan"))
+    if not condition_p < 0.05:
+        return []
+    pairs = analysis.condition_pairs
+    return [
+        (str(a), str(b), float(p))
+        for a, b, p in zip(pairs["level_a"], pairs["level_b"], pairs["p_holm"], strict=True)
+    ]
+
+
 def build_report(inputs: ReportInputs) -> HtmlDocument:
     """Assemble the report document."""
     kind = "simulated" if inputs.simulated else "measured"
     title = "bowden study report" + (" — SIMULATED cohort" if inputs.simulated else "")
-    doc = HtmlDocument(title)
+    doc = HtmlDocument(title, caption_label=kind if inputs.simulated else "")
     if inputs.simulated:
         doc.banner(
             "Simulated data: virtual participants on a simulated suit (bowden.sim). These results "
@@ -189,11 +211,15 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
         )
 
     doc.heading("Trajectory tracking and smoothness")
+    kinematic_fits = {fit.name: fit for fit in inputs.statistics.kinematics}
     for measure, label in (("elevation_rmse_rad", "Elevation RMSE (deg)"), ("sparc", "SPARC (sign flipped)")):
         data = outcome_data(outcomes, measure, "entire")
         if not data.empty:
+            pairs = _condition_comparisons(kinematic_fits.get(KINEMATIC_LABELS[measure]))
             doc.figure(
-                figures.condition_boxplots(data, label, f"{label}, {kind}"), f"{label} per participant"
+                figures.condition_boxplots(data, label, f"{label}, {kind}", pairs),
+                f"{label} per participant; ** p < 0.001, * p < 0.05 between conditions, speeds grouped "
+                "(Holm), where the condition effect has p < 0.05",
             )
     if inputs.statistics.kinematics:
         doc.table(
@@ -214,24 +240,28 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
         doc.table(pairwise_table(inputs.statistics.kinematics, factor="speed"), f"Speeds compared, {kind}")
 
     doc.heading("Muscle activity (iEMG)")
+    entire_fits = {fit.name: fit for fit in inputs.statistics.iemg.get("entire", [])}
     for muscle in ("anterior_deltoid", "posterior_deltoid"):
         data = outcome_data(outcomes, IEMG_PREFIX + muscle, "entire")
         if not data.empty:
             label = muscle.replace("_", " ")
+            pairs = _condition_comparisons(entire_fits.get(MUSCLE_LABELS[muscle]))
             doc.figure(
-                figures.condition_boxplots(data, "normalised iEMG", f"{label}, {kind}"),
-                f"Mean normalised iEMG of the {label}",
+                figures.condition_boxplots(data, "normalised iEMG", f"{label}, {kind}", pairs),
+                f"Mean normalised iEMG of the {label}; ** p < 0.001, * p < 0.05 between conditions, "
+                "speeds grouped (Holm), where the condition effect has p < 0.05",
             )
-    for phase in ("raising", "lowering"):
+    for phase in ("entire", "raising", "lowering"):
         fits = inputs.statistics.iemg.get(phase, [])
         if not fits:
             continue
-        doc.table(effects_table(fits), f"iEMG while {phase}: mean (SD) and GLMM p-values, {kind}")
+        during = "over the entire cycle" if phase == "entire" else f"while {phase}"
+        doc.table(effects_table(fits), f"iEMG {during}: mean (SD) and GLMM p-values, {kind}")
         doc.raw_table(
             significance_html(
                 significance_table(fits, factor="condition"),
-                caption=f"iEMG change between conditions while {phase} ({kind}): green decrease, red "
-                "increase; ** p < 0.001, * p < 0.05 (Holm)",
+                caption=f"iEMG change between conditions {during} ({kind}): green decrease, red "
+                "increase; ** p < 0.001, * p < 0.05 (Holm), shown where the condition effect has p < 0.05",
             )
         )
 
@@ -246,6 +276,23 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
         )
         for name, table in inputs.statistics.questionnaire_posthoc.items():
             doc.table(table, f"{name}: Bonferroni post-hoc (MATLAB multcompare)", "{:.3g}")
+    if not inputs.questionnaires.empty:
+        answers, posthoc = inputs.questionnaires, inputs.statistics.questionnaire_posthoc
+        doc.figure(
+            questionnaire_figures.nordic_body_map(answers, title=f"Nordic questionnaire, {kind}"),
+            "Median discomfort per body site and condition, seen from behind",
+            dpi=80,
+        )
+        for questionnaire, ylabel in ((QUESTIONNAIRE_BORG_RPE, "Borg RPE (6–20)"),
+                                      (QUESTIONNAIRE_FATIGUE, "perceived fatigue (1–7)")):
+            doc.figure(
+                questionnaire_figures.questionnaire_boxplots(
+                    answers, questionnaire, posthoc, ylabel=ylabel, title=f"{ylabel}, {kind}"
+                ),
+                f"{ylabel} per condition, one dot per participant; ** p < 0.001, * p < 0.05 (Bonferroni "
+                "post-hoc after a Friedman test with p < 0.05)",
+                dpi=80,
+            )
 
     doc.heading("Methods")
     doc.paragraph(inputs.methods.paragraph)
