@@ -121,8 +121,10 @@ def test_a_sim_trial_publishes_every_marker_and_its_loop_samples(tmp_path: Path)
     stamps = {m["event"]: stamp for stamp, m in markers}
     assert math.isclose(stamps["trial_start"], sync["start"].host_time_s, abs_tol=1e-3)
     assert math.isclose(stamps["trial_end"], sync["end"].host_time_s, abs_tol=1e-3)
-    # Loop time zero is where both events put it: the first cycle's host time.
+    # Loop time zero is where both events put it. The loop stream's stamps use the same estimate of
+    # it, refined downwards as cycles run (the least of host time − loop time so far): the early stamps
+    # may carry a busy host's scheduling delay, the refined one is the events' zero.
     assert math.isclose(sync["start"].zero_host_time_s, sync["end"].zero_host_time_s, abs_tol=1e-9)
-    assert math.isclose(
-        got["stamps"][0] - got["loop_times_s"][0], sync["start"].zero_host_time_s, abs_tol=1e-3
-    )
+    offsets = np.asarray(got["stamps"]) - np.asarray(got["loop_times_s"])
+    assert np.all(np.diff(offsets) <= 1e-6)  # never later than before
+    assert math.isclose(float(offsets.min()), sync["start"].zero_host_time_s, abs_tol=1e-3)
