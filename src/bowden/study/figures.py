@@ -115,24 +115,33 @@ def condition_boxplots(
     if comparisons and not means.empty:
         positions = {condition: float(i) for i, condition in enumerate(present, start=1)}
         top = float(means["value"].max())
+        low, high = axes[0].get_ylim()  # shared by the panels: one step for all
         for ax in axes:
-            significance_brackets(ax, positions, comparisons, top)
+            significance_brackets(ax, positions, comparisons, top, step=0.1 * (high - low))
     axes[0].set_ylabel(ylabel)
     figure.suptitle(title)
     return figure
 
 
 def significance_brackets(
-    ax: Axes, positions: dict[str, float], comparisons: Sequence[tuple[str, str, float]], top: float
+    ax: Axes,
+    positions: dict[str, float],
+    comparisons: Sequence[tuple[str, str, float]],
+    top: float,
+    step: float | None = None,
 ) -> None:
-    """Brackets between condition positions for comparisons with p < 0.05, stacked above ``top``."""
+    """Brackets between condition positions for comparisons with p < 0.05, stacked above ``top``.
+
+    ``step`` is the height of one bracket level (default: a tenth of the axes' current range); give
+    the same to axes that share their y axis, so the brackets line up.
+    """
     shown = [(a, b, p) for a, b, p in comparisons if p < 0.05 and a in positions and b in positions]
     low, high = ax.get_ylim()
-    step = 0.07 * (high - low)
+    step = step if step is not None else 0.1 * (high - low)
     for level, (a, b, p) in enumerate(shown):
-        y = top + step * (level + 0.6)
+        y = top + step * (level + 0.5)
         x1, x2 = sorted((positions[a], positions[b]))
-        ax.plot([x1, x1, x2, x2], [y - 0.25 * step, y, y, y - 0.25 * step], color="black", linewidth=0.8)
-        ax.text(0.5 * (x1 + x2), y, significance_code(p), ha="center", va="bottom", fontsize=9)
+        ax.plot([x1, x1, x2, x2], [y - 0.2 * step, y, y, y - 0.2 * step], color="black", linewidth=0.8)
+        ax.text(0.5 * (x1 + x2), y + 0.02 * step, significance_code(p), ha="center", va="bottom", fontsize=8)
     if shown:
-        ax.set_ylim(low, max(high, top + step * (len(shown) + 1)))
+        ax.set_ylim(low, max(high, top + step * (len(shown) + 0.8)))
