@@ -37,6 +37,7 @@ from bowden.model.transmission import friction_from_slopes
 from bowden.stats import effects_table, pairwise_table, significance_html, significance_table
 from bowden.stats.analysis import OutcomeAnalysis
 from bowden.study import figures, paper_values, questionnaire_figures
+from bowden.study.departures import SIZE_TOLERANCE_POINTS, departure_summary, iemg_departures
 from bowden.study.html import HtmlDocument
 from bowden.study.statistics import KINEMATIC_LABELS, MUSCLE_LABELS, StudyStatistics, outcome_data
 
@@ -184,6 +185,13 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
         )
 
     doc.heading("Tension and torque tracking")
+    if inputs.simulated:
+        doc.paragraph(
+            "Calibration: the simulated sheath's friction and drag were chosen so that the simulated tension "
+            "errors follow the paper's tension table (docs/simulation.md); the tension, torque and percent "
+            "error tables below are therefore not independent evidence, the other outcomes are.",
+            "note",
+        )
     for measure, paper, caption, fmt in (
         (TENSION_RMSE, paper_values.tension_rmse_n(), "Tension tracking RMSE (N)", "{:.2f}"),
         (TORQUE_RMSE, paper_values.torque_rmse_nm(), "Shoulder torque tracking RMSE (Nm)", "{:.2f}"),
@@ -263,6 +271,19 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
                 caption=f"iEMG change between conditions {during} ({kind}): green decrease, red "
                 "increase; ** p < 0.001, * p < 0.05 (Holm), shown where the condition effect has p < 0.05",
             )
+        )
+
+    departures = iemg_departures(outcomes, inputs.statistics)
+    doc.heading(f"Where the {'simulation' if inputs.simulated else 'study'} departs from the paper")
+    doc.paragraph(departure_summary(departures))
+    flagged = departures[departures["departs in"] != ""].set_index(["phase", "muscle", "condition"])
+    if not flagged.empty:
+        doc.table(
+            flagged,
+            f"iEMG change from no suit, mean over the speeds, {kind} against the paper (its supplementary "
+            f"iEMG tables), where direction, size (more than {SIZE_TOLERANCE_POINTS:g} points) or the "
+            "significance of the condition effect differ",
+            "{:.3g}",
         )
 
     doc.heading("Questionnaires")
