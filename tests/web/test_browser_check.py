@@ -125,7 +125,9 @@ def test_a_portrait_tablet_reads_well_and_meets_the_contrast_and_target_sizes(se
     display.goto(f"{server.url}/display")
     display.wait_for_function("() => bowdenDisplay.connected()")
     console = live_console(browser, server.url, TABLET_PORTRAIT)
-    start_from_form(console, "P43", "V3", 10)
+    # Four repetitions (under 10 s): a trial short enough that no backlog of a loaded host's recorder
+    # (its bound is 10 s of rows) can stop it, so the end state below does not depend on the load.
+    start_from_form(console, "P43", "V3", 4)
     # The disabled Start button stays readable (WCAG AA 4.5:1); the three plots have names.
     start = console.eval_on_selector(
         "#start", "b => [getComputedStyle(b).color, getComputedStyle(b).backgroundColor]"
@@ -168,7 +170,7 @@ def test_a_portrait_tablet_reads_well_and_meets_the_contrast_and_target_sizes(se
     assert covered == []
     screenshot(display, "display-portrait.png")
     display.wait_for_function("() => !bowdenDisplay.running()", timeout=60_000)
-    assert display.evaluate("bowdenDisplay.headline()") == "Done: 10 of 10 — rest"
+    assert display.evaluate("bowdenDisplay.headline()") == "Done: 4 of 4 — rest"
     width = display.evaluate("bowdenDisplay.headlineWidth()")
     assert width["text"] <= 0.95 * width["canvas"]
 

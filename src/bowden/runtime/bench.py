@@ -365,7 +365,9 @@ class BenchRun:
     def _sense(self, now: float) -> None:
         safety, p = self.config.safety, self.config.protocol
         sample = self.devices.imu.read()
-        if sample is None or now - sample.time_s > safety.imu_max_age_s:
+        # As the loop does: after a stall of the host, ages count from its end (the bench could not
+        # read during it), so a paused host never reads as a stale IMU.
+        if sample is None or now - max(sample.time_s, self._stall_end_s) > safety.imu_max_age_s:
             age = "no sample" if sample is None else f"{1e3 * (now - sample.time_s):.0f} ms old"
             raise BenchFault(f"IMU stale ({age}, limit {1e3 * safety.imu_max_age_s:.0f} ms)")
         if not math.isfinite(sample.elevation_rad):
