@@ -22,7 +22,7 @@ paper's lines on the same samples, so a lab sees what each term buys on its own 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import statsmodels.api as sm
@@ -87,7 +87,7 @@ def identify_dynamic(
     raising = CompensationLine(intercept_nm=up_i, slope_m=up_s)
     lowering = CompensationLine(intercept_nm=low_i, slope_m=low_s)
     inertia, inertia_se, ramps = _inertia(selection, raising, lowering, viscous)
-    partial = DynamicCompensation(
+    unfitted = DynamicCompensation(
         raising=raising,
         lowering=lowering,
         viscous_nm_s_rad=viscous,
@@ -95,7 +95,7 @@ def identify_dynamic(
         imu_latency_s=imu_latency_s,
     )
     regimes = _regimes(selection, ramps)
-    dynamic_rms = {name: _rms_dynamic(selection, mask, partial) for name, mask in regimes.items()}
+    dynamic_rms = {name: _rms_dynamic(selection, mask, unfitted) for name, mask in regimes.items()}
     paper_rms = {name: _rms_paper(selection, mask, paper) for name, mask in regimes.items()}
     stats = DynamicFitStats(
         n=int(torque.size),
@@ -104,15 +104,7 @@ def identify_dynamic(
         regime_rms_nm=tuple((k, v) for k, v in dynamic_rms.items() if math.isfinite(v)),
         paper_rms_nm=tuple((k, v) for k, v in paper_rms.items() if math.isfinite(v)),
     )
-    dynamic = DynamicCompensation(
-        raising=raising,
-        lowering=lowering,
-        viscous_nm_s_rad=viscous,
-        inertia_kg_m2=inertia,
-        imu_latency_s=partial.imu_latency_s,
-        fit=stats,
-    )
-    return DynamicIdentification(dynamic=dynamic, viscous_fit=fit)
+    return DynamicIdentification(dynamic=replace(unfitted, fit=stats), viscous_fit=fit)
 
 
 def _steady_design(selection: SteadyStateSelection) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bowden.control import Controller
-from bowden.model import STANDARD_GRAVITY_M_S2
+from bowden.control.folding import fold
 from bowden.model.elevation_estimator import estimator_gains
 from bowden.sim import _kernels as k
 from bowden.sim._kernels import drop_stale_dependent_cache, jit
@@ -82,16 +82,12 @@ LIMIT_RATE = 4
 def controller_vector(controller: Controller) -> NDArray[np.float64]:
     """Pack a built controller's constants the way its step closure folds them."""
     c = np.zeros(N_CONTROLLER)
-    model, arm, geometry = controller.model, controller.arm, controller.geometry
-    assistance, limits = controller.assistance, controller.limits
-    if assistance.is_pretension:
-        c[C_PRETENSION] = assistance.pretension_n
-        c[C_SUPPORT_MOMENT] = 0.0
-    else:
-        c[C_PRETENSION] = math.nan
-        c[C_SUPPORT_MOMENT] = float(assistance.support) * STANDARD_GRAVITY_M_S2 * arm.total_moment_kg_m
-    c[C_FLOOR] = assistance.floor_tension_n
-    c[C_MAX_TENSION] = limits.max_tension_n
+    model, geometry, limits = controller.model, controller.geometry, controller.limits
+    folded = fold(controller.arm, geometry, controller.assistance, limits)  # as the step closures do
+    c[C_PRETENSION] = folded.pretension
+    c[C_SUPPORT_MOMENT] = folded.support_moment
+    c[C_FLOOR] = folded.floor
+    c[C_MAX_TENSION] = folded.max_tension
     lines = model if controller.compensation == "paper" or model.dynamic is None else model.dynamic
     c[C_LOW_INTERCEPT] = lines.lowering.intercept_nm
     c[C_LOW_SLOPE] = lines.lowering.slope_m
@@ -99,14 +95,14 @@ def controller_vector(controller: Controller) -> NDArray[np.float64]:
     c[C_D_SLOPE] = lines.raising.slope_m - lines.lowering.slope_m
     c[C_BLEND_MID] = model.blend_midpoint_rad_s
     c[C_BLEND_STEEP] = model.blend_steepness_s_rad
-    c[C_MIN_TORQUE] = limits.min_torque_nm
-    c[C_MAX_TORQUE] = limits.max_torque_nm
-    c[C_MAX_RATE] = limits.max_torque_rate_nm_s
-    c[C_NOMINAL_DT] = limits.nominal_period_s
-    c[C_ELEV_MIN] = limits.elevation_min_rad
-    c[C_ELEV_MAX] = min(limits.elevation_max_rad, geometry.max_elevation_rad)
-    c[C_MAX_VEL] = limits.max_elevation_velocity_rad_s
-    c[C_MAX_MOTOR_VEL] = limits.max_motor_velocity_rad_s
+    c[C_MIN_TORQUE] = folded.min_torque
+    c[C_MAX_TORQUE] = folded.max_torque
+    c[C_MAX_RATE] = folded.max_rate
+    c[C_NOMINAL_DT] = folded.nominal_dt
+    c[C_ELEV_MIN] = folded.elev_min
+    c[C_ELEV_MAX] = folded.elev_max
+    c[C_MAX_VEL] = folded.max_vel
+    c[C_MAX_MOTOR_VEL] = folded.max_motor_vel
     c[C_GEOM_A] = geometry.exit_distance_m
     c[C_GEOM_B] = geometry.anchor_distance_m
     c[C_GEOM_PSI] = geometry.rest_angle_rad

@@ -22,6 +22,7 @@ import pandas as pd
 from numpy.typing import NDArray
 
 from bowden import contracts as c
+from bowden.errors import FitError
 from bowden.identify import TransmissionIdentifier
 from bowden.model import AssistanceParameters, CompensationModel, CuffGeometry, arm_model, desired_tension_n
 from bowden.protocol.bench import BenchProtocol
@@ -54,9 +55,10 @@ class ComparisonSettings:
 def identify_plant(plant: FamilyPlant, settings: ComparisonSettings) -> CompensationModel:
     """The suit's model as a lab would get it: its own bench recording through ``bowden identify``."""
     recording = run_bench(plant.suit, settings.bench, seed=settings.bench_seed)
-    model = TransmissionIdentifier().fit(recording).model_
-    assert model.dynamic is not None  # the paper's protocol runs several speeds
-    return model
+    identifier = TransmissionIdentifier().fit(recording)
+    if identifier.model_.dynamic is None:
+        raise FitError(f"suit {plant.name!r}: no dynamic compensation ({identifier.dynamic_error_})")
+    return identifier.model_
 
 
 def reference_tension(
