@@ -7,7 +7,7 @@ import pandas as pd
 from bowden import contracts as c
 from bowden.analysis.outcomes import IEMG_PREFIX
 from bowden.study.departures import departure_summary, iemg_departures
-from bowden.study.paper_iemg import IEMG, IEMG_P
+from bowden.study.paper_values.iemg_data import IEMG, IEMG_P
 from bowden.study.statistics import StudyStatistics
 
 

@@ -1,7 +1,7 @@
 """Where a study's muscle activity departs from the paper's: direction, size and significance side by side.
 
 For every muscle and phase the paper reports (its supplementary iEMG tables,
-:mod:`bowden.study.paper_iemg`), the change of mean normalised iEMG from no suit to each suit
+:mod:`bowden.study.paper_values.iemg`), the change of mean normalised iEMG from no suit to each suit
 condition, averaged over the speeds, in this study and in the paper; flagged where the direction
 differs (both changes at least a point from zero), where the size differs by more than
 :data:`SIZE_TOLERANCE_POINTS`, or where the condition
@@ -18,7 +18,7 @@ import pandas as pd
 from bowden import contracts as c
 from bowden.analysis.outcomes import IEMG_PREFIX
 from bowden.stats.analysis import OutcomeAnalysis
-from bowden.study.paper_iemg import IEMG, IEMG_P
+from bowden.study.paper_values.iemg_data import IEMG, IEMG_P
 from bowden.study.statistics import MUSCLE_LABELS, StudyStatistics, outcome_data
 
 SIZE_TOLERANCE_POINTS = 10.0  # percentage points: a change this close to the paper's is "the same size"
@@ -58,7 +58,7 @@ def iemg_departures(outcomes: pd.DataFrame, statistics: StudyStatistics) -> pd.D
         fits = {fit.name: fit for fit in statistics.iemg.get(phase, [])}
         for muscle, label in MUSCLE_LABELS.items():
             study_p = _condition_p(fits.get(label))
-            paper_p = IEMG_P[(phase, muscle)][0]
+            paper_p = IEMG_P[(phase, muscle)][0].value
             for condition in SUIT_CONDITIONS:
                 ours = _study_change(outcomes, phase, muscle, condition)
                 paper = _paper_change(phase, muscle, condition)
