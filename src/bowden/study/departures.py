@@ -1,11 +1,14 @@
-"""Where a study's muscle activity departs from the paper's: direction, size and significance side by side.
+"""Where a study departs from the paper: every outcome the paper reports, side by side with the study's.
 
-For every muscle and phase the paper reports (its supplementary iEMG tables,
-:mod:`bowden.study.paper_values.iemg`), the change of mean normalised iEMG from no suit to each suit
-condition, averaged over the speeds, in this study and in the paper; flagged where the direction
-differs (both changes at least a point from zero), where the size differs by more than
-:data:`SIZE_TOLERANCE_POINTS`, or where the condition
-effect is significant in one and not the other (p < 0.05).
+:func:`all_departures` gathers the families — tension and torque tracking and peak errors
+(:mod:`bowden.study.departures_tracking`), elevation RMSE and SPARC
+(:mod:`bowden.study.departures_kinematics`), iEMG (here) and the questionnaires
+(:mod:`bowden.study.departures_questionnaires`) — as rows of :mod:`bowden.study.departure_rows`.
+
+iEMG: for every muscle and phase of the paper's Tables S7-S12, the significance of the condition
+effect, and for every pair of conditions the change in percent (the study's GLMM pairwise estimate, or
+without a fit the change of the means averaged over the speeds) against Tables S10-S12, within
+:data:`SIZE_TOLERANCE_POINTS`.
 """
 
 from __future__ import annotations
@@ -18,31 +21,48 @@ import pandas as pd
 from bowden import contracts as c
 from bowden.analysis.outcomes import IEMG_PREFIX
 from bowden.stats.analysis import OutcomeAnalysis
-from bowden.study.paper_values.iemg_data import IEMG, IEMG_P
+from bowden.study.calibration import CALIBRATED
+from bowden.study.departure_rows import Tolerance, comparison_row, frame
+from bowden.study.departures_kinematics import kinematics_departures
+from bowden.study.departures_questionnaires import questionnaire_departures
+from bowden.study.departures_tracking import tracking_departures
+from bowden.study.paper_values.iemg_data import IEMG_P, IEMG_PAIRS
 from bowden.study.statistics import MUSCLE_LABELS, StudyStatistics, outcome_data
 
 SIZE_TOLERANCE_POINTS = 10.0  # percentage points: a change this close to the paper's is "the same size"
+IEMG_TOLERANCE = Tolerance(size=SIZE_TOLERANCE_POINTS, dead_zone=1.0)
 PHASES = ("entire", "raising", "lowering")
-SUIT_CONDITIONS = (c.CONDITION_PRETENSION, c.CONDITION_SUPPORT_25, c.CONDITION_SUPPORT_50)
+PAIRS = tuple(dict.fromkeys((a, b) for (_, _, a, b) in IEMG_PAIRS))
 
 
-def _paper_change(phase: str, muscle: str, condition: str) -> float:
-    base = {speed: IEMG[(phase, muscle, speed, c.CONDITION_NO_SUIT)][0] for speed in c.SPEEDS}
-    changes = [IEMG[(phase, muscle, speed, condition)][0] / base[speed] - 1.0 for speed in c.SPEEDS]
-    return 100.0 * float(np.mean(changes))
+def pair_label(first: str, second: str) -> str:
+    """``"50%-no"``: the paper's name of a comparison (first minus second)."""
+    return f"{c.CONDITION_LABELS[first]}-{c.CONDITION_LABELS[second]}"
 
 
-def _study_change(outcomes: pd.DataFrame, phase: str, muscle: str, condition: str) -> float:
+def _mean_change(outcomes: pd.DataFrame, phase: str, muscle: str, first: str, second: str) -> float:
     data = outcome_data(outcomes, IEMG_PREFIX + muscle, phase)
     if data.empty:
         return math.nan
     means = data.groupby(["condition", "speed"])["value"].mean()
     changes = []
     for speed in c.SPEEDS:
-        base, value = means.get((c.CONDITION_NO_SUIT, speed)), means.get((condition, speed))
+        base, value = means.get((second, speed)), means.get((first, speed))
         if base is not None and value is not None and base > 0.0:
             changes.append(float(value) / float(base) - 1.0)
     return 100.0 * float(np.mean(changes)) if changes else math.nan
+
+
+def _fitted_pairs(fit: OutcomeAnalysis | None) -> dict[tuple[str, str], tuple[float, float]]:
+    if fit is None:
+        return {}
+    pairs = fit.condition_pairs
+    return {
+        (str(a), str(b)): (float(pct), float(p))
+        for a, b, pct, p in zip(
+            pairs["level_a"], pairs["level_b"], pairs["percent_change"], pairs["p_holm"], strict=True
+        )
+    }
 
 
 def _condition_p(fit: OutcomeAnalysis | None) -> float:
@@ -52,54 +72,77 @@ def _condition_p(fit: OutcomeAnalysis | None) -> float:
 
 
 def iemg_departures(outcomes: pd.DataFrame, statistics: StudyStatistics) -> pd.DataFrame:
-    """One row per phase, muscle and suit condition: the study's and the paper's change and the flags."""
+    """Per phase and muscle: the condition effect, then every pair of conditions (Tables S7-S12)."""
     rows = []
     for phase in PHASES:
         fits = {fit.name: fit for fit in statistics.iemg.get(phase, [])}
         for muscle, label in MUSCLE_LABELS.items():
-            study_p = _condition_p(fits.get(label))
-            paper_p = IEMG_P[(phase, muscle)][0].value
-            for condition in SUIT_CONDITIONS:
-                ours = _study_change(outcomes, phase, muscle, condition)
-                paper = _paper_change(phase, muscle, condition)
-                flags = []
-                if math.isfinite(ours):
-                    # Changes within a point of zero have no direction to disagree about.
-                    if min(abs(ours), abs(paper)) >= 1.0 and np.sign(ours) != np.sign(paper):
-                        flags.append("direction")
-                    if abs(ours - paper) > SIZE_TOLERANCE_POINTS:
-                        flags.append("size")
-                if math.isfinite(study_p) and (study_p < 0.05) != (paper_p < 0.05):
-                    flags.append("significance")
-                rows.append(
-                    {
-                        "phase": phase,
-                        "muscle": label,
-                        "condition": c.CONDITION_LABELS[condition],
-                        "study change (%)": ours,
-                        "paper change (%)": paper,
-                        "study p (C)": study_p,
-                        "paper p (C)": paper_p,
-                        "departs in": ", ".join(flags) if math.isfinite(ours) else "no data",
-                    }
+            fit = fits.get(label)
+            outcome = f"{label}, {phase}"
+            rows.append(comparison_row(
+                family="iEMG", outcome=outcome, comparison="condition effect", unit="",
+                study=math.nan, paper=math.nan, tolerance=Tolerance(math.nan),
+                study_p=_condition_p(fit), paper_p=IEMG_P[(phase, muscle)][0],
+            ))
+            fitted = _fitted_pairs(fit)
+            for first, second in PAIRS:
+                _, paper_pct, paper_p = IEMG_PAIRS[(phase, muscle, first, second)]
+                study_pct, study_p = fitted.get(
+                    (first, second), (_mean_change(outcomes, phase, muscle, first, second), math.nan)
                 )
-    return pd.DataFrame(rows)
+                rows.append(comparison_row(
+                    family="iEMG", outcome=outcome, comparison=pair_label(first, second), unit="%",
+                    study=study_pct, paper=paper_pct, tolerance=IEMG_TOLERANCE,
+                    study_p=study_p, paper_p=paper_p,
+                ))
+    return frame(rows)
+
+
+def all_departures(outcomes: pd.DataFrame, statistics: StudyStatistics) -> pd.DataFrame:
+    """Every family's rows, tracking first (the paper's order)."""
+    parts = [
+        tracking_departures(outcomes),
+        kinematics_departures(outcomes, statistics),
+        iemg_departures(outcomes, statistics),
+        questionnaire_departures(statistics),
+    ]
+    return pd.concat([part for part in parts if not part.empty] or [frame([])], ignore_index=True)
+
+
+def family_summary(table: pd.DataFrame) -> pd.DataFrame:
+    """Per family: rows compared, agreeing, departing (evidence only), calibrated, without data."""
+    records = {}
+    for family, group in table.groupby("family", sort=False):
+        usable = group[group["departs in"] != "no data"]
+        evidence = usable[usable["evidence"] != CALIBRATED]
+        records[family] = {
+            "compared": len(usable),
+            "agree": int((evidence["departs in"] == "").sum()),
+            "depart": int((evidence["departs in"] != "").sum()),
+            "calibrated (not evidence)": len(usable) - len(evidence),
+            "no data": len(group) - len(usable),
+        }
+    return pd.DataFrame.from_dict(records, orient="index").rename_axis("family")
 
 
 def departure_summary(table: pd.DataFrame) -> str:
-    """One sentence: how many comparisons agree, and which departures of direction there are."""
-    usable = table[table["departs in"] != "no data"]
+    """Sentences: how many comparisons that are evidence agree, and which go the other way."""
+    usable = table[(table["departs in"] != "no data") & (table["evidence"] != CALIBRATED)]
     if usable.empty:
-        return "No iEMG in this study to compare with the paper."
+        return "Nothing in this study to compare with the paper."
     agree = int((usable["departs in"] == "").sum())
     wrong_way = usable[usable["departs in"].str.contains("direction")]
+
+    def value(v: object) -> str:
+        return f"{v:+.3g}" if isinstance(v, float) else str(v)
+
     named = "; ".join(
-        f"{row['muscle']} {row['phase']} at {row['condition']} ({row['study change (%)']:+.0f} % against "
-        f"{row['paper change (%)']:+.0f} %)"
+        f"{row['outcome']} {row['comparison']} ({value(row['study'])} against {value(row['paper'])}"
+        f"{' ' + row['unit'] if row['unit'] else ''})"
         for _, row in wrong_way.iterrows()
     )
     text = (
-        f"{agree} of {len(usable)} changes from no suit agree with the paper in direction, size (within "
-        f"{SIZE_TOLERANCE_POINTS:g} points) and significance of the condition effect."
+        f"{agree} of {len(usable)} comparisons that are evidence (not calibrated) agree with the paper in "
+        "direction, size (within each family's tolerance) and significance."
     )
     return text + (f" Opposite direction: {named}." if named else " None has the opposite direction.")

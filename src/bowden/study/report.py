@@ -37,7 +37,8 @@ from bowden.model.transmission import friction_from_slopes
 from bowden.stats import effects_table, pairwise_table, significance_html, significance_table
 from bowden.stats.analysis import OutcomeAnalysis
 from bowden.study import figures, paper_values, questionnaire_figures
-from bowden.study.departures import SIZE_TOLERANCE_POINTS, departure_summary, iemg_departures
+from bowden.study.calibration import CALIBRATED, calibration_table
+from bowden.study.departures import all_departures, departure_summary, family_summary
 from bowden.study.html import HtmlDocument
 from bowden.study.statistics import KINEMATIC_LABELS, MUSCLE_LABELS, StudyStatistics, outcome_data
 
@@ -149,6 +150,42 @@ def _condition_comparisons(analysis: OutcomeAnalysis | None) -> list[tuple[str, 
         (str(a), str(b), float(p))
         for a, b, p in zip(pairs["level_a"], pairs["level_b"], pairs["p_holm"], strict=True)
     ]
+
+
+def _departures_section(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> None:
+    """Every outcome the paper reports beside the study's, what differs, and what was calibrated."""
+    table = all_departures(inputs.outcomes.outcomes, inputs.statistics)
+    doc.heading(f"Where the {'simulation' if inputs.simulated else 'study'} departs from the paper")
+    doc.paragraph(departure_summary(table))
+    doc.paragraph(
+        "Each row compares one outcome the paper reports (its table named in the outcome or in "
+        "bowden.study.paper_values) with this study's: flagged where the direction differs, where the "
+        "size differs by more than the tolerance (in the row's unit), or where one finds p < 0.05 and "
+        "the other not. Rows marked 'calibrated, not evidence' compare what the simulator was tuned to.",
+        "note",
+    )
+    if table.empty:
+        return
+    doc.table(family_summary(table), f"Comparisons with the paper per family of outcomes, {kind}", "{:.0f}")
+    shown = table[table["departs in"] != ""].set_index(["family", "outcome", "comparison"])
+    evidence = shown[shown["evidence"] != CALIBRATED].drop(columns="evidence")
+    if not evidence.empty:
+        doc.table(evidence, f"Where the {kind} study departs from the paper (evidence)", "{:.3g}")
+    if inputs.simulated:
+        doc.heading("Calibration", level=3)
+        doc.paragraph(
+            "These parameters of the simulator were chosen so that it reproduces the named table of the "
+            "paper; the outcomes they set are not evidence that the simulation reproduces the paper.",
+        )
+        doc.table(calibration_table(), "What the simulator was fitted to, and where that is documented")
+        calibrated_rows = table[table["evidence"] == CALIBRATED]
+        calibrated_rows = calibrated_rows.set_index(["family", "outcome", "comparison"])
+        if not calibrated_rows.empty:
+            doc.table(
+                calibrated_rows,
+                f"Calibrated outcomes beside the paper ({kind}; calibrated, not evidence)",
+                "{:.3g}",
+            )
 
 
 def build_report(inputs: ReportInputs) -> HtmlDocument:
@@ -273,18 +310,7 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
             )
         )
 
-    departures = iemg_departures(outcomes, inputs.statistics)
-    doc.heading(f"Where the {'simulation' if inputs.simulated else 'study'} departs from the paper")
-    doc.paragraph(departure_summary(departures))
-    flagged = departures[departures["departs in"] != ""].set_index(["phase", "muscle", "condition"])
-    if not flagged.empty:
-        doc.table(
-            flagged,
-            f"iEMG change from no suit, mean over the speeds, {kind} against the paper (its supplementary "
-            f"iEMG tables), where direction, size (more than {SIZE_TOLERANCE_POINTS:g} points) or the "
-            "significance of the condition effect differ",
-            "{:.3g}",
-        )
+    _departures_section(doc, inputs, kind)
 
     doc.heading("Questionnaires")
     if inputs.statistics.questionnaires.empty:
