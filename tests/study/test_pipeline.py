@@ -115,3 +115,20 @@ def test_analyze_command_on_a_missing_store(tmp_path, capsys):
 def test_settings_out_of_range_are_refused_by_name(field, value):
     with pytest.raises(ParameterError, match=f"{field} must be between"):
         StudySettings(**{field: value})
+
+
+def test_no_table_of_the_report_is_wider_than_its_box(study, tmp_path):
+    """Every table fits the page or scrolls in its own box (a table once made the page 1442 px wide)."""
+    sync_api = pytest.importorskip("playwright.sync_api")
+    from .report_layout import CHROMIUM, overflowing_tables
+
+    if not CHROMIUM.exists():
+        pytest.skip("Debian's chromium is not installed")
+    assert overflowing_tables(study.report, sync_api) == ([], 0.0)
+    # The check sees a table that does not scroll.
+    text = study.report.read_text(encoding="utf-8")
+    wide = "<table><caption>unboxed</caption><tr>" + "<td>wide cell 12345</td>" * 80 + "</tr></table>"
+    broken = tmp_path / "broken.html"
+    broken.write_text(text.replace("</body>", wide + "</body>"), encoding="utf-8")
+    bad, overflow = overflowing_tables(broken, sync_api)
+    assert bad == ["unboxed"] and overflow > 0
