@@ -20,7 +20,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal as sps
 
+from bowden.analysis.emg._kernels import sliding_rms_rows
 from bowden.analysis.emg.signal import EmgSignal
+from bowden.analysis.emg.zero_phase import zero_phase_bandpass
 from bowden.errors import ParameterError, RecordingError
 
 
@@ -38,6 +40,12 @@ def butterworth_bandpass_sos(
     order
         Order of the low-pass prototype (paper: 3); the band-pass has 2·order poles.
     """
+    _check_band(rate_hz, low_hz, high_hz, order)
+    sos = sps.butter(order, [low_hz, high_hz], btype="bandpass", fs=rate_hz, output="sos")
+    return np.asarray(sos, dtype=np.float64)
+
+
+def _check_band(rate_hz: float, low_hz: float, high_hz: float, order: int) -> None:
     if not (isinstance(order, int) and order >= 1):
         raise ParameterError(f"order must be a positive integer, got {order!r}")
     if not (math.isfinite(low_hz) and math.isfinite(high_hz) and 0.0 < low_hz < high_hz):
@@ -46,14 +54,13 @@ def butterworth_bandpass_sos(
         raise ParameterError(
             f"high_hz ({high_hz} Hz) must be below the Nyquist frequency ({rate_hz / 2.0} Hz) of the signal"
         )
-    sos = sps.butter(order, [low_hz, high_hz], btype="bandpass", fs=rate_hz, output="sos")
-    return np.asarray(sos, dtype=np.float64)
 
 
 def emg_filter(emg: EmgSignal, *, low_hz: float = 20.0, high_hz: float = 400.0, order: int = 3) -> EmgSignal:
     """Zero-phase Butterworth band-pass of every channel (paper: order 3, 20–400 Hz).
 
-    The filter runs forwards and backwards (``scipy.signal.sosfiltfilt``, odd padding), so it adds
+    The filter runs forwards and backwards (as ``scipy.signal.sosfiltfilt``, odd padding; all
+    channels in one compiled pass, :mod:`~bowden.analysis.emg.zero_phase`), so it adds
     no delay and its magnitude response is the square of the single-pass one: −6.02 dB at
     ``low_hz`` and ``high_hz``.
 
@@ -69,12 +76,14 @@ def emg_filter(emg: EmgSignal, *, low_hz: float = 20.0, high_hz: float = 400.0, 
     EmgSignal
         Filtered EMG, same shape, channels, rate and start.
     """
-    sos = butterworth_bandpass_sos(emg.rate_hz, low_hz=low_hz, high_hz=high_hz, order=order)
-    _require_finite(emg, "emg_filter")
+    _check_band(emg.rate_hz, low_hz, high_hz, order)
     try:
-        filtered = sps.sosfiltfilt(sos, emg.values, axis=0)
-    except ValueError as exc:  # SciPy's only complaint here: the record is shorter than the padding
+        filtered, finite = zero_phase_bandpass(emg.values, emg.rate_hz, low_hz, high_hz, order)
+    except ValueError as exc:  # the only complaint: the record is shorter than the padding
+        _require_finite(emg, "emg_filter")
         raise RecordingError(f"emg_filter: the EMG ({emg.n_samples} samples) is too short: {exc}") from None
+    if not finite:
+        _require_finite(emg, "emg_filter")
     return emg.with_values(filtered, adopt=True)
 
 
@@ -110,26 +119,12 @@ def emg_envelope(emg: EmgSignal, *, window_s: float = 0.1) -> EmgSignal:
     width = round(window_s * emg.rate_hz)
     if width < 1:
         raise ParameterError(f"window_s={window_s} s is shorter than one sample at {emg.rate_hz} Hz")
-    _require_finite(emg, "emg_envelope")
-    n = emg.n_samples
-    # Running sums of x² give every window mean in O(n); float64 keeps the cancellation error far
-    # below EMG noise for hour-long records.
-    cumulative = np.zeros((n + 1, emg.values.shape[1]))
-    np.cumsum(np.square(emg.values), axis=0, out=cumulative[1:])
-    back = width // 2
-    mean_square = np.empty((n, emg.values.shape[1]))
-    # Full windows (contiguous slices, no gathers): sample i uses cumulative[i - back + width] - [i - back].
-    first, last = back, n - width + back  # first and last sample whose window fits
-    if last >= first:
-        full = mean_square[first : last + 1]
-        np.subtract(cumulative[width:], cumulative[: n + 1 - width], out=full)
-        full *= 1.0 / width
-    edges = np.r_[0 : min(first, n), max(last + 1, first, 0) : n]
-    lo = np.clip(edges - back, 0, n)
-    hi = np.clip(edges - back + width, 0, n)
-    mean_square[edges] = (cumulative[hi] - cumulative[lo]) / (hi - lo)[:, np.newaxis]
-    np.maximum(mean_square, 0.0, out=mean_square)  # round-off of the running sums can dip below 0
-    return emg.with_values(np.sqrt(mean_square, out=mean_square), adopt=True)
+    # One compiled pass: running sums of x² in record order (float64 keeps the cancellation error
+    # far below EMG noise for hour-long records), the finiteness check on the way.
+    envelope, finite = sliding_rms_rows(np.ascontiguousarray(emg.values), width)
+    if not finite:
+        _require_finite(emg, "emg_envelope")
+    return emg.with_values(envelope, adopt=True)
 
 
 def _require_finite(emg: EmgSignal, step: str) -> None:

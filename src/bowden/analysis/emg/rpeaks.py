@@ -21,7 +21,6 @@ could remove anyway.
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -29,6 +28,7 @@ from numpy.typing import NDArray
 from scipy import signal as sps
 
 from bowden.analysis.emg.signal import EmgSignal
+from bowden.analysis.emg.zero_phase import zero_phase_bandpass
 from bowden.errors import ParameterError
 
 _INTEGRATION_WINDOW_S = 0.150  # Pan & Tompkins: about the widest QRS
@@ -45,16 +45,8 @@ def ecg_detection_copy(
     low_hz, high_hz = band_hz
     if not (0.0 < low_hz < high_hz < rate_hz / 2.0):
         raise ParameterError(f"band_hz must satisfy 0 < low < high < Nyquist, got {band_hz} at {rate_hz} Hz")
-    # A copy of the cached design: SciPy's filter needs a writable array, and the cache must not change.
-    sos = _detection_sos(rate_hz, low_hz, high_hz).copy()
-    return np.asarray(sps.sosfiltfilt(sos, samples), dtype=np.float64)
-
-
-@functools.lru_cache(maxsize=16)
-def _detection_sos(rate_hz: float, low_hz: float, high_hz: float) -> NDArray[np.float64]:
-    # Designed once per (rate, band): a study runs the detector on hundreds of channels.
-    sos = sps.butter(2, [low_hz, high_hz], btype="bandpass", fs=rate_hz, output="sos")
-    return np.asarray(sos, dtype=np.float64)
+    copy, _ = zero_phase_bandpass(samples[:, np.newaxis], rate_hz, low_hz, high_hz, 2)
+    return copy[:, 0]
 
 
 def emg_detect_r_peaks(
