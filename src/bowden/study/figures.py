@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -87,13 +87,18 @@ def _band(
 
 
 def condition_boxplots(
-    data: pd.DataFrame, ylabel: str, title: str, comparisons: Sequence[tuple[str, str, float]] = ()
+    data: pd.DataFrame,
+    ylabel: str,
+    title: str,
+    comparisons: Sequence[tuple[str, str, float]] = (),
+    paper_means: Mapping[tuple[str, str], float] | None = None,
 ) -> Figure:
     """Boxplots per speed and condition of participants' means, one dot per participant (paper style).
 
     ``data``: columns participant, condition, speed, value (repetition level; averaged here).
     ``comparisons``: (condition, condition, p) of the pairwise comparisons over the speeds grouped;
     those with p < 0.05 are marked on every panel, as the paper marks them.
+    ``paper_means``: (condition, speed) -> the paper's mean, drawn as a marker beside each box.
     """
     means = data.groupby(["participant", "condition", "speed"], as_index=False)["value"].mean()
     figure = _figure(10.0, 3.4)
@@ -110,6 +115,12 @@ def condition_boxplots(
             patch.set_alpha(0.35)
         for i, values in enumerate(groups, start=1):
             ax.scatter(i + rng.uniform(-0.12, 0.12, values.size), values, s=9, color="black", zorder=3)
+        if paper_means:
+            marked = [(i, paper_means[(c, speed)]) for i, c in enumerate(present, start=1)
+                      if (c, speed) in paper_means]
+            if marked:
+                ax.scatter([i + 0.38 for i, _ in marked], [v for _, v in marked], marker="D", s=22,
+                           color="white", edgecolors="black", zorder=4, label="paper mean")
         ax.set_xticks(range(1, len(present) + 1), [CONDITION_LABELS[c] for c in present])
         ax.set_title(f"{speed} ({SPEED_PEAK_DEG_S[speed]:.0f} °/s)")
     if comparisons and not means.empty:
@@ -119,6 +130,8 @@ def condition_boxplots(
         for ax in axes:
             significance_brackets(ax, positions, comparisons, top, step=0.1 * (high - low))
     axes[0].set_ylabel(ylabel)
+    if paper_means:
+        axes[-1].legend(loc="best", fontsize=7)
     figure.suptitle(title)
     return figure
 

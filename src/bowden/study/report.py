@@ -30,6 +30,7 @@ from bowden.contracts import (
     CONDITIONS,
     QUESTIONNAIRE_BORG_RPE,
     QUESTIONNAIRE_FATIGUE,
+    QUESTIONNAIRE_NORDIC,
     SPEEDS,
 )
 from bowden.model import CompensationModel
@@ -40,6 +41,7 @@ from bowden.study import figures, paper_values, questionnaire_figures
 from bowden.study.calibration import CALIBRATED, calibration_table
 from bowden.study.departures import all_departures, departure_summary, family_summary
 from bowden.study.html import HtmlDocument
+from bowden.study.paper_tables import paper_effects_table, paper_means, paper_pairwise_table
 from bowden.study.statistics import KINEMATIC_LABELS, MUSCLE_LABELS, StudyStatistics, outcome_data
 
 
@@ -71,6 +73,17 @@ def _tracking_table(outcomes: StudyOutcomes, measure: str) -> pd.DataFrame | Non
 def _side_by_side(ours: pd.DataFrame, paper: pd.DataFrame, label: str) -> pd.DataFrame:
     combined = pd.concat({label: ours, "paper": paper.reindex(columns=ours.columns)}, names=["source"])
     return combined.rename(index=CONDITION_LABELS, level="condition")
+
+
+def _beside(ours: pd.DataFrame, paper: pd.DataFrame, label: str) -> pd.DataFrame:
+    """The study's table over the paper's, outcome by outcome, with a source level (study/paper)."""
+    both = pd.concat({label: ours, "paper": paper.reindex(columns=ours.columns)}, names=["source"])
+    outcomes = list(dict.fromkeys(ours.index.get_level_values(0)))
+    order = sorted(range(len(both)), key=lambda i: (
+        outcomes.index(both.index[i][1]) if both.index[i][1] in outcomes else len(outcomes),
+        both.index[i][0] != label,
+    ))
+    return both.iloc[order].reorder_levels([1, 0, *range(2, both.index.nlevels)])
 
 
 def _peak_table(outcomes: pd.DataFrame, phase: str) -> pd.DataFrame | None:
@@ -262,27 +275,26 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
         if not data.empty:
             pairs = _condition_comparisons(kinematic_fits.get(KINEMATIC_LABELS[measure]))
             doc.figure(
-                figures.condition_boxplots(data, label, f"{label}, {kind}", pairs),
-                f"{label} per participant; ** p < 0.001, * p < 0.05 between conditions, speeds grouped "
-                "(Holm), where the condition effect has p < 0.05",
+                figures.condition_boxplots(data, label, f"{label}, {kind}", pairs, paper_means(measure)),
+                f"{label} per participant, the paper's mean (Table S4) as a diamond; ** p < 0.001, "
+                "* p < 0.05 between conditions, speeds grouped (Holm), where the condition effect has "
+                "p < 0.05",
             )
     if inputs.statistics.kinematics:
         doc.table(
-            effects_table(inputs.statistics.kinematics),
-            f"Elevation RMSE and SPARC, mean (SD) and GLMM p-values, {kind}",
-        )
-        paper_kin = paper_values.kinematics()
-        paper_kin["cell"] = [
-            f"{m:.3f} ({s:.3f})" for m, s in zip(paper_kin["mean"], paper_kin["spread"], strict=True)
-        ]
-        wide = paper_kin.pivot(index=["outcome", "speed"], columns="condition", values="cell")
-        doc.table(
-            wide.reindex(columns=list(CONDITIONS)).rename(columns=CONDITION_LABELS), "The paper's values"
+            _beside(effects_table(inputs.statistics.kinematics), paper_effects_table(None), kind),
+            f"Elevation RMSE and SPARC, mean (SD) and GLMM p-values, {kind} and the paper (Table S4)",
         )
         doc.table(
-            pairwise_table(inputs.statistics.kinematics, factor="condition"), f"Conditions compared, {kind}"
+            _beside(pairwise_table(inputs.statistics.kinematics, factor="condition"),
+                    paper_pairwise_table("condition", None), kind),
+            f"Conditions compared, {kind} and the paper (Table S5: SPARC only)",
         )
-        doc.table(pairwise_table(inputs.statistics.kinematics, factor="speed"), f"Speeds compared, {kind}")
+        doc.table(
+            _beside(pairwise_table(inputs.statistics.kinematics, factor="speed"),
+                    paper_pairwise_table("speed", None), kind),
+            f"Speeds compared, {kind} and the paper (Table S6)",
+        )
 
     doc.heading("Muscle activity (iEMG)")
     entire_fits = {fit.name: fit for fit in inputs.statistics.iemg.get("entire", [])}
@@ -292,16 +304,27 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
             label = muscle.replace("_", " ")
             pairs = _condition_comparisons(entire_fits.get(MUSCLE_LABELS[muscle]))
             doc.figure(
-                figures.condition_boxplots(data, "normalised iEMG", f"{label}, {kind}", pairs),
-                f"Mean normalised iEMG of the {label}; ** p < 0.001, * p < 0.05 between conditions, "
-                "speeds grouped (Holm), where the condition effect has p < 0.05",
+                figures.condition_boxplots(
+                    data, "normalised iEMG", f"{label}, {kind}", pairs, paper_means(IEMG_PREFIX + muscle)
+                ),
+                f"Mean normalised iEMG of the {label}, the paper's mean (Table S7) as a diamond; "
+                "** p < 0.001, * p < 0.05 between conditions, speeds grouped (Holm), where the condition "
+                "effect has p < 0.05",
             )
     for phase in ("entire", "raising", "lowering"):
         fits = inputs.statistics.iemg.get(phase, [])
         if not fits:
             continue
         during = "over the entire cycle" if phase == "entire" else f"while {phase}"
-        doc.table(effects_table(fits), f"iEMG {during}: mean (SD) and GLMM p-values, {kind}")
+        tables = {"entire": ("S7", "S10"), "raising": ("S8", "S11"), "lowering": ("S9", "S12")}[phase]
+        doc.table(
+            _beside(effects_table(fits), paper_effects_table(phase), kind),
+            f"iEMG {during}: mean (SD) and GLMM p-values, {kind} and the paper (Table {tables[0]})",
+        )
+        doc.table(
+            _beside(pairwise_table(fits, factor="condition"), paper_pairwise_table("condition", phase), kind),
+            f"iEMG {during}: conditions compared, {kind} and the paper (Table {tables[1]})",
+        )
         doc.raw_table(
             significance_html(
                 significance_table(fits, factor="condition"),
@@ -316,13 +339,30 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
     if inputs.statistics.questionnaires.empty:
         doc.paragraph("No questionnaire answers in this study.")
     else:
+        tests = inputs.statistics.questionnaires.copy()
+        tests["paper p"] = [
+            str(paper_values.questionnaire_p(str(q), str(item)) or "–")
+            for q, item in zip(tests["questionnaire"], tests["item"], strict=True)
+        ]
         doc.table(
-            inputs.statistics.questionnaires.set_index(["questionnaire", "item"]),
-            f"Friedman tests across conditions ({kind}); medians per condition",
+            tests.set_index(["questionnaire", "item"]),
+            f"Friedman tests across conditions ({kind}); medians per condition; the paper's p where its "
+            "Results give one (it publishes no medians as numbers)",
             "{:.3g}",
         )
+        reported = paper_values.nordic_pairs()
         for name, table in inputs.statistics.questionnaire_posthoc.items():
-            doc.table(table, f"{name}: Bonferroni post-hoc (MATLAB multcompare)", "{:.3g}")
+            questionnaire, _, item = name.partition("/")
+            table = table.copy()
+            if questionnaire == QUESTIONNAIRE_NORDIC:
+                published = {(str(r["from"]), str(r["to"])): str(r["p"]) for _, r in
+                             reported[reported["item"] == item].iterrows()}
+                table["paper p"] = [
+                    published.get((str(a), str(b)), published.get((str(b), str(a)), "–"))
+                    for a, b in zip(table["group_a"], table["group_b"], strict=True)
+                ]
+            doc.table(table, f"{name}: Bonferroni post-hoc (MATLAB multcompare); the paper's p where its "
+                      "Results give one", "{:.3g}")
     if not inputs.questionnaires.empty:
         answers, posthoc = inputs.questionnaires, inputs.statistics.questionnaire_posthoc
         doc.figure(
