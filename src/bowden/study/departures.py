@@ -32,6 +32,7 @@ from bowden.study.statistics import MUSCLE_LABELS, StudyStatistics, outcome_data
 SIZE_TOLERANCE_POINTS = 10.0  # percentage points: a change this close to the paper's is "the same size"
 IEMG_TOLERANCE = Tolerance(size=SIZE_TOLERANCE_POINTS, dead_zone=1.0)
 PHASES = ("entire", "raising", "lowering")
+NAMED_AT_MOST = 12  # opposite directions named in the summary sentence; the table has them all
 PAIRS = tuple(dict.fromkeys((a, b) for (_, _, a, b) in IEMG_PAIRS))
 
 
@@ -139,8 +140,10 @@ def departure_summary(table: pd.DataFrame) -> str:
     named = "; ".join(
         f"{row['outcome']} {row['comparison']} ({value(row['study'])} against {value(row['paper'])}"
         f"{' ' + row['unit'] if row['unit'] else ''})"
-        for _, row in wrong_way.iterrows()
+        for _, row in wrong_way.head(NAMED_AT_MOST).iterrows()
     )
+    if len(wrong_way) > NAMED_AT_MOST:
+        named += f"; and {len(wrong_way) - NAMED_AT_MOST} more (in the table below)"
     text = (
         f"{agree} of {len(usable)} comparisons that are evidence (not calibrated) agree with the paper in "
         "direction, size (within each family's tolerance) and significance."
