@@ -148,3 +148,62 @@ def sliding_rms_rows(x: NDArray[np.float64], width: int) -> tuple[NDArray[np.flo
             for c in range(channels):
                 out_row[c] = math.sqrt(max((ahead[c] - behind[c]) / count, 0.0))
     return out, nonfinite == 0
+
+
+@jit
+def integrated_energy(copy: NDArray[np.float64], width: int, rate_hz: float) -> NDArray[np.float64]:
+    """Pan–Tompkins feature: ``np.gradient(copy)·rate`` squared, centred moving mean over ``width``.
+
+    The window of sample i is [i − (width−1)//2, … + width) clipped to the record, its sum the
+    difference of a running sum accumulated in record order (as ``np.cumsum``), divided by
+    ``width`` at the ends too (what ``np.convolve(..., mode="same")`` computes). Needs 2 samples.
+    """
+    n = copy.size
+    running = np.empty(n + 1)
+    running[0] = 0.0
+    for i in range(n):
+        if i == 0:
+            slope = (copy[1] - copy[0]) / 1.0
+        elif i == n - 1:
+            slope = (copy[n - 1] - copy[n - 2]) / 1.0
+        else:
+            slope = (copy[i + 1] - copy[i - 1]) / 2.0
+        slope = slope * rate_hz
+        running[i + 1] = running[i] + slope * slope
+    out = np.empty(n)
+    back = (width - 1) // 2
+    for i in range(n):
+        lo = min(max(i - back, 0), n)
+        hi = min(max(i - back + width, 0), n)
+        out[i] = (running[hi] - running[lo]) / width
+    return out
+
+
+@jit
+def channel_screen(
+    x: NDArray[np.float64],
+) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64]]:
+    """Per channel of (samples x channels): non-finite count, any two equal neighbours, and the std.
+
+    Row-wise passes (no transposed copy) for the channel checks' usual case; the std (two-pass,
+    population) only screens and is compared with a margin, so its rounding does not matter.
+    """
+    n, channels = x.shape
+    nonfinite = np.zeros(channels, dtype=np.int64)
+    repeats = np.zeros(channels, dtype=np.bool_)
+    mean = np.zeros(channels)
+    for i in range(n):
+        for c in range(channels):
+            value = x[i, c]
+            nonfinite[c] += (value - value) != 0.0
+            mean[c] += value
+            if i > 0 and value == x[i - 1, c]:
+                repeats[c] = True
+    for c in range(channels):
+        mean[c] /= max(n, 1)
+    spread = np.zeros(channels)
+    for i in range(n):
+        for c in range(channels):
+            deviation = x[i, c] - mean[c]
+            spread[c] += deviation * deviation
+    return nonfinite, repeats, np.sqrt(spread / max(n, 1))

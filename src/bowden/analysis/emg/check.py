@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from bowden.analysis.emg._kernels import channel_screen
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.contracts import EMG_RATE_HZ, MUSCLES
 from bowden.errors import ParameterError, RecordingError
@@ -77,9 +78,13 @@ def emg_check(emg: EmgSignal, parameters: EmgCheckParameters | None = None) -> N
     stuck_limit = max(2, round(params.max_stuck_s * emg.rate_hz))
     # Only the channels the analysis uses are judged: a sync or trigger channel is meant to clip.
     judged = [name for name in emg.channels if name in params.expected_channels] or list(emg.channels)
-    by_channel = np.ascontiguousarray(emg.values.T)  # one row per channel: fast per-channel scans
+    # One row-wise screen of all channels; only a channel it cannot clear is scanned on its own.
+    nonfinite, repeats, screen_std = channel_screen(np.ascontiguousarray(emg.values))
     for name in judged:
-        x = by_channel[emg.channels.index(name)]
+        column = emg.channels.index(name)
+        if nonfinite[column] == 0 and not repeats[column] and screen_std[column] >= 2.0 * params.flat_std_v:
+            continue  # finite, never stuck, not flat (with margin for the screen's rounding): usable
+        x = np.ascontiguousarray(emg.values[:, column])
         bad = np.flatnonzero(~np.isfinite(x))
         if bad.size:
             problems.append(

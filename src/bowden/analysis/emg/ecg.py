@@ -46,6 +46,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bowden.analysis.emg._ecg_kernels import moving_templates
 from bowden.analysis.emg.ecg_fit import BeatFit, alignment_shifts, fit_beats
 from bowden.analysis.emg.ecg_noise import NoiseModel, denoised_templates, synthetic_emg
 from bowden.analysis.emg.signal import EmgSignal
@@ -301,15 +302,6 @@ def _moving_templates(
     fitted scale then tends to 1 and the template's averaged EMG (variance σ²/n) is subtracted
     everywhere. Without it the scale of an ECG-free section tends to 0 and leaves the EMG alone.
     """
-    index = peaks[:, np.newaxis] + offsets
-    inside = (index >= start[:, np.newaxis]) & (index < end[:, np.newaxis])
-    beats = np.where(inside, y[np.clip(index, 0, y.size - 1)], 0.0)
-    # Moving sums over the beat axis through prefix sums; window [k - n//2, k + n - n//2].
-    sums = np.vstack([np.zeros(offsets.size), np.cumsum(beats, axis=0)])
-    counts = np.vstack([np.zeros(offsets.size), np.cumsum(inside, axis=0)])
-    k = np.arange(peaks.size)
-    lo = np.clip(k - n_beats // 2, 0, peaks.size)
-    hi = np.clip(k + (n_beats - n_beats // 2) + 1, 0, peaks.size)
-    total = sums[hi] - sums[lo] - beats
-    count = counts[hi] - counts[lo] - inside
-    return np.asarray(np.divide(total, count, out=np.zeros_like(total), where=count > 0), dtype=np.float64)
+    # Moving sums over the beat axis through running sums (one compiled pass, record order as
+    # np.cumsum); window [k - n//2, k + n - n//2], minus the beat itself.
+    return moving_templates(y, peaks, start, end, int(offsets[0]), offsets.size, n_beats)

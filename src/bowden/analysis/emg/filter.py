@@ -76,6 +76,13 @@ def emg_filter(emg: EmgSignal, *, low_hz: float = 20.0, high_hz: float = 400.0, 
     EmgSignal
         Filtered EMG, same shape, channels, rate and start.
     """
+    return emg.with_values(band_passed(emg, low_hz=low_hz, high_hz=high_hz, order=order), adopt=True)
+
+
+def band_passed(
+    emg: EmgSignal, *, low_hz: float = 20.0, high_hz: float = 400.0, order: int = 3
+) -> NDArray[np.float64]:
+    """The samples of :func:`emg_filter`, as a new writable array (the pipeline edits it in place)."""
     _check_band(emg.rate_hz, low_hz, high_hz, order)
     try:
         filtered, finite = zero_phase_bandpass(emg.values, emg.rate_hz, low_hz, high_hz, order)
@@ -84,7 +91,7 @@ def emg_filter(emg: EmgSignal, *, low_hz: float = 20.0, high_hz: float = 400.0, 
         raise RecordingError(f"emg_filter: the EMG ({emg.n_samples} samples) is too short: {exc}") from None
     if not finite:
         _require_finite(emg, "emg_filter")
-    return emg.with_values(filtered, adopt=True)
+    return filtered
 
 
 def emg_rectify(emg: EmgSignal) -> EmgSignal:

@@ -10,6 +10,7 @@ is then subtracted from the band-passed EMG, and rectification and the RMS envel
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field, replace
 from typing import Literal
@@ -20,8 +21,8 @@ from numpy.typing import NDArray
 
 from bowden.analysis.emg.check import EmgCheckParameters, emg_check
 from bowden.analysis.emg.ecg import EcgRemovalParameters, remove_ecg_from_channel
-from bowden.analysis.emg.filter import emg_envelope, emg_filter
-from bowden.analysis.emg.rpeaks import emg_detect_r_peaks
+from bowden.analysis.emg.filter import band_passed, emg_envelope
+from bowden.analysis.emg.rpeaks import r_peaks_of_channels
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.contracts import ECG_CONTAMINATED_MUSCLES, TRIAL_TIME
 from bowden.errors import ParameterError
@@ -133,34 +134,23 @@ def emg_pipeline(emg: EmgSignal, parameters: EmgProcessParameters | None = None)
         emg_check(emg, params.check)
     targets = tuple(name for name in params.ecg_channels if name in emg.channels)
     peaks: dict[str, NDArray[np.int64]] = {}
+    detect = functools.partial(
+        r_peaks_of_channels, emg, min_rr_s=params.min_rr_s, min_rr_fraction=params.min_rr_fraction
+    )
     if params.ecg_removal != "none":
         if params.ecg_reference_channel is not None:
-            shared = emg_detect_r_peaks(
-                emg,
-                channel=params.ecg_reference_channel,
-                min_rr_s=params.min_rr_s,
-                min_rr_fraction=params.min_rr_fraction,
-            )
-            peaks = dict.fromkeys(targets, shared)
-        else:
-            peaks = {
-                name: emg_detect_r_peaks(
-                    emg, channel=name, min_rr_s=params.min_rr_s, min_rr_fraction=params.min_rr_fraction
-                )
-                for name in targets
-            }
-    filtered = emg_filter(emg, low_hz=params.low_hz, high_hz=params.high_hz, order=params.filter_order)
+            shared = detect((params.ecg_reference_channel,))
+            peaks = dict.fromkeys(targets, shared[params.ecg_reference_channel])
+        elif targets:
+            peaks = detect(targets)  # the detection copies filtered in one pass
+    values = band_passed(emg, low_hz=params.low_hz, high_hz=params.high_hz, order=params.filter_order)
     if params.ecg_removal != "none" and targets:
         ecg_params = replace(params.ecg, method=params.ecg_removal)
-        # Channel by channel (each may have its own R-peaks), then one copy of the whole signal.
-        cleaned = {
-            name: remove_ecg_from_channel(
-                np.asarray(filtered.channel(name)), peaks[name], emg.rate_hz, ecg_params
-            )
-            for name in targets
-        }
-        columns = [cleaned.get(name, filtered.values[:, i]) for i, name in enumerate(filtered.channels)]
-        filtered = filtered.with_values(np.column_stack(columns), adopt=True)
+        # Channel by channel (each may have its own R-peaks), written back into the band-passed array.
+        for name in targets:
+            i = emg.channels.index(name)
+            values[:, i] = remove_ecg_from_channel(values[:, i], peaks[name], emg.rate_hz, ecg_params)
+    filtered = emg.with_values(values, adopt=True)
     # The paper rectifies before the RMS window; |x|² = x², so the envelope of the rectified signal
     # is computed from the clean signal directly (emg_envelope's docstring), saving a full copy.
     envelope = emg_envelope(filtered, window_s=params.envelope_window_s)

@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal as sps
 
+from bowden.analysis.emg._kernels import integrated_energy
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.analysis.emg.zero_phase import zero_phase_bandpass
 from bowden.errors import ParameterError
@@ -41,12 +42,16 @@ _SHAPE_HALF_WIDTH_S = 0.100  # the QRS complex and its neighbourhood, for the sh
 def ecg_detection_copy(
     samples: NDArray[np.float64], rate_hz: float, *, band_hz: tuple[float, float] = (5.0, 30.0)
 ) -> NDArray[np.float64]:
-    """The band-passed copy of a channel on which R-peaks are detected (2nd-order, zero-phase)."""
+    """The band-passed copy of a channel on which R-peaks are detected (2nd-order, zero-phase).
+
+    ``samples`` is one channel (1-D) or several as columns (samples x channels), filtered at once.
+    """
     low_hz, high_hz = band_hz
     if not (0.0 < low_hz < high_hz < rate_hz / 2.0):
         raise ParameterError(f"band_hz must satisfy 0 < low < high < Nyquist, got {band_hz} at {rate_hz} Hz")
-    copy, _ = zero_phase_bandpass(samples[:, np.newaxis], rate_hz, low_hz, high_hz, 2)
-    return copy[:, 0]
+    columns = samples[:, np.newaxis] if samples.ndim == 1 else samples
+    copy, _ = zero_phase_bandpass(columns, rate_hz, low_hz, high_hz, 2)
+    return copy[:, 0] if samples.ndim == 1 else copy
 
 
 def emg_detect_r_peaks(
@@ -80,35 +85,47 @@ def emg_detect_r_peaks(
     numpy.ndarray
         Increasing sample indices (int64) into ``emg``; empty when no heartbeat is found.
     """
-    if not (math.isfinite(min_rr_s) and min_rr_s > 0.0):
-        raise ParameterError(f"min_rr_s must be positive, got {min_rr_s}")
-    if not (math.isfinite(min_rr_fraction) and 0.0 <= min_rr_fraction < 1.0):
-        raise ParameterError(f"min_rr_fraction must be in [0, 1), got {min_rr_fraction}")
     if channel is None:
         if len(emg.channels) != 1:
             raise ParameterError(f"channel is required for a signal with channels {list(emg.channels)}")
         channel = emg.channels[0]
+    found = r_peaks_of_channels(
+        emg, (channel,), min_rr_s=min_rr_s, band_hz=band_hz, min_rr_fraction=min_rr_fraction
+    )
+    return found[channel]
+
+
+def r_peaks_of_channels(
+    emg: EmgSignal,
+    channels: tuple[str, ...],
+    *,
+    min_rr_s: float = 0.3,
+    band_hz: tuple[float, float] = (5.0, 30.0),
+    min_rr_fraction: float = 0.6,
+) -> dict[str, NDArray[np.int64]]:
+    """:func:`emg_detect_r_peaks` on several channels, their detection copies filtered in one pass."""
+    if not (math.isfinite(min_rr_s) and min_rr_s > 0.0):
+        raise ParameterError(f"min_rr_s must be positive, got {min_rr_s}")
+    if not (math.isfinite(min_rr_fraction) and 0.0 <= min_rr_fraction < 1.0):
+        raise ParameterError(f"min_rr_fraction must be in [0, 1), got {min_rr_fraction}")
     rate = emg.rate_hz
-    copy = ecg_detection_copy(np.ascontiguousarray(emg.channel(channel)), rate, band_hz=band_hz)
-    feature = _integrated_energy(copy, rate)
+    for name in channels:
+        emg.channel(name)  # a RecordingError naming a missing channel
+    columns = [emg.channels.index(name) for name in channels]
+    copies = ecg_detection_copy(np.ascontiguousarray(emg.values[:, columns]), rate, band_hz=band_hz)
     refractory = max(1, round(min_rr_s * rate))
-    candidates, _ = sps.find_peaks(feature, distance=refractory)
-    if candidates.size == 0:
-        return np.empty(0, dtype=np.int64)
-    beats = _adaptive_threshold(candidates, feature[candidates], rate, refractory)
-    return _drop_early_misfits(copy, _refine_to_r_wave(copy, beats, rate, refractory), rate, min_rr_fraction)
-
-
-def _integrated_energy(copy: NDArray[np.float64], rate_hz: float) -> NDArray[np.float64]:
-    """Pan–Tompkins feature: squared derivative integrated over a centred 150 ms window."""
-    slope = np.gradient(copy) * rate_hz
-    width = max(1, round(_INTEGRATION_WINDOW_S * rate_hz))
-    # Centred moving average through a running sum (what np.convolve(..., mode="same") computes).
-    running = np.concatenate([[0.0], np.cumsum(slope * slope)])
-    index = np.arange(copy.size) - (width - 1) // 2
-    lo = np.clip(index, 0, copy.size)
-    hi = np.clip(index + width, 0, copy.size)
-    return np.asarray((running[hi] - running[lo]) / width, dtype=np.float64)
+    found: dict[str, NDArray[np.int64]] = {}
+    for k, name in enumerate(channels):
+        copy = np.ascontiguousarray(copies[:, k])
+        feature = integrated_energy(copy, max(1, round(_INTEGRATION_WINDOW_S * rate)), rate)
+        candidates, _ = sps.find_peaks(feature, distance=refractory)
+        if candidates.size == 0:
+            found[name] = np.empty(0, dtype=np.int64)
+            continue
+        beats = _adaptive_threshold(candidates, feature[candidates], rate, refractory)
+        refined = _refine_to_r_wave(copy, beats, rate, refractory)
+        found[name] = _drop_early_misfits(copy, refined, rate, min_rr_fraction)
+    return found
 
 
 def _adaptive_threshold(
@@ -119,12 +136,13 @@ def _adaptive_threshold(
     signal_level = 0.5 * float(np.max(heights[learning]))
     noise_level = 0.5 * float(np.mean(heights[learning]))
     accepted: list[int] = []
-    rr_recent: list[int] = []
+    rr_recent: list[int] = []  # integers: their mean, sum / count, is exact up to the last division
     last_index = -1  # position in candidates of the last accepted beat
     for i, (position, height) in enumerate(zip(candidates, heights, strict=True)):
         threshold = noise_level + 0.25 * (signal_level - noise_level)
         if accepted and rr_recent:
-            rr_mean = float(np.mean(rr_recent[-8:]))
+            last = rr_recent[-8:]
+            rr_mean = sum(last) / len(last)
             if position - accepted[-1] > _SEARCH_BACK_RR_FACTOR * rr_mean:
                 # A beat was probably missed: take the highest skipped candidate above half threshold.
                 between = np.arange(last_index + 1, i)
