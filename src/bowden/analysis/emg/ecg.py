@@ -38,6 +38,7 @@ denoising or gate. Beats whose QRS window does not fit inside the record are lef
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -48,7 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from bowden.analysis.emg._ecg_kernels import moving_templates
 from bowden.analysis.emg.ecg_fit import BeatFit, alignment_shifts, fit_beats
-from bowden.analysis.emg.ecg_noise import NoiseModel, denoised_templates, synthetic_emg
+from bowden.analysis.emg.ecg_noise import NoiseModel, denoised_templates, shaped_emg, white_spectrum
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.errors import ParameterError, RecordingError
 
@@ -239,7 +240,6 @@ def _search_penalty(
     over the beats per section type after dividing by each beat's EMG variance, and scaled back;
     being pooled, it needs only ``_BOOTSTRAP_BEATS`` beats spread over the record.
     """
-    rng = np.random.default_rng(_BOOTSTRAP_SEED)
     rows = np.unique(
         np.linspace(0, start.size - 1, min(start.size, _BOOTSTRAP_BEATS)).round().astype(np.int64)
     )
@@ -247,13 +247,27 @@ def _search_penalty(
     mean_artefact[fit.index[fit.inside]] = fit.artefact[fit.inside]
     scale = np.maximum(noise.beat_scale, np.finfo(float).tiny)
     pooled = np.zeros(3)
-    for _ in range(_BOOTSTRAP_DRAWS):
-        emg = synthetic_emg(noise, n, start, end, rng)
+    for white in _bootstrap_white_spectra(n):
+        emg = shaped_emg(noise, n, start, end, white)
         refit = fit_to(mean_artefact + emg, rows)
         products = np.where(refit.inside, refit.artefact * emg[refit.index], 0.0)
         for section, mask in enumerate(refit.sections):
             pooled[section] += np.mean(np.sum(np.where(mask, products, 0.0), axis=1) / scale[rows])
     return np.asarray(pooled[:, np.newaxis] / _BOOTSTRAP_DRAWS * scale[np.newaxis, :], dtype=np.float64)
+
+
+@functools.lru_cache(maxsize=2)
+def _bootstrap_white_spectra(n: int) -> tuple[NDArray[np.complex128], ...]:
+    """The bootstrap's white noise, one spectrum per draw, from the fixed seed.
+
+    It depends on the record's length only, so the contaminated channels of a trial share it
+    (drawn and transformed once per trial instead of once per channel).
+    """
+    rng = np.random.default_rng(_BOOTSTRAP_SEED)
+    spectra = tuple(white_spectrum(n, rng) for _ in range(_BOOTSTRAP_DRAWS))
+    for spectrum in spectra:
+        spectrum.flags.writeable = False  # shared between calls
+    return spectra
 
 
 def _subtract_plain(

@@ -23,7 +23,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 from scipy import sparse
-from scipy.interpolate import PchipInterpolator
+
+from bowden.analysis.emg._ecg_kernels import fitted_artefact, qrs_variant_sums
 
 
 @dataclass(frozen=True)
@@ -88,6 +89,36 @@ def _qrs_variant_grid(qrs: int, stretch: int) -> _QrsVariantGrid:
         (np.ones(offsets.size), (variant, np.arange(offsets.size))), shape=(widths.size, offsets.size)
     )
     return _QrsVariantGrid(offsets=offsets, starts=starts, evaluate=matrix, segment_sum=indicator)
+
+
+def pchip_coefficients(y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """PPoly coefficients (4 x intervals x columns) of the PCHIP interpolant of ``y`` on x = 0, 1, 2, …
+
+    ``PchipInterpolator(np.arange(len(y)), y, axis=0).c`` to the last bit (the same operations on
+    a unit grid, where SciPy's divisions by the spacing are exact), without its input checks and
+    axis moves, which cost more than the arithmetic for a few hundred short templates.
+    """
+    slope = y[1:] - y[:-1]  # Fritsch–Carlson slopes; SciPy divides by the spacing, 1
+    sign = np.sign(slope)
+    flat = (sign[1:] != sign[:-1]) | (slope[1:] == 0) | (slope[:-1] == 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        harmonic = (3.0 / slope[:-1] + 3.0 / slope[1:]) / 6.0  # weights 2h+h = 3 on a unit grid
+    derivative = np.zeros_like(y)
+    derivative[1:-1][~flat] = 1.0 / harmonic[~flat]
+    derivative[0] = _pchip_end(slope[0], slope[1])
+    derivative[-1] = _pchip_end(slope[-1], slope[-2])
+    t = derivative[:-1] + derivative[1:] - 2 * slope
+    return np.stack((t, slope - derivative[:-1] - t, derivative[:-1], y[:-1]))
+
+
+def _pchip_end(m0: NDArray[np.float64], m1: NDArray[np.float64]) -> NDArray[np.float64]:
+    """SciPy's one-sided, shape-preserving end derivative of PCHIP (Moler, pchiptx.m), unit grid."""
+    d = (3.0 * m0 - m1) / 2.0
+    wrong_sign = np.sign(d) != np.sign(m0)
+    overshoot = (np.sign(m0) != np.sign(m1)) & (np.abs(d) > 3.0 * np.abs(m0))
+    d[wrong_sign] = 0.0
+    d[~wrong_sign & overshoot] = 3.0 * m0[~wrong_sign & overshoot]
+    return d
 
 
 def alignment_shifts(
@@ -191,51 +222,33 @@ def fit_beats(
     p_sums, t_sums = tuple(p_stack), tuple(t_stack)
 
     # Every variant's QRS side by side (variants x beats layout): segment k holds offsets
-    # -w_k…w_k, the template's QRS part at positions offset·qrs/w_k, evaluated for all beats by
-    # one sparse product with the PCHIP coefficients.
+    # -w_k…w_k, the template's QRS part at positions offset·qrs/w_k, evaluated for all beats from
+    # the PCHIP coefficients and summed per segment in one compiled pass (the sparse products'
+    # arithmetic, without their temporaries).
     grid = _qrs_variant_grid(qrs, stretch)
-    base = PchipInterpolator(np.arange(-qrs, qrs + 1), template[:, half - qrs : half + qrs + 1], axis=1)
-    coefficients = np.asarray(base.c, dtype=np.float64).reshape(4 * 2 * qrs, n_beats)
-    t_qrs = np.asarray(grid.evaluate @ coefficients)
-    y_qrs = y[grid.offsets[:, np.newaxis] + aligned]
-
-    def segment_sums(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return np.asarray((grid.segment_sum @ x).T)
-
-    q_sums = (
-        np.broadcast_to((2.0 * widths + 1.0), (n_beats, widths.size)),
-        segment_sums(t_qrs),
-        segment_sums(t_qrs * t_qrs),
-        segment_sums(y_qrs),
-        segment_sums(t_qrs * y_qrs),
-        segment_sums(y_qrs * y_qrs),
-    )
+    qrs_part = template[:, half - qrs : half + qrs + 1].T
+    coefficients = pchip_coefficients(qrs_part).reshape(4 * 2 * qrs, n_beats)
+    evaluate = (grid.evaluate.indptr, grid.evaluate.indices, grid.evaluate.data)
+    t_qrs, sums = qrs_variant_sums(y, aligned, grid.offsets, evaluate, coefficients, grid.starts)
+    q_sums = (np.broadcast_to((2.0 * widths + 1.0), (n_beats, widths.size)), *(x.T for x in sums))
     fits = [section_fit(sums) for sums in (p_sums, q_sums, t_sums)]
     total = fits[0][2] + fits[1][2] + fits[2][2]
     best = np.argmin(total, axis=1)  # the first of equal minima, as a loop over variants keeps
     rows = np.arange(n_beats)
     width = widths[best]
 
-    # Each beat's template row with its chosen QRS variant written into the QRS columns.
-    values = template.copy()
-    j = np.arange(-outer, outer + 1)
-    in_qrs = np.abs(j) <= width[:, np.newaxis]
-    source = np.clip(grid.starts[best][:, np.newaxis] + j + width[:, np.newaxis], 0, grid.offsets.size - 1)
-    chosen = t_qrs[source, rows[:, np.newaxis]]
-    window = values[:, half - outer : half + outer + 1]
-    window[in_qrs] = chosen[in_qrs]
-
-    in_p = offsets < -width[:, np.newaxis]
-    in_t = offsets > width[:, np.newaxis]
-    section_of = np.where(in_p, 0, np.where(in_t, 2, 1))
-    section_of = np.where(inside, section_of, 3).astype(np.int8)
-
-    def per_cell(per_section: list[NDArray[np.float64]]) -> NDArray[np.float64]:
-        p, q, t = (x[:, np.newaxis] for x in per_section)
-        return np.asarray(np.where(in_p, p, np.where(in_t, t, q)), dtype=np.float64)
-
-    artefact = per_cell([fit[0][rows, best] for fit in fits]) * values
-    artefact += per_cell([fit[1][rows, best] for fit in fits])
+    # Each beat's template row with its chosen QRS variant, the cells' sections and the artefact.
+    values, section_of, artefact = fitted_artefact(
+        template,
+        t_qrs,
+        grid.starts[best],
+        width,
+        inside,
+        np.stack([fit[0][rows, best] for fit in fits]),
+        np.stack([fit[1][rows, best] for fit in fits]),
+        half,
+        outer,
+    )
     sse = np.stack([fit[2][rows, best] for fit in fits])
     energy = np.stack([sums[5][rows, best] for sums in (p_sums, q_sums, t_sums)])
     sections = (section_of == 0, section_of == 1, section_of == 2)

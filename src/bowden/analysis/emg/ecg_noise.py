@@ -82,11 +82,26 @@ def synthetic_emg(
     (interpolated onto the record's frequency grid; a circular convolution, harmless for a
     stationary process), then scaled per beat by the square root of ``beat_scale``.
     """
+    return shaped_emg(noise, n, start, end, white_spectrum(n, rng))
+
+
+def white_spectrum(n: int, rng: np.random.Generator) -> NDArray[np.complex128]:
+    """rfft of the white noise :func:`synthetic_emg` shapes: ``next_fast_len(n)`` standard normals."""
+    return np.asarray(sp_fft.rfft(rng.standard_normal(sp_fft.next_fast_len(n, real=True))))
+
+
+def shaped_emg(
+    noise: NoiseModel,
+    n: int,
+    start: NDArray[np.int64],
+    end: NDArray[np.int64],
+    white: NDArray[np.complex128],
+) -> NDArray[np.float64]:
+    """:func:`synthetic_emg` from a given :func:`white_spectrum` (left unchanged)."""
     length = sp_fft.next_fast_len(n, real=True)
-    spectrum = sp_fft.rfft(rng.standard_normal(length))
     model_frequency = np.arange(noise.power.size) / noise.nfft  # cycles per sample
-    frequency = np.arange(spectrum.size) / length
-    spectrum *= np.sqrt(np.interp(frequency, model_frequency, noise.power))
+    frequency = np.arange(white.size) / length
+    spectrum = white * np.sqrt(np.interp(frequency, model_frequency, noise.power))
     out = np.asarray(sp_fft.irfft(spectrum, length)[:n], dtype=np.float64)
     gain = np.ones(n)
     for first, stop, scale in zip(start, end, noise.beat_scale, strict=True):
