@@ -137,6 +137,15 @@ def analyse_study(
         raise ParameterError(f"workers must be a positive integer, got {workers!r}")
 
     results = list(_ordered_map(functools.partial(_analyse_item, params=params), trials, workers))
+    return combine_trial_outcomes(results, params)
+
+
+def combine_trial_outcomes(results: list[TrialOutcomes], params: AnalysisParameters) -> StudyOutcomes:
+    """What needs the whole study, from every trial's :func:`analyse_trial` in study order.
+
+    :func:`analyse_study` is this after its map; callers that analyse the trials on an engine of their
+    own (``bowden study``'s worker pool or Dask) call it with the gathered results.
+    """
     if not results:
         raise ParameterError("analyse_study needs at least one trial")
     sources: dict[str, int] = defaultdict(int)

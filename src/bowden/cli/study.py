@@ -16,7 +16,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description=(
             "Simulate the mannequin bench, identify the transmission, run the study protocol on a virtual "
             "cohort (no suit, pretension, 25 % and 50 % support at three speeds), analyse it, fit the "
-            "statistics and write an HTML report. Resumes an interrupted run in the same --out directory."
+            "statistics and write an HTML report. Resumes an interrupted run in the same --out directory. "
+            "The trials and their analysis run on one worker process per core (--workers) or on a Dask "
+            "cluster (--scheduler); the results are the same either way."
         ),
     )
     parser.add_argument("--participants", type=int, default=17, help="cohort size (paper: 17)")
@@ -34,6 +36,16 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--compensation", choices=("paper", "dynamic"), default="paper",
         help="the paper's friction compensation (default) or the dynamic one identified from the same bench",
     )
+    engine = parser.add_mutually_exclusive_group()
+    engine.add_argument(
+        "--workers", type=int, metavar="N",
+        help="worker processes on this machine (default: one per core; 1: no worker processes)",
+    )
+    engine.add_argument(
+        "--scheduler", metavar="ADDRESS",
+        help="run the trials and their analysis on the Dask scheduler at ADDRESS (tcp://host:8786; "
+        "needs the cluster extra: pip install 'bowden[cluster]')",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=run)
 
@@ -47,9 +59,17 @@ def run(args: argparse.Namespace) -> int:
         store_emg=not args.no_emg,
         compensation=args.compensation,
     )
-    result = run_study(settings, args.out, force=args.force, progress=StageProgress(enabled=not args.quiet))
+    result = run_study(
+        settings,
+        args.out,
+        force=args.force,
+        progress=StageProgress(enabled=not args.quiet),
+        workers=args.workers,
+        scheduler=args.scheduler,
+    )
     print(f"study directory  {result.directory}")
     print(f"trials           {result.trials_simulated} simulated, {result.trials_skipped} already done")
+    print(f"workers          {result.workers}")
     for stage, seconds in result.stage_seconds.items():
         print(f"  {stage:<32} {seconds:6.1f} s")
     if result.analysis is not None and result.analysis.statistics.failures:

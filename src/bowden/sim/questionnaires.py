@@ -12,6 +12,7 @@ response style and noise, rounded and clipped to the scale.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -28,6 +29,7 @@ from bowden.contracts import (
 )
 
 if TYPE_CHECKING:
+    from bowden.sim.participants import VirtualParticipant
     from bowden.sim.results import TrialSimulation
 
 # Sites pressed by the shoulder cuff and the backpack frame, with latent points per 10 N of tension.
@@ -39,22 +41,48 @@ def _likert(latent: float, low: int, high: int) -> int:
     return int(np.clip(np.rint(latent), low, high))
 
 
+@dataclass(frozen=True)
+class TrialLoad:
+    """What a trial leaves for the questionnaires: the cuff's mean tension and the wearer's effort.
+
+    A few numbers instead of the whole trial, so that trials simulated in worker processes need not
+    be sent back whole to answer the questionnaires.
+    """
+
+    participant: VirtualParticipant
+    condition: str
+    tension_n: float | None  # mean true anchor tension, None without the suit
+    effort: float  # mean activation of the agonists
+
+
+def trial_load(trial: TrialSimulation) -> TrialLoad:
+    """The questionnaire's inputs from one simulated trial."""
+    tension = float(np.nanmean(trial.signals["true_tension_n"])) if trial.wears_suit else None
+    effort = float(trial.activations().iloc[:, 1:].to_numpy()[:, _AGONISTS].mean())
+    return TrialLoad(trial.participant, trial.condition, tension, effort)
+
+
 def questionnaire_answers(trials: Sequence[TrialSimulation], *, seed: int) -> pd.DataFrame:
     """Answers after each condition: columns ``participant_id, condition, questionnaire, item, score``.
 
     ``questionnaire`` is ``"nordic"`` (items :data:`bowden.contracts.NORDIC_SITES`, 1–7), ``"borg_rpe"`` (item
     ``"rpe"``, 6–20) or ``"fatigue"`` (items :data:`bowden.contracts.FATIGUE_SITES`, 1–7).
     """
-    groups: dict[tuple[str, str], list[TrialSimulation]] = {}
-    for trial in trials:
-        groups.setdefault((trial.participant.participant_id, trial.condition), []).append(trial)
+    return answers_from_loads([trial_load(trial) for trial in trials], seed=seed)
+
+
+def answers_from_loads(loads: Sequence[TrialLoad], *, seed: int) -> pd.DataFrame:
+    """:func:`questionnaire_answers` from the trials' :class:`TrialLoad` (the same answers)."""
+    groups: dict[tuple[str, str], list[TrialLoad]] = {}
+    for load in loads:
+        groups.setdefault((load.participant.participant_id, load.condition), []).append(load)
     rows: list[tuple[str, str, str, str, int]] = []
     for (pid, condition), group in groups.items():
         participant = group[0].participant
         rng = np.random.default_rng([seed, int(pid.lstrip("P") or 0), len(condition), 7])
-        tensions = [np.nanmean(t.signals["true_tension_n"]) for t in group if t.wears_suit]
+        tensions = [t.tension_n for t in group if t.tension_n is not None]
         tension = float(np.mean(tensions)) if tensions else 0.0
-        effort = float(np.mean([t.activations().iloc[:, 1:].to_numpy()[:, _AGONISTS].mean() for t in group]))
+        effort = float(np.mean([t.effort for t in group]))
         style = 0.35 * participant.discomfort_sensitivity
         for site in NORDIC_SITES:
             pressure = _PRESSURE_POINTS_PER_10N.get(site, 0.0) * tension / 10.0

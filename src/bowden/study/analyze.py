@@ -29,8 +29,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
-import os
 from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final, Literal
@@ -41,11 +41,10 @@ from bowden.analysis import (
     AnalysisParameters,
     SegmentationParameters,
     StudyOutcomes,
-    analyse_study,
+    TrialOutcomes,
     methods_text,
-    segment_repetitions,
 )
-from bowden.analysis.outcomes import TrialMetadata
+from bowden.analysis.outcomes import TrialMetadata, combine_trial_outcomes
 from bowden.contracts import REPETITIONS_PER_TRIAL, SIMULATED_BACKENDS
 from bowden.errors import ModelFileError, ParameterError, RecordingError, StoreError
 from bowden.identify import TransmissionIdentifier, plot_identification
@@ -61,11 +60,13 @@ from bowden.study.custom_protocols import (
 )
 from bowden.study.emg_store import emg_imports, trials_with_emg
 from bowden.study.html import HtmlDocument
+from bowden.study.parallel import Engine, Pending, study_engine
 from bowden.study.progress import StageProgress
 from bowden.study.report import ReportInputs, build_report
 from bowden.study.sessions import SessionFacts, left_open_notes, session_facts
-from bowden.study.statistics import StudyStatistics, study_statistics
+from bowden.study.statistics import FitJob, FitMapper, FitResult, StudyStatistics, study_statistics
 from bowden.study.store import StoredTrial, StudyStore
+from bowden.study.trial_analysis import LoadedTrialTask, StoredTrialTask, TrialJob, analyse_task
 
 _log = logging.getLogger(__name__)
 
@@ -106,6 +107,7 @@ def analyze_store(
     timings: dict[str, float] | None = None,
     repetitions: int | None = None,
     workers: int | None = None,
+    engine: Engine | None = None,
     appendix: Callable[[HtmlDocument], object] | None = None,
 ) -> AnalysisReport:
     """Analyse every completed trial of a store, fit the statistics, write the report.
@@ -115,7 +117,9 @@ def analyze_store(
     ``bench_path`` (a bench recording) adds the identification figure. ``repetitions`` is the number
     of cycles every trial must hold; None takes each trial's own from its metadata, else the paper's 10.
     The first repetition of each trial is dropped (adaptation) unless no trial holds more than one.
-    ``workers`` trials are analysed at a time (None: one per CPU core); results do not depend on it.
+    ``workers`` trials are analysed at a time (None: one per CPU core; 1: in this process), or the
+    trials and the statistics' models are tasks on ``engine`` (``bowden study``'s worker pool or its
+    Dask cluster); results depend on neither.
     ``appendix`` adds sections of its own at the end of the report (``bowden study --compensation``).
 
     Raises
@@ -144,57 +148,51 @@ def analyze_store(
         segmentation = SegmentationParameters(expected_repetitions=None, drop_first=drop_first)
         parameters = AnalysisParameters(segmentation=segmentation)
 
-        def items() -> Iterator[tuple[TrialMetadata, Any, Any]]:
+        # Each trial's analysis is a task on the engine (worker processes, or Dask), and so is each
+        # statistical model; results come back in task order, so none depends on the workers.
+        with ExitStack() as stack:
+            if engine is None:
+                engine = stack.enter_context(study_engine(workers))
+            identification = (
+                engine.submit(fit_identification, Path(bench_path)) if bench_path is not None else None
+            )
+            jobs = _analysis_jobs(store, trials, facts.set_aside, counts, parameters, engine.shares_files)
+            results: list[TrialOutcomes] = []
+            analysed = zip(trials, engine.map(_analyse_job, jobs), strict=True)
             with progress.bar("analysing trials", len(trials)) as advance:
-                for done, (trial, samples, emg) in enumerate(store.iter_trials(), start=1):
-                    if trial.trial_id not in metadata:  # completed while we were reading
-                        metadata[trial.trial_id] = store.trial_metadata(trial.trial_id)
-                        counts[trial.trial_id] = _expected(metadata[trial.trial_id], repetitions)
+                for done, (trial, result) in enumerate(analysed, start=1):
                     set_aside = facts.set_aside.get(trial.trial_id)
-                    problem = set_aside or _unusable(samples, counts[trial.trial_id], segmentation)
                     if set_aside is not None:
                         skipped.append(f"{_describe(trial)} set aside: {set_aside}")
-                    elif problem is not None:
-                        skipped.append(f"{_describe(trial)} skipped: {problem}")
+                    elif isinstance(result, str):
+                        skipped.append(f"{_describe(trial)} skipped: {result}")
                         _log.warning("bowden analyze: %s", skipped[-1])
-                    else:
+                    elif result is not None:
                         kept[trial.trial_id] = metadata[trial.trial_id]
-                        yield (
-                            TrialMetadata(
-                                participant=trial.participant, condition=trial.condition, speed=trial.speed
-                            ),
-                            samples,
-                            emg,
-                        )
+                        results.append(result)
                     advance(done)
-
-        outcomes = _analyse(items(), parameters, workers, store_path, kept, skipped)
-        # The report's notes say which trials are missing and why, where each trial's EMG came from,
-        # and which conditions and speeds are the lab's own (kept out of the paper's comparisons).
-        sources = emg_sources(store, kept)
-        definitions = custom_definitions(store)
-        extra = custom_notes(outcomes.outcomes, definitions)
-        info = dataclasses.replace(outcomes.info, notes=(*skipped, *sources, *extra, *outcomes.info.notes))
-        outcomes = dataclasses.replace(outcomes, info=info)
-        store.replace_outcomes(outcomes.outcomes)  # every trial's, the custom ones too
-        answers = store.questionnaires()
-        beyond = custom_table(outcomes.outcomes, answers, definitions)
-        if extra:
-            outcomes = paper_part(outcomes)
-            answers = answers[is_paper(answers)] if not answers.empty else answers
-        with progress.spinner("fitting the statistics"):
-            statistics = study_statistics(outcomes.outcomes, answers)
-        model = _stored_model(store)
+            outcomes = _combine(results, parameters, store_path, kept, skipped)
+            # The report's notes say which trials are missing and why, where each trial's EMG came
+            # from, and which conditions and speeds are the lab's own (out of the paper's comparisons).
+            sources = emg_sources(store, kept)
+            definitions = custom_definitions(store)
+            extra = custom_notes(outcomes.outcomes, definitions)
+            notes = (*skipped, *sources, *extra, *outcomes.info.notes)
+            info = dataclasses.replace(outcomes.info, notes=notes)
+            outcomes = dataclasses.replace(outcomes, info=info)
+            store.replace_outcomes(outcomes.outcomes)  # every trial's, the custom ones too
+            answers = store.questionnaires()
+            beyond = custom_table(outcomes.outcomes, answers, definitions)
+            if extra:
+                outcomes = paper_part(outcomes)
+                answers = answers[is_paper(answers)] if not answers.empty else answers
+            with progress.spinner("fitting the statistics"):
+                statistics = study_statistics(outcomes.outcomes, answers, mapper=_fit_mapper(engine))
+            model = _stored_model(store)
+            figure, text = _identification_figure(identification)
 
     given: DataKind = "simulated" if simulated else "measured"
     kind = data_kind(kept.values()) if simulated is None else given
-    figure, text = None, ""
-    if bench_path is not None:
-        identifier = TransmissionIdentifier().fit(bench_path)
-        figure = plot_identification(
-            identifier.selection_, {"raising": identifier.raising_fit_, "lowering": identifier.lowering_fit_}
-        )
-        text = identifier.summary_.format()
     inputs = ReportInputs(
         outcomes=outcomes,
         statistics=statistics,
@@ -266,43 +264,74 @@ def _expected(metadata: Mapping[str, Any], override: int | None) -> int | str | 
         return str(error)
 
 
-def _unusable(samples: Any, count: int | str | None, segmentation: SegmentationParameters) -> str | None:
-    """Why a trial cannot be analysed (None if it can): bad count, no data, wrong number of cycles."""
-    if isinstance(count, str):
-        return count
-    # A trial of fewer repetitions than are dropped is first checked for what it holds, so that an
-    # empty trial is reported as empty.
-    drop = segmentation.drop_first if count is None else min(segmentation.drop_first, count - 1)
-    try:
-        segment_repetitions(
-            samples, dataclasses.replace(segmentation, expected_repetitions=count, drop_first=drop)
-        )
-    except RecordingError as error:
-        return str(error)
-    if count is not None and count <= segmentation.drop_first:
-        return (
-            f"it holds {count} repetition{'s' if count > 1 else ''} and, as the other trials hold more, "
-            f"the first {segmentation.drop_first} of each trial is dropped (adaptation): none would be left"
-        )
-    return None
+AnalysisJob = StoredTrialTask | LoadedTrialTask | None
 
 
-def _analyse(
-    items: Iterator[tuple[TrialMetadata, Any, Any]],
+def _analysis_jobs(
+    store: StudyStore,
+    trials: list[StoredTrial],
+    set_aside: Mapping[int, str],
+    counts: Mapping[int, int | str | None],
     parameters: AnalysisParameters,
-    workers: int | None,
+    shares_files: bool,
+) -> Iterator[AnalysisJob]:
+    """One job per trial, in trial order (None: set aside, not analysed).
+
+    Workers that can open the store read their trial themselves; others get it sent.
+    """
+    for trial in trials:
+        if trial.trial_id in set_aside:
+            yield None
+            continue
+        which = TrialMetadata(participant=trial.participant, condition=trial.condition, speed=trial.speed)
+        job = TrialJob(metadata=which, count=counts[trial.trial_id], parameters=parameters)
+        if shares_files:
+            yield StoredTrialTask(job=job, store_path=store.path.resolve(), trial_id=trial.trial_id)
+        else:
+            samples, emg = store.trial_samples(trial.trial_id), store.trial_emg(trial.trial_id)
+            yield LoadedTrialTask(job=job, samples=samples, emg=emg)
+
+
+def _analyse_job(job: AnalysisJob) -> TrialOutcomes | str | None:
+    return None if job is None else analyse_task(job)
+
+
+def _combine(
+    results: list[TrialOutcomes],
+    parameters: AnalysisParameters,
     store_path: Path,
     kept: Mapping[int, object],
     skipped: list[str],
 ) -> StudyOutcomes:
     try:
-        return analyse_study(items, parameters, workers=workers or os.cpu_count() or 1)
+        return combine_trial_outcomes(results, parameters)
     except ParameterError:
         if kept or not skipped:
             raise
         raise StoreError(
             f"{store_path} holds no trial that can be analysed: " + "; ".join(skipped)
         ) from None
+
+
+def _fit_mapper(engine: Engine) -> FitMapper:
+    def mapper(function: Callable[[FitJob], FitResult], jobs: Iterable[FitJob]) -> Iterator[FitResult]:
+        return engine.map(function, jobs)
+
+    return mapper
+
+
+def fit_identification(bench_path: Path) -> tuple[Any, dict[str, Any], str]:
+    """The bench's steady-state selection, both robust fits and the summary (a task for the engine)."""
+    identifier = TransmissionIdentifier().fit(bench_path)
+    fits = {"raising": identifier.raising_fit_, "lowering": identifier.lowering_fit_}
+    return identifier.selection_, fits, identifier.summary_.format()
+
+
+def _identification_figure(pending: Pending[tuple[Any, dict[str, Any], str]] | None) -> tuple[Any, str]:
+    if pending is None:
+        return None, ""
+    selection, fits, text = pending.result()
+    return plot_identification(selection, fits), text
 
 
 def _describe(trial: StoredTrial) -> str:

@@ -19,34 +19,30 @@ recording from the suit is data, never to be deleted or mixed with a virtual coh
 from __future__ import annotations
 
 import json
-import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from bowden import __version__
 from bowden import contracts as c
 from bowden._atomic_file import write_text_atomically
 from bowden.errors import OutputFileError, ParameterError, StoreError
 from bowden.identify import TransmissionIdentifier
 from bowden.model import CompensationModel
 from bowden.model.model_file import load_model, save_model
-from bowden.runtime.recorder import TrialInfo
-from bowden.sim.batch import ProtocolSettings, condition_order, simulate_trial, trial_seed
+from bowden.sim.batch import ProtocolSettings
 from bowden.sim.bench import BenchProtocol, run_bench
 from bowden.sim.parameters import SuitParameters, check_seed
 from bowden.sim.participants import VirtualParticipant, generate_cohort
-from bowden.sim.questionnaires import questionnaire_answers
-from bowden.sim.results import TrialSimulation
 from bowden.study.analyze import AnalysisReport, analyze_store
 from bowden.study.compensation_comparison import ComparisonSettings
 from bowden.study.compensation_report import compensation_section
 from bowden.study.html import HtmlDocument
-from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE, read_trial_origins
+from bowden.study.ownership import read_trial_origins
+from bowden.study.parallel import Engine, check_workers, study_engine
 from bowden.study.progress import StageProgress
+from bowden.study.stage_clock import StageClock
 from bowden.study.store import StudyStore
+from bowden.study.trial_runner import TrialRecord, run_trials, study_tasks, warm_up
 
 # A bench protocol a tenth the size of the paper's (2 loads × 4 speeds × 2 repetitions) for quick runs.
 QUICK_BENCH = BenchProtocol(spool_speeds_rad_s=(0.5, 1.0, 3.0, 6.0), loads_nm=(1.0, 3.0), repetitions=2)
@@ -93,7 +89,11 @@ class StudySettings:
 
 @dataclass
 class StudyResult:
-    """Where everything went, and how long each stage took (s)."""
+    """Where everything went, and how long each stage took (s of wall clock and of CPU).
+
+    ``stage_cpu_seconds`` counts this process and its worker processes (not a Dask cluster's), so
+    CPU over wall is how many cores a stage kept busy.
+    """
 
     directory: Path
     report: Path
@@ -103,19 +103,8 @@ class StudyResult:
     trials_skipped: int
     stage_seconds: dict[str, float] = field(default_factory=dict)
     analysis: AnalysisReport | None = None
-
-
-class _Timer:
-    def __init__(self) -> None:
-        self.seconds: dict[str, float] = {}
-
-    @contextmanager
-    def stage(self, name: str) -> Iterator[None]:
-        start = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - start
+    stage_cpu_seconds: dict[str, float] = field(default_factory=dict)
+    workers: int = 1
 
 
 def run_study(
@@ -124,8 +113,14 @@ def run_study(
     *,
     force: bool = False,
     progress: StageProgress | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
 ) -> StudyResult:
     """Run (or resume) the simulated study in ``directory`` and write its report.
+
+    The trials and their analysis run on ``workers`` local processes (None: one per core; 1: this
+    process alone) or on the Dask cluster at ``scheduler`` (``tcp://host:8786``); the results are the
+    same whichever (:mod:`bowden.study.parallel`). This process stays the store's only writer.
 
     Raises
     ------
@@ -135,13 +130,30 @@ def run_study(
         Its ``study.db`` holds trials the pipeline did not record, or is not a study store; it holds
         results but no ``settings.json``; its ``settings.json`` is damaged (without ``force``).
     ParameterError
-        It holds a run with other settings (without ``force``).
+        It holds a run with other settings (without ``force``); ``workers`` out of range or given
+        with ``scheduler``.
+    MissingExtraError
+        ``scheduler`` given without Dask installed (the ``cluster`` extra).
+    ClusterError
+        The scheduler cannot be reached, has no workers or runs another bowden.
     """
+    check_workers(workers)
+    if scheduler is not None and workers is not None:
+        raise ParameterError("--workers sets the size of the local pool; it cannot be used with --scheduler")
     out = _study_directory(directory)
     progress = progress if progress is not None else StageProgress(enabled=False)
-    timer = _Timer()
-    settings_file = out / "settings.json"
     _check_directory_is_ours(out, settings, force=force)
+    with study_engine(workers, scheduler) as engine:
+        # The workers load the simulator (and its compiled kernels) while the bench runs here.
+        engine.warm_up(warm_up)
+        return _run_stages(settings, out, engine, force=force, progress=progress)
+
+
+def _run_stages(
+    settings: StudySettings, out: Path, engine: Engine, *, force: bool, progress: StageProgress
+) -> StudyResult:
+    clock = StageClock()
+    settings_file = out / "settings.json"
     if force:
         for name in _RESULT_FILES:
             (out / name).unlink(missing_ok=True)
@@ -150,9 +162,9 @@ def run_study(
     except OSError as error:
         raise OutputFileError(f"cannot write {settings_file}: {error.strerror or error}") from None
 
-    with timer.stage("bench"):
+    with clock.stage("bench"):
         bench_path = _bench_stage(settings, out, progress)
-    with timer.stage("identify"):
+    with clock.stage("identify"):
         model_path = out / "model.json"
         if not model_path.exists():
             with progress.spinner("identifying the transmission"):
@@ -165,15 +177,15 @@ def run_study(
         store.discard_unfinished_trials()
         store.put_artifact("model.json", model_path.read_text())
         store.put_artifact("settings.json", settings_file.read_text())
-        with timer.stage("cohort"):
+        with clock.stage("cohort"):
             # The paper's 12 women in 17, kept in proportion for other cohort sizes.
             cohort = generate_cohort(settings.seed, n_participants=settings.participants)
             for participant in cohort:
                 store.add_participant(
                     participant.participant_id, participant.subject, {"age_years": participant.age_years}
                 )
-        with timer.stage("trials"):
-            simulated, skipped = _trials_stage(settings, cohort, model, store, progress)
+        with clock.stage("trials"):
+            simulated, skipped = _trials_stage(settings, cohort, model, store, progress, engine)
 
     appendix = None
     if settings.compensation == "dynamic":
@@ -188,14 +200,15 @@ def run_study(
             with progress.spinner("comparing with the paper's compensation"):
                 return compensation_section(document, model, SuitParameters(), comparison)
 
-    with timer.stage("analysis, statistics and report"):
+    with clock.stage("analysis, statistics and report"):
         analysis = analyze_store(
             store_path,
             out / "report.html",
             simulated=True,
             bench_path=bench_path,
             progress=progress,
-            timings=timer.seconds,
+            timings=clock.wall,
+            engine=engine,
             appendix=appendix,
         )
     return StudyResult(
@@ -205,8 +218,10 @@ def run_study(
         model=model_path,
         trials_simulated=simulated,
         trials_skipped=skipped,
-        stage_seconds=timer.seconds,
+        stage_seconds=clock.wall,
         analysis=analysis,
+        stage_cpu_seconds=clock.cpu,
+        workers=engine.workers,
     )
 
 
@@ -302,59 +317,34 @@ def _trials_stage(
     model: CompensationModel,
     store: StudyStore,
     progress: StageProgress,
+    engine: Engine,
 ) -> tuple[int, int]:
     protocol = ProtocolSettings(repetitions=settings.repetitions, compensation=settings.compensation)
     done = {(t.participant, t.condition, t.speed) for t in store.completed_trials()}
     answered = set(store.questionnaires()["participant"])
-    total = len(cohort) * len(protocol.conditions) * len(protocol.speeds)
-    simulated = skipped = 0
-    with progress.bar("simulating the participants' trials", total) as advance:
-        for index, participant in enumerate(cohort):
-            pid = participant.participant_id
-            trials: list[TrialSimulation] = []
-            for condition in condition_order(settings.seed, index, protocol.conditions):
-                for speed in protocol.speeds:
-                    stored = (pid, condition, speed) in done
-                    if stored and pid in answered:
-                        skipped += 1
-                        advance(simulated + skipped)
-                        continue
-                    trial = simulate_trial(
-                        participant,
-                        condition,
-                        speed,
-                        model=model,
-                        settings=protocol,
-                        seed=trial_seed(settings.seed, index, condition, speed),
-                    )
-                    trials.append(trial)
-                    if stored:
-                        skipped += 1
-                    else:
-                        _store_trial(store, trial, settings)
-                        simulated += 1
-                    advance(simulated + skipped)
-            if pid not in answered:
-                answers = questionnaire_answers(trials, seed=settings.seed)
-                store.write_questionnaires(answers.rename(columns={"participant_id": "participant"}))
-    return simulated, skipped
-
-
-def _store_trial(store: StudyStore, trial: TrialSimulation, settings: StudySettings) -> None:
-    support = c.CONDITION_SUPPORT[trial.condition]
-    frame = trial.to_pandas().loc[:, list(c.TRIAL_COLUMNS)]
-    info = TrialInfo(
-        participant=trial.participant.participant_id,
-        condition=trial.condition,
-        speed=trial.speed,
-        support=support if isinstance(support, float) else None,
-        metadata={
-            "backend": c.BACKEND_SIM,
-            RECORDED_BY_KEY: STUDY_PIPELINE,
-            "bowden_version": __version__,
-            "seed": trial.seed,
-            "repetitions": trial.repetitions,
-            "movement_start_s": trial.movement_start_s,
-        },
+    tasks = list(
+        study_tasks(
+            cohort, model=model, protocol=protocol, seed=settings.seed, store_emg=settings.store_emg,
+            done=done, answered=answered,
+        )
     )
-    store.write_trial(info, frame, emg=trial.emg() if settings.store_emg else None)
+    # A participant's questionnaires are answered from all of their trials, after the last one.
+    expected: dict[str, int] = {}
+    for task in tasks:
+        pid = task.participant.participant_id
+        if pid not in answered:
+            expected[pid] = expected.get(pid, 0) + 1
+    total = len(cohort) * len(protocol.conditions) * len(protocol.speeds)
+    with progress.bar("simulating the participants' trials", total) as advance:
+        count = total - len(tasks)  # trials in the store whose participant has answered: not re-run
+        advance(count)
+
+        def on_trial(_record: TrialRecord, _trial_id: int | None) -> None:
+            nonlocal count
+            count += 1
+            advance(count)
+
+        simulated = run_trials(
+            engine, iter(tasks), store, seed=settings.seed, expected=expected, on_trial=on_trial
+        )
+    return simulated, total - simulated

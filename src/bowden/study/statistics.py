@@ -8,6 +8,7 @@ SPSS models; Friedman tests with MATLAB's Bonferroni post-hoc for every question
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,31 +58,48 @@ def outcome_data(outcomes: pd.DataFrame, measure: str, phase: str) -> pd.DataFra
     return data.reset_index(drop=True)
 
 
-def _fit(data: pd.DataFrame, name: str, stats: StudyStatistics) -> OutcomeAnalysis | None:
+FitJob = tuple[pd.DataFrame, str]
+FitResult = tuple[OutcomeAnalysis | None, str | None]
+# How the fits are run: ``map`` here, or an engine's ordered map over worker processes.
+FitMapper = Callable[[Callable[[FitJob], FitResult], Iterable[FitJob]], Iterable[FitResult]]
+
+
+def fit_outcome(job: FitJob) -> FitResult:
+    """One outcome's model, or why it could not be fitted (module level, so that workers can run it)."""
+    data, name = job
     if data.empty or data["condition"].nunique() < 2:
-        stats.failures.append(f"{name}: not enough data")
-        return None
+        return None, f"{name}: not enough data"
     try:
-        return analyse_outcome(data, name)
+        return analyse_outcome(data, name), None
     except BowdenError as error:
-        stats.failures.append(f"{name}: {error}")
-        return None
+        return None, f"{name}: {error}"
 
 
-def study_statistics(outcomes: pd.DataFrame, questionnaires: pd.DataFrame) -> StudyStatistics:
-    """Fit every model of the paper that the data allows."""
+def study_statistics(
+    outcomes: pd.DataFrame, questionnaires: pd.DataFrame, *, mapper: FitMapper = map
+) -> StudyStatistics:
+    """Fit every model of the paper that the data allows.
+
+    The fits are independent: ``mapper`` may run them in parallel, provided it gives the results in
+    the order of the jobs (then the statistics do not depend on it).
+    """
     stats = StudyStatistics()
-    for measure, label in KINEMATIC_LABELS.items():
-        fitted = _fit(outcome_data(outcomes, measure, "entire"), label, stats)
-        if fitted is not None:
-            stats.kinematics.append(fitted)
+    jobs: list[tuple[str, FitJob]] = [
+        ("kinematics", (outcome_data(outcomes, measure, "entire"), label))
+        for measure, label in KINEMATIC_LABELS.items()
+    ]
     for phase in ("raising", "lowering", "entire"):
-        fits = []
-        for muscle in MUSCLES:
-            fitted = _fit(outcome_data(outcomes, IEMG_PREFIX + muscle, phase), MUSCLE_LABELS[muscle], stats)
-            if fitted is not None:
-                fits.append(fitted)
-        stats.iemg[phase] = fits
+        stats.iemg[phase] = []
+        jobs += [
+            (phase, (outcome_data(outcomes, IEMG_PREFIX + muscle, phase), MUSCLE_LABELS[muscle]))
+            for muscle in MUSCLES
+        ]
+    results = mapper(fit_outcome, [job for _group, job in jobs])
+    for (group, _job), (fitted, failure) in zip(jobs, results, strict=True):
+        if failure is not None:
+            stats.failures.append(failure)
+        elif fitted is not None:
+            (stats.kinematics if group == "kinematics" else stats.iemg[group]).append(fitted)
     stats.questionnaires, stats.questionnaire_posthoc = questionnaire_tests(questionnaires)
     return stats
 

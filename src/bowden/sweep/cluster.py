@@ -23,12 +23,12 @@ _CONNECT_TIMEOUT_S = 10.0
 _WORKER_WAIT_S = 30.0
 
 
-def _distributed() -> Any:
+def _distributed(purpose: str) -> Any:
     try:
         import distributed
     except ImportError:
         raise MissingExtraError(
-            f"bowden sweep runs on Dask, which is not installed: {INSTALL_HINT} (the 'cluster' extra)"
+            f"{purpose} runs on Dask, which is not installed: {INSTALL_HINT} (the 'cluster' extra)"
         ) from None
     return distributed
 
@@ -39,6 +39,7 @@ def dask_client(
     workers: int | None = None,
     *,
     connect_timeout_s: float = _CONNECT_TIMEOUT_S,
+    purpose: str = "bowden sweep",
 ) -> Iterator[Any]:
     """A ``distributed.Client``: on a new local cluster, or on the scheduler at ``scheduler``.
 
@@ -52,8 +53,10 @@ def dask_client(
         ``scheduler`` (that cluster has its own workers).
     connect_timeout_s
         How long to keep trying to reach ``scheduler``.
+    purpose
+        What runs on Dask, for the message when Dask is not installed.
     """
-    distributed = _distributed()
+    distributed = _distributed(purpose)
     if scheduler is not None and workers is not None:
         raise ParameterError(
             "--workers sets the size of the local cluster; it cannot be used with --scheduler"
