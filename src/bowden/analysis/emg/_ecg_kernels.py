@@ -133,3 +133,42 @@ def fitted_artefact(
             section_of[b, col] = section if inside[b, col] else 3
             artefact[b, col] = scale[section, b] * values[b, col] + offset[section, b]
     return values, section_of, artefact
+
+
+@jit
+def subtract_templates(
+    y: NDArray[np.float64],
+    peaks: NDArray[np.int64],
+    start: NDArray[np.int64],
+    end: NDArray[np.int64],
+    template: NDArray[np.float64],
+    half: int,
+) -> NDArray[np.float64]:
+    """``y`` minus each beat's template row (offsets −half…half) placed at its R-peak, within [start, end)."""
+    cleaned = y.copy()
+    for b in range(peaks.size):
+        for i in range(max(start[b], peaks[b] - half), min(end[b], peaks[b] + half + 1)):
+            cleaned[i] -= template[b, i - peaks[b] + half]
+    return cleaned
+
+
+@jit
+def subtract_sections(
+    y: NDArray[np.float64],
+    index: NDArray[np.int64],
+    section_of: NDArray[np.int8],
+    keep: NDArray[np.bool_],
+    artefact: NDArray[np.float64],
+) -> NDArray[np.float64]:
+    """``y`` minus the artefact of the cells whose section (0–2; 3 is outside the beat) is kept.
+
+    ``keep`` is sections x beats; beats do not overlap, so every sample is changed at most once.
+    """
+    cleaned = y.copy()
+    beats, columns = index.shape
+    for b in range(beats):
+        for j in range(columns):
+            section = section_of[b, j]
+            if section < 3 and keep[section, b]:
+                cleaned[index[b, j]] -= artefact[b, j]
+    return cleaned

@@ -47,7 +47,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bowden.analysis.emg._ecg_kernels import moving_templates
+from bowden.analysis.emg._ecg_kernels import moving_templates, subtract_sections, subtract_templates
 from bowden.analysis.emg.ecg_fit import BeatFit, alignment_shifts, fit_beats
 from bowden.analysis.emg.ecg_noise import NoiseModel, denoised_templates, shaped_emg, white_spectrum
 from bowden.analysis.emg.signal import EmgSignal
@@ -183,17 +183,12 @@ def remove_ecg_from_channel(
         return fit_beats(signal, aligned, start[rows], end[rows], template[rows], half, qrs, stretch)
 
     fit = fit_to(y)
-    artefact = fit.artefact
+    keep = np.ones((3, peaks.size), dtype=np.bool_)
     if noise is not None and params.gate:
         penalty = _search_penalty(fit, fit_to, noise, n, start, end)
         keep = _pooled_gate(fit.energy - fit.sse - 2.0 * penalty, noise.beat_scale)
-        # Spread the per-section decisions over the grid (section 3: outside the beat).
-        keep_by_section = np.vstack([keep, np.zeros((1, peaks.size), dtype=np.bool_)]).T
-        keep_cell = np.take_along_axis(keep_by_section, fit.section_of.astype(np.intp), 1)
-        artefact = np.where(keep_cell, artefact, 0.0)
-    cleaned = y.copy()
-    cleaned[fit.index[fit.inside]] -= artefact[fit.inside]
-    return cleaned
+    # Each cell of a kept section (per beat) loses its fitted artefact.
+    return subtract_sections(y, fit.index, fit.section_of, keep, fit.artefact)
 
 
 def _pooled_gate(gain: NDArray[np.float64], beat_scale: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -279,12 +274,8 @@ def _subtract_plain(
     half: int,
 ) -> NDArray[np.float64]:
     """``y`` minus each beat's template placed at its R-peak (the plain template subtraction)."""
-    offsets = np.arange(-half, half + 1)
-    inside = (offsets >= (start - peaks)[:, np.newaxis]) & (offsets < (end - peaks)[:, np.newaxis])
-    cleaned = y.copy()
-    # Beats do not overlap, so every index appears once and a fancy-indexed subtraction is exact.
-    cleaned[(peaks[:, np.newaxis] + offsets)[inside]] -= template[inside]
-    return cleaned
+    # Beats do not overlap, so every sample is changed at most once.
+    return subtract_templates(y, peaks, start, end, template, half)
 
 
 def _beat_bounds(
