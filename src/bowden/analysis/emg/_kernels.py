@@ -207,3 +207,58 @@ def channel_screen(
             deviation = x[i, c] - mean[c]
             spread[c] += deviation * deviation
     return nonfinite, repeats, np.sqrt(spread / max(n, 1))
+
+
+@jit
+def adaptive_threshold(
+    candidates: NDArray[np.int64],
+    heights: NDArray[np.float64],
+    signal_level: float,
+    noise_level: float,
+    refractory: int,
+    search_back: float,
+) -> NDArray[np.int64]:
+    """Pan–Tompkins level tracking over candidate peaks (see ``rpeaks._adaptive_threshold``).
+
+    Threshold NPKI + ¼(SPKI − NPKI); a candidate above it and at least ``refractory`` after the last
+    beat is a beat (SPKI ← ⅛·height + ⅞·SPKI), else noise (NPKI likewise). When the gap since the
+    last beat exceeds ``search_back`` times the mean of the last 8 RR intervals, the highest
+    skipped candidate above half the threshold is taken first (SPKI ← ¼·height + ¾·SPKI).
+    """
+    accepted = np.empty(candidates.size, dtype=np.int64)
+    rr = np.empty(candidates.size, dtype=np.int64)
+    count = 0  # beats accepted
+    rr_count = 0
+    last_index = -1  # position in candidates of the last accepted beat
+    for i in range(candidates.size):
+        position, height = candidates[i], heights[i]
+        threshold = noise_level + 0.25 * (signal_level - noise_level)
+        if count > 0 and rr_count > 0:
+            recent = min(rr_count, 8)
+            total = 0
+            for k in range(rr_count - recent, rr_count):
+                total += rr[k]
+            rr_mean = total / recent  # integers: exact up to this one division
+            if position - accepted[count - 1] > search_back * rr_mean and last_index + 1 < i:
+                best = last_index + 1  # the first of the highest skipped candidates
+                for k in range(last_index + 2, i):
+                    if heights[k] > heights[best]:
+                        best = k
+                if heights[best] > 0.5 * threshold and candidates[best] - accepted[count - 1] >= refractory:
+                    rr[rr_count] = candidates[best] - accepted[count - 1]
+                    rr_count += 1
+                    accepted[count] = candidates[best]
+                    count += 1
+                    last_index = best
+                    signal_level = 0.25 * heights[best] + 0.75 * signal_level
+        if height > threshold and (count == 0 or position - accepted[count - 1] >= refractory):
+            if count > 0:
+                rr[rr_count] = position - accepted[count - 1]
+                rr_count += 1
+            accepted[count] = position
+            count += 1
+            last_index = i
+            signal_level = 0.125 * height + 0.875 * signal_level
+        else:
+            noise_level = 0.125 * height + 0.875 * noise_level
+    return accepted[:count].copy()

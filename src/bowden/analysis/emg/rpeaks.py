@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal as sps
 
-from bowden.analysis.emg._kernels import integrated_energy
+from bowden.analysis.emg._kernels import adaptive_threshold, integrated_energy
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.analysis.emg.zero_phase import zero_phase_bandpass
 from bowden.errors import ParameterError
@@ -135,33 +135,15 @@ def _adaptive_threshold(
     learning = candidates < candidates[0] + int(_LEARNING_S * rate_hz)
     signal_level = 0.5 * float(np.max(heights[learning]))
     noise_level = 0.5 * float(np.mean(heights[learning]))
-    accepted: list[int] = []
-    rr_recent: list[int] = []  # integers: their mean, sum / count, is exact up to the last division
-    last_index = -1  # position in candidates of the last accepted beat
-    for i, (position, height) in enumerate(zip(candidates, heights, strict=True)):
-        threshold = noise_level + 0.25 * (signal_level - noise_level)
-        if accepted and rr_recent:
-            last = rr_recent[-8:]
-            rr_mean = sum(last) / len(last)
-            if position - accepted[-1] > _SEARCH_BACK_RR_FACTOR * rr_mean:
-                # A beat was probably missed: take the highest skipped candidate above half threshold.
-                between = np.arange(last_index + 1, i)
-                if between.size:
-                    best = between[np.argmax(heights[between])]
-                    if heights[best] > 0.5 * threshold and candidates[best] - accepted[-1] >= refractory:
-                        rr_recent.append(int(candidates[best]) - accepted[-1])
-                        accepted.append(int(candidates[best]))
-                        last_index = int(best)
-                        signal_level = 0.25 * float(heights[best]) + 0.75 * signal_level
-        if height > threshold and (not accepted or position - accepted[-1] >= refractory):
-            if accepted:
-                rr_recent.append(int(position) - accepted[-1])
-            accepted.append(int(position))
-            last_index = i
-            signal_level = 0.125 * float(height) + 0.875 * signal_level
-        else:
-            noise_level = 0.125 * float(height) + 0.875 * noise_level
-    return np.asarray(accepted, dtype=np.intp)
+    beats = adaptive_threshold(
+        candidates.astype(np.int64),
+        np.ascontiguousarray(heights, dtype=np.float64),
+        signal_level,
+        noise_level,
+        refractory,
+        _SEARCH_BACK_RR_FACTOR,
+    )
+    return beats.astype(np.intp)
 
 
 def _refine_to_r_wave(
