@@ -300,7 +300,9 @@ O_TRUE_ELEVATION = 12
 O_TRUE_VELOCITY = 13
 O_SHOULDER_TORQUE = 14
 O_STUCK = 15
-N_OUT = 16
+O_CORRECTION_TORQUE = 16
+O_COCONTRACTION = 17
+N_OUT = 18
 
 # Sensor settings vector of a trial.
 S_IMU_EL_NOISE = 0
@@ -365,6 +367,8 @@ def run_trial(
         row[O_TRUE_ELEVATION] = th
         row[O_TRUE_VELOCITY] = thd
         row[O_SHOULDER_TORQUE] = shoulder
+        row[O_CORRECTION_TORQUE] = x[k.X_CORRECTION]
+        row[O_COCONTRACTION] = x[k.X_COCONTRACTION]
         if wears_suit:
             motor_velocity = x[k.X_SPOOL_W]
             motor_torque = x[k.X_MOTOR_TAU] / p[k.P_KT_RATIO]
@@ -395,7 +399,7 @@ def run_trial(
         torque_cmd = command[0]
         base = i * substeps
         for j in range(substeps):
-            shoulder = k.human_torque(x, p, h, dt, draws_human[base + j])
+            shoulder = k.human_torque(x, p, h, dt, draws_human[base + j, 0], draws_human[base + j, 1])
             if wears_suit:
                 k.plant_step(x, p, dt, torque_cmd, lag, k.ARM_TORQUE, shoulder, 0.0)
             else:

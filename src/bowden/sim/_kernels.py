@@ -128,7 +128,12 @@ X_E_MOTOR = 15  # energy dissipated by motor friction, J
 X_TIME = 16  # simulated time, s
 X_NOISE = 17  # virtual participant's motor-noise state (unit-variance Ornstein–Uhlenbeck)
 X_DISTAL_STRETCH = 18  # stretch of the distal segment, m (slack when ≤ 0)
-N_STATE = 19
+X_CORRECTION = 19  # virtual participant's corrective torque of the last step (feedback + learned), Nm
+X_COCONTRACTION = 20  # virtual participant's co-contraction torque (each side of the joint), Nm
+X_LEARNED = 21  # 3 weights (Nm) of the torque the participant has learned to add: sin θ, friction, θ̇
+N_LEARNED = 3
+X_LAG_NOISE = 24  # virtual participant's lag deviation (unit-variance Ornstein–Uhlenbeck)
+N_STATE = 25
 
 # --- arm drive modes ----------------------------------------------------------------------------
 ARM_PRESCRIBED = 0  # arm_a = elevation, arm_b = elevation velocity
@@ -420,7 +425,7 @@ def integrate(
         else:
             torque = 0.0
         if arm_mode == ARM_HUMAN:
-            external = human_torque(x, p, h, dt, arm_a[i])
+            external = human_torque(x, p, h, dt, arm_a[i], arm_b[i])
             plant_step(x, p, dt, torque, lag, ARM_TORQUE, external, 0.0)
         else:
             external = arm_a[i]
@@ -457,7 +462,14 @@ H_EXP_SUPPORT = 15  # expected assistance: support fraction of the controller's 
 H_EXP_GRAVITY = 16  # Nm: the controller's gravity torque at 90° (anthropometric)
 H_EXP_FLOOR_N = 17  # N: floor of the expected tension
 H_EXP_ADAPT_S = 18  # s: time to learn the assistance after a condition change
-N_HUMAN = 19
+H_COCON_GAIN = 19  # co-contraction torque built per Nm of feedback torque (Franklin et al. 2008)
+H_COCON_TIME_S = 20  # s: time constant of building and relaxing co-contraction
+H_COCON_STIFFNESS = 21  # 1/rad: joint stiffness added per Nm of co-contraction torque
+H_LEARN_TIME_S = 22  # s: time constant of learning the torque its feedback keeps supplying (0: none)
+H_LAG_SD = 23  # log-normal SD of the lag's slow wandering within a trial
+H_LAG_TIME_S = 24  # s: correlation time of that wandering
+N_HUMAN = 25
+LEARNED_FRICTION_SPEED = 0.1  # rad/s: the friction-like basis is tanh(θ̇ / this)
 
 
 @jit
@@ -501,7 +513,12 @@ def expected_assist_torque(p: NDArray[np.float64], h: NDArray[np.float64], th: f
 
 @jit
 def human_torque(
-    x: NDArray[np.float64], p: NDArray[np.float64], h: NDArray[np.float64], dt: float, normal_draw: float
+    x: NDArray[np.float64],
+    p: NDArray[np.float64],
+    h: NDArray[np.float64],
+    dt: float,
+    normal_draw: float,
+    lag_draw: float,
 ) -> float:
     """Shoulder torque of the virtual participant (elevation > 0).
 
@@ -513,21 +530,58 @@ def human_torque(
     Ornstein–Uhlenbeck process scaled by the feedforward torque.
     """
     time_s = x[X_TIME]
-    ref, ref_d, ref_dd = reference_state(h, time_s - h[H_LAG])
+    # Timing wanders slowly from cycle to cycle (an Ornstein–Uhlenbeck deviation of the lag).
+    lag_decay = math.exp(-dt / h[H_LAG_TIME_S])
+    x[X_LAG_NOISE] = lag_decay * x[X_LAG_NOISE] + math.sqrt(1.0 - lag_decay * lag_decay) * lag_draw
+    lag = h[H_LAG] * math.exp(h[H_LAG_SD] * x[X_LAG_NOISE])
+    ref, ref_d, ref_dd = reference_state(h, time_s - lag)
     low = h[H_REF_LOW]
     amp = h[H_AMPLITUDE]
     intended = low + amp * (ref - low) + h[H_OFFSET]
     intended_d = amp * ref_d
     intended_dd = amp * ref_dd
-    feedforward = (
+    # What the participant has learned about the suit (and its own arm): a gravity-like, a
+    # friction-like and a viscous-like torque of the intended movement.
+    basis_gravity = math.sin(intended)
+    basis_friction = math.tanh(intended_d / LEARNED_FRICTION_SPEED)
+    basis_viscous = intended_d
+    learned = (
+        x[X_LEARNED] * basis_gravity + x[X_LEARNED + 1] * basis_friction + x[X_LEARNED + 2] * basis_viscous
+    )
+    planned = (
         h[H_INERTIA_EST] * intended_dd
-        + h[H_GRAVITY_EST] * math.sin(intended)
+        + h[H_GRAVITY_EST] * basis_gravity
         - expected_assist_torque(p, h, intended, time_s)
     )
     th = x[X_ARM_TH]
     thd = x[X_ARM_THD]
-    feedback = h[H_STIFFNESS] * (intended - th) + h[H_DAMPING] * (intended_d - thd)
+    # Co-contraction stiffens the joint: muscle stiffness grows with muscle force (Hogan 1984,
+    # IEEE TAC 29:681), so both sides pulling adds stiffness, with the damping ratio kept.
+    cocontraction = x[X_COCONTRACTION]
+    stiffening = 1.0 + h[H_COCON_STIFFNESS] * cocontraction / h[H_STIFFNESS]
+    feedback = stiffening * (h[H_STIFFNESS] * (intended - th) + h[H_DAMPING] * (intended_d - thd))
+    correction = feedback + learned
+    x[X_CORRECTION] = correction
+    # Errors build co-contraction and it relaxes without them (the V-shaped rule of Franklin et al.
+    # 2008, J Neurosci 28:11165, here within a trial as a leaky integrator of the feedback's size).
+    x[X_COCONTRACTION] += (1.0 - math.exp(-dt / h[H_COCON_TIME_S])) * (
+        h[H_COCON_GAIN] * abs(feedback) - cocontraction
+    )
+    # Feedback-error learning (Kawato et al. 1987, Biol Cybern 57:169): the torque feedback keeps
+    # supplying moves into the feedforward, on smooth functions of the intended movement (state-
+    # dependent force fields are learned so, Shadmehr & Mussa-Ivaldi 1994, J Neurosci 14:3208).
+    # Transients such as the tension spike at a reversal fit none of them and stay unlearned.
+    if h[H_LEARN_TIME_S] > 0.0:
+        rate = dt / h[H_LEARN_TIME_S] * feedback
+        x[X_LEARNED] += rate * basis_gravity
+        x[X_LEARNED + 1] += rate * basis_friction
+        x[X_LEARNED + 2] += rate * basis_viscous
     decay = math.exp(-dt / h[H_NOISE_TAU])
     x[X_NOISE] = decay * x[X_NOISE] + math.sqrt(1.0 - decay * decay) * normal_draw
-    noise = (h[H_NOISE_CONST] + h[H_NOISE_SIGNAL] * abs(feedforward)) * x[X_NOISE]
-    return float(feedforward + feedback + noise)
+    # The noise grows with the force of each side's muscles (Harris & Wolpert), co-contraction and
+    # corrections included, so a suit that is fought against makes the movement noisier.
+    lifting = max(planned, 0.0) + max(correction, 0.0) + cocontraction
+    lowering = max(-planned, 0.0) + max(-correction, 0.0) + cocontraction
+    force = math.sqrt(lifting * lifting + lowering * lowering)
+    noise = (h[H_NOISE_CONST] + h[H_NOISE_SIGNAL] * force) * x[X_NOISE]
+    return float(planned + correction + noise)

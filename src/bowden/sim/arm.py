@@ -187,8 +187,8 @@ class ParticipantArm:
     def inputs(
         self, times_s: NDArray[np.float64], rng: np.random.Generator
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        draws = np.asarray(rng.standard_normal(times_s.shape[0]), dtype=np.float64)
-        return draws, np.zeros_like(times_s)
+        draws = np.asarray(rng.standard_normal((2, times_s.shape[0])), dtype=np.float64)
+        return np.ascontiguousarray(draws[0]), np.ascontiguousarray(draws[1])
 
     def human(self) -> NDArray[np.float64] | None:
         return self._h

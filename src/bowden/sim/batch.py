@@ -27,12 +27,15 @@ from bowden.sim.participants import ExpectedAssistance, VirtualParticipant, huma
 from bowden.sim.plant import equilibrium_state, pack_parameters
 from bowden.sim.questionnaires import questionnaire_answers
 from bowden.sim.results import (
+    COCONTRACTION,
+    CORRECTION_TORQUE,
     LIMIT_FLAGS,
     SHEATH_STUCK,
     SHOULDER_TORQUE,
     TRUE_ELEVATION,
     TRUE_ELEVATION_VELOCITY,
     TRUE_TENSION,
+    TRUTH_SIGNALS,
     CohortSimulation,
     TrialSimulation,
 )
@@ -54,6 +57,8 @@ _OUTPUT_NAMES = {
     bk.O_TRUE_VELOCITY: TRUE_ELEVATION_VELOCITY,
     bk.O_SHOULDER_TORQUE: SHOULDER_TORQUE,
     bk.O_STUCK: SHEATH_STUCK,
+    bk.O_CORRECTION_TORQUE: CORRECTION_TORQUE,
+    bk.O_COCONTRACTION: COCONTRACTION,
 }
 
 
@@ -139,8 +144,13 @@ def simulate_trial(
     suit: SuitParameters | None = None,
     settings: ProtocolSettings | None = None,
     seed: int = 0,
+    session_trial: int = 0,
 ) -> TrialSimulation:
-    """Simulate one trial (``repetitions`` cycles of the reference) of ``participant``."""
+    """Simulate one trial (``repetitions`` cycles of the reference) of ``participant``.
+
+    ``session_trial`` is the number of trials the participant did before this one in its session
+    (:func:`session_trial`): practice shortens its lag (:meth:`VirtualParticipant.trial_lag_s`).
+    """
     check_seed(seed)
     settings = settings if settings is not None else ProtocolSettings()
     if condition not in c.CONDITIONS:
@@ -177,19 +187,20 @@ def simulate_trial(
             floor_tension_n=settings.floor_tension_n,
             pretension_n=settings.pretension_n,
         )
+    duration = settings.lead_in_s + settings.repetitions * cycle.period_s + settings.tail_s
+    n_control = math.ceil(duration / settings.control_period_s)
+    rng = np.random.default_rng(seed)
+    draws_control = rng.standard_normal((n_control, 3))
+    draws_human = rng.standard_normal((n_control * settings.substeps, 2))
+    lag_s = participant.trial_lag_s(session_trial, float(rng.standard_normal()))
     h = human_vector(
-        participant, cycle, cycles=settings.repetitions, start_s=settings.lead_in_s, expected=expected
+        participant, cycle, cycles=settings.repetitions, start_s=settings.lead_in_s, expected=expected,
+        lag_s=lag_s,
     )
     p = pack_parameters(worn, participant.arm_parameters())
     start_elevation = cycle.low_rad + participant.aim_offset_rad
     # The cable starts taut at what the controller holds at rest; the arm is balanced by the muscles.
     x = equilibrium_state(p, start_elevation, settings.pretension_n if wears_suit else 0.0)
-    duration = settings.lead_in_s + settings.repetitions * cycle.period_s + settings.tail_s
-    n_control = math.ceil(duration / settings.control_period_s)
-    trial_seed = seed
-    rng = np.random.default_rng(trial_seed)
-    draws_control = rng.standard_normal((n_control, 3))
-    draws_human = rng.standard_normal(n_control * settings.substeps)
     imu, cell = worn.imu, worn.load_cell
     sensors = np.zeros(bk.N_SENSOR)
     sensors[bk.S_IMU_EL_NOISE] = imu.elevation_noise_rad
@@ -218,12 +229,23 @@ def simulate_trial(
         movement_start_s=settings.lead_in_s,
         movement_duration_s=cycle.movement_duration_s,
         repetitions=settings.repetitions,
-        seed=trial_seed,
+        seed=seed,
     )
 
 
 def _truth_names() -> tuple[str, ...]:
-    return (TRUE_TENSION, TRUE_ELEVATION, TRUE_ELEVATION_VELOCITY, SHOULDER_TORQUE, SHEATH_STUCK)
+    return TRUTH_SIGNALS
+
+
+def session_trial(order: Sequence[str], condition: str, speeds: Sequence[str], speed: str) -> int:
+    """How many trials come before ``(condition, speed)`` in a session run in condition ``order``,
+    each condition's speeds in the order of ``speeds`` (the paper: V1, V2, V3)."""
+    try:
+        return list(order).index(condition) * len(speeds) + list(speeds).index(speed)
+    except ValueError:
+        raise ParameterError(
+            f"{condition}/{speed} is not in the session {list(order)} × {list(speeds)}"
+        ) from None
 
 
 def condition_order(seed: int, participant_index: int, conditions: Sequence[str]) -> tuple[str, ...]:
@@ -263,6 +285,7 @@ def simulate_cohort(
                     simulate_trial(
                         participant, condition, speed, model=model, suit=suit, settings=settings,
                         seed=trial_seed(seed, index, condition, speed),
+                        session_trial=session_trial(order, condition, settings.speeds, speed),
                     )
                 )
                 if progress:

@@ -62,6 +62,8 @@ def muscle_activations(
     *,
     sample_rate_hz: float,
     max_torque_nm: float,
+    correction_torque_nm: NDArray[np.float64] | None = None,
+    cocontraction_nm: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Activations (0–1), shape (n, 8) in the order of ``contracts.MUSCLES``.
 
@@ -73,6 +75,17 @@ def muscle_activations(
         The arm's elevation and velocity at the same samples.
     max_torque_nm
         The participant's maximal elevation torque (normalises the torque).
+    correction_torque_nm
+        The part of the net torque that counters forces the participant did not plan for (None:
+        none): its feedback about the intended movement and what it has learned of the suit. It is
+        made by the muscles that act against those forces — a downward correction by the extensors
+        even while the flexors hold the arm up — not by relaxing the planned torque's muscles:
+        stretch responses come from the stretched muscle (Pruszynski & Scott 2012, Exp Brain Res
+        218:341), and a learned force field is countered by the muscles opposing it (Thoroughman &
+        Shadmehr 1999, J Neurosci 19:8573).
+    cocontraction_nm
+        Torque each side of the joint adds to stiffen it (None: none); it activates agonists and
+        antagonists alike and cancels in the net torque.
     """
     torque = np.asarray(shoulder_torque_nm, dtype=np.float64)
     if torque.ndim != 1 or torque.shape != np.shape(elevation_rad) or torque.shape != np.shape(
@@ -83,16 +96,21 @@ def muscle_activations(
         raise ParameterError("sample_rate_hz and max_torque_nm must be positive")
     th = np.asarray(elevation_rad, dtype=np.float64)
     thd = np.asarray(elevation_velocity_rad_s, dtype=np.float64)
-    lifting = np.clip(torque / max_torque_nm, 0.0, 1.0)
-    pulling_down = np.clip(-torque / max_torque_nm, 0.0, 1.0)
+    correction = _optional_signal(correction_torque_nm, torque.shape, "correction_torque_nm")
+    stiffening = _optional_signal(cocontraction_nm, torque.shape, "cocontraction_nm")
+    planned = torque - correction
     # Less activation for the same torque while the muscle lengthens (lowering under load).
     eccentric = 1.0 - ECCENTRIC_REDUCTION * np.tanh(np.maximum(-thd, 0.0) / 0.5)
-    cocontraction = 0.01 + 0.012 * np.abs(thd)
+    lifting = np.maximum(planned, 0.0) * eccentric + np.maximum(correction, 0.0) + stiffening
+    pulling_down = np.maximum(-planned, 0.0) + np.maximum(-correction, 0.0) + stiffening
+    lifting = np.clip(lifting / max_torque_nm, 0.0, 1.0)
+    pulling_down = np.clip(pulling_down / max_torque_nm, 0.0, 1.0)
+    speed_cocontraction = 0.01 + 0.012 * np.abs(thd)
     excitation = (
         _REST[None, :]
-        + _AGONIST[None, :] * (lifting * eccentric)[:, None]
+        + _AGONIST[None, :] * lifting[:, None]
         + _ANTAGONIST[None, :] * pulling_down[:, None]
-        + _COCONTRACTION[None, :] * cocontraction[:, None]
+        + _COCONTRACTION[None, :] * speed_cocontraction[:, None]
         + _ELBOW_HOLD[None, :] * np.clip(np.sin(th), 0.0, 1.0)[:, None]
     )
     upward_rotation = 0.6 + 0.8 * np.clip(th / (0.5 * math.pi), 0.0, 1.5)
@@ -101,3 +119,14 @@ def muscle_activations(
     return _activation_dynamics(
         np.ascontiguousarray(excitation), 1.0 / sample_rate_hz, ACTIVATION_TIME_S, DEACTIVATION_TIME_S
     )
+
+
+def _optional_signal(
+    values: NDArray[np.float64] | None, shape: tuple[int, ...], name: str
+) -> NDArray[np.float64]:
+    if values is None:
+        return np.zeros(shape)
+    array = np.asarray(values, dtype=np.float64)
+    if array.shape != shape:
+        raise ParameterError(f"{name} must have the shoulder torque's shape {shape}, got {array.shape}")
+    return array

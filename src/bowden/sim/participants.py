@@ -118,7 +118,12 @@ class VirtualParticipant:
         Shoulder impedance about the intended movement (co-contraction; 10–50 Nm/rad during
         reaching, Burdet et al. 2001, Nature 414:446).
     motor_noise_nm, motor_noise_fraction, motor_noise_time_s
-        Constant and signal-dependent motor noise (Harris & Wolpert 1998) and its correlation time.
+        Constant and force-dependent motor noise and its correlation time. Noise grows with the
+        force of each side's muscles (Harris & Wolpert 1998, Nature 394:780), but at the few
+        percent of maximal force this task needs, the constant part dominates (Jones, Hamilton &
+        Wolpert 2002, J Neurophysiol 88:1533); so a suit that halves the torque barely quietens
+        the movement, while its tension disturbances roughen it (the paper's SPARC, Table S4).
+        Size and correlation time are calibrated to Table S4's no-suit SPARC and its fall at 50 %.
     adaptation_time_s
         Time constant of learning the expected assistance after putting on the suit.
     emg_gains
@@ -127,6 +132,27 @@ class VirtualParticipant:
         Heart rate and ECG artefact amplitude relative to a full activation's sEMG.
     discomfort_sensitivity
         How strongly the participant reports discomfort under cuff pressure (questionnaires), z-score.
+    cocontraction_gain, cocontraction_time_s, cocontraction_stiffness_per_nm
+        Co-contraction: torque each side of the joint builds per Nm of feedback torque (the size
+        of the errors the participant corrects), how fast it builds and relaxes, and the joint
+        stiffness it adds per Nm (muscle stiffness grows with force: Hogan 1984, IEEE TAC 29:681).
+        Errors raise co-contraction and it decays without them (Franklin et al. 2008, J Neurosci
+        28:11165); a suit whose tension departs from what the wearer expects makes such errors.
+    learning_time_s
+        Time constant of learning what the feedback keeps correcting (feedback-error learning,
+        Kawato et al. 1987) as smooth functions of the intended movement: a gravity-like, a
+        friction-like and a viscous-like torque (0: no learning). Force fields of this kind are
+        learned within tens of movements (Shadmehr & Mussa-Ivaldi 1994).
+    practice_lag_reduction, practice_trials
+        Practice: the lag shrinks by this fraction over the session, with this many trials to
+        e-fold, as the participant learns to anticipate the periodic reference (a law of practice,
+        Newell & Rosenbloom 1981). The paper always ran no suit first; its pretension trials at V1
+        and V2 track better than no suit (supplement Table S4), which a suit cannot do by itself.
+    lag_trial_sd
+        Log-normal SD of the lag from trial to trial (attention and strategy vary between blocks).
+    lag_wander_sd, lag_wander_time_s
+        Within a trial the lag wanders slowly (log-normal SD, correlation time), so that no two
+        repetitions are tracked alike.
     sheath_friction_scale
         The suit's sheath friction on this body relative to the mannequin bench. The sheath's bends
         follow the wearer's back and shoulder, and in the capstan limit ``k ≈ μ·Φ/2`` grows with the
@@ -147,15 +173,24 @@ class VirtualParticipant:
     amplitude_gain: float = 1.0
     stiffness_nm_rad: float = 25.0
     damping_nms_rad: float = 2.5
-    motor_noise_nm: float = 0.10
-    motor_noise_fraction: float = 0.06
-    motor_noise_time_s: float = 0.06
+    motor_noise_nm: float = 0.5
+    motor_noise_fraction: float = 0.01
+    motor_noise_time_s: float = 0.25
     adaptation_time_s: float = 2.0
     emg_gains: tuple[float, ...] = (1.0,) * len(MUSCLES)
     heart_rate_bpm: float = 70.0
     ecg_amplitude: float = 0.3
     discomfort_sensitivity: float = 0.0
     sheath_friction_scale: float = 1.0
+    cocontraction_gain: float = 1.0
+    cocontraction_time_s: float = 1.5
+    cocontraction_stiffness_per_nm: float = 6.0
+    learning_time_s: float = 10.0
+    practice_lag_reduction: float = 0.05
+    practice_trials: float = 4.0
+    lag_trial_sd: float = 0.02
+    lag_wander_sd: float = 0.3
+    lag_wander_time_s: float = 0.5
 
     def __post_init__(self) -> None:
         checks = {
@@ -177,6 +212,15 @@ class VirtualParticipant:
             "discomfort_sensitivity": (-5.0, 5.0),
             "age_years": (10.0, 100.0),
             "sheath_friction_scale": (0.3, 2.0),
+            "cocontraction_gain": (0.0, 10.0),
+            "cocontraction_time_s": (0.05, 60.0),
+            "cocontraction_stiffness_per_nm": (0.0, 30.0),
+            "learning_time_s": (0.0, 600.0),
+            "practice_lag_reduction": (0.0, 0.5),
+            "practice_trials": (0.1, 100.0),
+            "lag_trial_sd": (0.0, 0.5),
+            "lag_wander_sd": (0.0, 0.5),
+            "lag_wander_time_s": (0.1, 60.0),
         }
         for name, (low, high) in checks.items():
             value = getattr(self, name)
@@ -184,6 +228,17 @@ class VirtualParticipant:
                 raise ParameterError(f"VirtualParticipant.{name} = {value!r} is outside [{low}, {high}]")
         if len(self.emg_gains) != len(MUSCLES) or not all(g > 0 for g in self.emg_gains):
             raise ParameterError(f"VirtualParticipant.emg_gains needs {len(MUSCLES)} positive gains")
+
+    def trial_lag_s(self, session_trial: int, draw: float) -> float:
+        """The visuomotor lag of the participant's ``session_trial``-th trial (0 = its first).
+
+        ``draw`` is a unit normal draw: the trial's own deviation (:attr:`lag_trial_sd`).
+        """
+        if session_trial < 0:
+            raise ParameterError(f"session_trial must be >= 0, got {session_trial}")
+        practice = 1.0 - math.exp(-session_trial / self.practice_trials)
+        practised = 1.0 - self.practice_lag_reduction * practice
+        return self.visuomotor_lag_s * practised * math.exp(self.lag_trial_sd * draw)
 
     @property
     def gravity_torque_nm(self) -> float:
@@ -214,12 +269,17 @@ def human_vector(
     cycles: int,
     start_s: float,
     expected: ExpectedAssistance | None,
+    lag_s: float | None = None,
 ) -> NDArray[np.float64]:
-    """The compiled human controller's parameter vector (indices ``H_*`` of the kernels)."""
+    """The compiled human controller's parameter vector (indices ``H_*`` of the kernels).
+
+    ``lag_s`` is the trial's visuomotor lag (:meth:`VirtualParticipant.trial_lag_s`); None takes the
+    participant's own.
+    """
     if cycles < 0:
         raise ParameterError(f"cycles must be >= 0, got {cycles}")
     h = np.zeros(k.N_HUMAN)
-    h[k.H_LAG] = participant.visuomotor_lag_s
+    h[k.H_LAG] = participant.visuomotor_lag_s if lag_s is None else lag_s
     h[k.H_OFFSET] = participant.aim_offset_rad
     h[k.H_AMPLITUDE] = participant.amplitude_gain
     h[k.H_INERTIA_EST] = participant.inertia_kgm2 * participant.internal_model_error
@@ -239,6 +299,12 @@ def human_vector(
         h[k.H_EXP_GRAVITY] = expected.controller_gravity_torque_nm
         h[k.H_EXP_FLOOR_N] = expected.floor_tension_n
     h[k.H_EXP_ADAPT_S] = participant.adaptation_time_s
+    h[k.H_COCON_GAIN] = participant.cocontraction_gain
+    h[k.H_COCON_TIME_S] = participant.cocontraction_time_s
+    h[k.H_COCON_STIFFNESS] = participant.cocontraction_stiffness_per_nm
+    h[k.H_LEARN_TIME_S] = participant.learning_time_s
+    h[k.H_LAG_SD] = participant.lag_wander_sd
+    h[k.H_LAG_TIME_S] = participant.lag_wander_time_s
     return h
 
 
@@ -304,8 +370,8 @@ def generate_cohort(
                 amplitude_gain=float(np.clip(rng.normal(1.0, 0.03), 0.9, 1.1)),
                 stiffness_nm_rad=float(np.clip(rng.normal(25.0, 5.0), 12.0, 45.0)),
                 damping_nms_rad=float(np.clip(rng.normal(2.5, 0.4), 1.2, 4.0)),
-                motor_noise_nm=float(np.clip(rng.normal(0.10, 0.03), 0.02, 0.25)),
-                motor_noise_fraction=float(np.clip(rng.normal(0.06, 0.015), 0.02, 0.12)),
+                motor_noise_nm=float(np.clip(rng.normal(0.5, 0.1), 0.2, 0.9)),
+                motor_noise_fraction=float(np.clip(rng.normal(0.01, 0.005), 0.0, 0.03)),
                 adaptation_time_s=float(np.clip(rng.normal(2.0, 0.6), 0.5, 5.0)),
                 emg_gains=tuple(float(g) for g in rng.lognormal(0.0, 0.25, len(MUSCLES))),
                 heart_rate_bpm=float(np.clip(rng.normal(70.0, 8.0), 50.0, 100.0)),

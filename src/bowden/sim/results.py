@@ -27,9 +27,14 @@ TRUE_TENSION = "true_tension_n"
 TRUE_ELEVATION = "true_elevation_rad"
 TRUE_ELEVATION_VELOCITY = "true_elevation_velocity_rad_s"
 SHOULDER_TORQUE = "shoulder_torque_nm"  # the participant's net muscle torque (> 0 elevates)
+CORRECTION_TORQUE = "correction_torque_nm"  # its part countering forces it did not plan for
+COCONTRACTION = "cocontraction_nm"  # co-contraction torque on each side of the joint
 SHEATH_STUCK = "sheath_stuck"  # 1 while the Bowden sheath sticks
 LIMIT_FLAGS = "limit_flags"  # bowden.control.Limit bits of the cycle
-TRUTH_SIGNALS = (TRUE_TENSION, TRUE_ELEVATION, TRUE_ELEVATION_VELOCITY, SHOULDER_TORQUE, SHEATH_STUCK)
+TRUTH_SIGNALS = (
+    TRUE_TENSION, TRUE_ELEVATION, TRUE_ELEVATION_VELOCITY, SHOULDER_TORQUE, CORRECTION_TORQUE, COCONTRACTION,
+    SHEATH_STUCK,
+)
 
 SIGNAL_DESCRIPTIONS: Mapping[str, str] = {
     c.TRIAL_REFERENCE_ELEVATION: "reference shown on the screen, rad",
@@ -48,6 +53,8 @@ SIGNAL_DESCRIPTIONS: Mapping[str, str] = {
     TRUE_ELEVATION: "true elevation, rad",
     TRUE_ELEVATION_VELOCITY: "true elevation velocity, rad/s",
     SHOULDER_TORQUE: "participant's net shoulder muscle torque, Nm",
+    CORRECTION_TORQUE: "its part countering forces not planned for (feedback + learned), Nm",
+    COCONTRACTION: "participant's co-contraction torque on each side of the joint, Nm",
     SHEATH_STUCK: "1 while the sheath sticks",
 }
 
@@ -139,6 +146,8 @@ class TrialSimulation:
             self.signals[TRUE_ELEVATION_VELOCITY],
             sample_rate_hz=rate,
             max_torque_nm=max_elevation_torque_nm(self.participant.subject.mass_kg),
+            correction_torque_nm=self.signals.get(CORRECTION_TORQUE),
+            cocontraction_nm=self.signals.get(COCONTRACTION),
         )
         frame = pd.DataFrame(act, columns=list(c.MUSCLES))
         frame.insert(0, c.TRIAL_TIME, self.time_s)

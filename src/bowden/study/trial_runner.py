@@ -23,7 +23,7 @@ from bowden import __version__
 from bowden import contracts as c
 from bowden.model import CompensationModel
 from bowden.runtime.recorder import TrialInfo
-from bowden.sim.batch import ProtocolSettings, condition_order, simulate_trial, trial_seed
+from bowden.sim.batch import ProtocolSettings, condition_order, session_trial, simulate_trial, trial_seed
 from bowden.sim.participants import VirtualParticipant
 from bowden.sim.questionnaires import TrialLoad, answers_from_loads, trial_load
 from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE
@@ -43,6 +43,7 @@ class TrialTask:
     seed: int
     store_emg: bool
     store: bool
+    session_trial: int = 0  # trials the participant did before this one (practice)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -58,7 +59,8 @@ class TrialRecord:
 def simulate_task(task: TrialTask) -> TrialRecord:
     """Simulate one trial and synthesise its sEMG (module level, so that workers can run it)."""
     trial = simulate_trial(
-        task.participant, task.condition, task.speed, model=task.model, settings=task.protocol, seed=task.seed
+        task.participant, task.condition, task.speed, model=task.model, settings=task.protocol, seed=task.seed,
+        session_trial=task.session_trial,
     )
     support = c.CONDITION_SUPPORT[task.condition]
     info = TrialInfo(
@@ -123,7 +125,8 @@ def study_tasks(
     """
     for index, participant in enumerate(cohort):
         pid = participant.participant_id
-        for condition in condition_order(seed, index, protocol.conditions):
+        order = condition_order(seed, index, protocol.conditions)
+        for condition in order:
             for speed in protocol.speeds:
                 stored = (pid, condition, speed) in done
                 if stored and pid in answered:
@@ -131,6 +134,7 @@ def study_tasks(
                 yield TrialTask(
                     participant=participant, condition=condition, speed=speed, model=model, protocol=protocol,
                     seed=trial_seed(seed, index, condition, speed), store_emg=store_emg, store=not stored,
+                    session_trial=session_trial(order, condition, protocol.speeds, speed),
                 )
 
 

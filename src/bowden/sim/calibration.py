@@ -1,0 +1,68 @@
+"""The virtual cohort's muscles against the paper's, quickly: iEMG changes from the activations.
+
+The synthetic sEMG's envelope follows ``gain · activation`` above the amplifier's noise floor
+(:mod:`bowden.sim.emg`), so the changes in iEMG between conditions can be read off the activations
+without synthesising and processing 2 kHz signals. This is the fast loop the participants' parameters
+were chosen with (``scripts/participant_calibration.py``, docs/simulation.md); the numbers that
+count are those of the full pipeline (``bowden study``'s report).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from bowden import contracts as c
+from bowden.sim.emg import BASELINE_NOISE_V, FULL_ACTIVATION_V
+from bowden.sim.results import TrialSimulation
+
+PHASE_BOUNDS = {"raising": (0.0, 0.5), "lowering": (0.5, 1.0)}
+
+
+def activation_iemg_rows(trial: TrialSimulation) -> list[dict[str, Any]]:
+    """Per kept repetition (the first is dropped), phase and muscle: the envelope's mean and peak."""
+    act = trial.activations()[list(c.MUSCLES)].to_numpy()
+    gains = np.asarray(trial.participant.emg_gains)
+    envelope = np.hypot(act * gains * FULL_ACTIVATION_V, BASELINE_NOISE_V)
+    rep, frac = trial.repetition_index(), trial.cycle_fraction()
+    rows: list[dict[str, Any]] = []
+    for r in range(1, trial.repetitions):
+        peak = envelope[rep == r].max(axis=0)
+        for phase, (low, high) in PHASE_BOUNDS.items():
+            mean = envelope[(rep == r) & (frac >= low) & (frac < high)].mean(axis=0)
+            rows.extend(
+                {"participant": trial.participant.participant_id, "condition": trial.condition,
+                 "speed": trial.speed, "phase": phase, "muscle": muscle, "mean": mean[m], "peak": peak[m]}
+                for m, muscle in enumerate(c.MUSCLES)
+            )
+    return rows
+
+
+def iemg_changes(rows: pd.DataFrame) -> pd.DataFrame:
+    """% change of the normalised iEMG against no suit per phase, muscle and suit condition.
+
+    Normalised to each participant's no-suit peak at that speed, as the analysis does; the change is
+    the mean over speeds of the cohort means' ratio, as the report's departures compute the paper's.
+    Columns: phase, muscle, condition, change_pct and one column per speed.
+    """
+    no_suit = rows[rows["condition"] == c.CONDITION_NO_SUIT]
+    reference = no_suit.groupby(["participant", "speed", "muscle"])["peak"].mean().rename("reference")
+    rows = rows.join(reference, on=["participant", "speed", "muscle"])
+    means = (rows["mean"] / rows["reference"]).groupby(
+        [rows["phase"], rows["muscle"], rows["condition"], rows["speed"]]
+    ).mean()
+    speeds = sorted(rows["speed"].unique())
+    out = []
+    for phase in PHASE_BOUNDS:
+        for muscle in c.MUSCLES:
+            for condition in c.CONDITIONS[1:]:
+                changes = {
+                    speed: 100.0 * (means[(phase, muscle, condition, speed)]
+                                    / means[(phase, muscle, c.CONDITION_NO_SUIT, speed)] - 1.0)
+                    for speed in speeds
+                }
+                out.append({"phase": phase, "muscle": muscle, "condition": condition,
+                            "change_pct": float(np.mean(list(changes.values()))), **changes})
+    return pd.DataFrame(out)
