@@ -1,6 +1,6 @@
-"""Compiled loops of the EMG conditioning: zero-phase SOS filtering and the sliding RMS.
+"""Compiled loops of the EMG conditioning: zero-phase SOS filtering, the sliding RMS, channel screen.
 
-Both work on a (samples x channels) C-contiguous array one row at a time, so the innermost loop runs
+They work on a (samples x channels) C-contiguous array one row at a time, so the innermost loop runs
 over the channels (contiguous in memory, vectorised) and a whole recording is filtered in one
 pass instead of one strided copy per channel. The arithmetic is that of SciPy's ``sosfiltfilt``
 (odd padding, ``sosfilt_zi`` initial states, direct form II transposed in the same order) and of a
@@ -69,16 +69,22 @@ def _sos_pass(
 
 @jit
 def sosfiltfilt_rows(
-    x: NDArray[np.float64], sos: NDArray[np.float64], zi: NDArray[np.float64], edge: int
+    x: NDArray[np.float64],
+    sos: NDArray[np.float64],
+    zi: NDArray[np.float64],
+    edge: int,
+    scratch: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], bool]:
     """``scipy.signal.sosfiltfilt(sos, x, axis=0)`` (odd padding of ``edge`` rows; needs n > edge).
 
-    ``zi`` is ``sosfilt_zi(sos)``. Returns the filtered rows and whether every input was finite
+    ``zi`` is ``sosfilt_zi(sos)``; ``scratch`` holds at least (n + 2·edge)·channels values. Returns
+    the filtered rows and whether every input was finite
     (checked on the way, so the caller needs no separate pass over the data).
     """
     n, channels = x.shape
     sections = sos.shape[0]
-    padded = np.empty((n + 2 * edge, channels))
+    # The padded record and the forward pass live in the caller's scratch (at least that long).
+    padded = scratch[: (n + 2 * edge) * channels].reshape((n + 2 * edge, channels))
     for j in range(edge):  # odd extension: 2·x[0] − x[edge − j], then the record, then the tail
         for c in range(channels):
             padded[j, c] = 2.0 * x[0, c] - x[edge - j, c]
@@ -151,35 +157,6 @@ def sliding_rms_rows(x: NDArray[np.float64], width: int) -> tuple[NDArray[np.flo
 
 
 @jit
-def integrated_energy(copy: NDArray[np.float64], width: int, rate_hz: float) -> NDArray[np.float64]:
-    """Pan–Tompkins feature: ``np.gradient(copy)·rate`` squared, centred moving mean over ``width``.
-
-    The window of sample i is [i − (width−1)//2, … + width) clipped to the record, its sum the
-    difference of a running sum accumulated in record order (as ``np.cumsum``), divided by
-    ``width`` at the ends too (what ``np.convolve(..., mode="same")`` computes). Needs 2 samples.
-    """
-    n = copy.size
-    running = np.empty(n + 1)
-    running[0] = 0.0
-    for i in range(n):
-        if i == 0:
-            slope = (copy[1] - copy[0]) / 1.0
-        elif i == n - 1:
-            slope = (copy[n - 1] - copy[n - 2]) / 1.0
-        else:
-            slope = (copy[i + 1] - copy[i - 1]) / 2.0
-        slope = slope * rate_hz
-        running[i + 1] = running[i] + slope * slope
-    out = np.empty(n)
-    back = (width - 1) // 2
-    for i in range(n):
-        lo = min(max(i - back, 0), n)
-        hi = min(max(i - back + width, 0), n)
-        out[i] = (running[hi] - running[lo]) / width
-    return out
-
-
-@jit
 def channel_screen(
     x: NDArray[np.float64],
 ) -> tuple[NDArray[np.int64], NDArray[np.bool_], NDArray[np.float64]]:
@@ -207,58 +184,3 @@ def channel_screen(
             deviation = x[i, c] - mean[c]
             spread[c] += deviation * deviation
     return nonfinite, repeats, np.sqrt(spread / max(n, 1))
-
-
-@jit
-def adaptive_threshold(
-    candidates: NDArray[np.int64],
-    heights: NDArray[np.float64],
-    signal_level: float,
-    noise_level: float,
-    refractory: int,
-    search_back: float,
-) -> NDArray[np.int64]:
-    """Pan–Tompkins level tracking over candidate peaks (see ``rpeaks._adaptive_threshold``).
-
-    Threshold NPKI + ¼(SPKI − NPKI); a candidate above it and at least ``refractory`` after the last
-    beat is a beat (SPKI ← ⅛·height + ⅞·SPKI), else noise (NPKI likewise). When the gap since the
-    last beat exceeds ``search_back`` times the mean of the last 8 RR intervals, the highest
-    skipped candidate above half the threshold is taken first (SPKI ← ¼·height + ¾·SPKI).
-    """
-    accepted = np.empty(candidates.size, dtype=np.int64)
-    rr = np.empty(candidates.size, dtype=np.int64)
-    count = 0  # beats accepted
-    rr_count = 0
-    last_index = -1  # position in candidates of the last accepted beat
-    for i in range(candidates.size):
-        position, height = candidates[i], heights[i]
-        threshold = noise_level + 0.25 * (signal_level - noise_level)
-        if count > 0 and rr_count > 0:
-            recent = min(rr_count, 8)
-            total = 0
-            for k in range(rr_count - recent, rr_count):
-                total += rr[k]
-            rr_mean = total / recent  # integers: exact up to this one division
-            if position - accepted[count - 1] > search_back * rr_mean and last_index + 1 < i:
-                best = last_index + 1  # the first of the highest skipped candidates
-                for k in range(last_index + 2, i):
-                    if heights[k] > heights[best]:
-                        best = k
-                if heights[best] > 0.5 * threshold and candidates[best] - accepted[count - 1] >= refractory:
-                    rr[rr_count] = candidates[best] - accepted[count - 1]
-                    rr_count += 1
-                    accepted[count] = candidates[best]
-                    count += 1
-                    last_index = best
-                    signal_level = 0.25 * heights[best] + 0.75 * signal_level
-        if height > threshold and (count == 0 or position - accepted[count - 1] >= refractory):
-            if count > 0:
-                rr[rr_count] = position - accepted[count - 1]
-                rr_count += 1
-            accepted[count] = position
-            count += 1
-            last_index = i
-            signal_level = 0.125 * height + 0.875 * signal_level
-        else:
-            noise_level = 0.125 * height + 0.875 * noise_level
-    return accepted[:count].copy()

@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import signal as sps
 
-from bowden.analysis.emg._kernels import adaptive_threshold, integrated_energy
+from bowden.analysis.emg._rpeak_kernels import adaptive_threshold, integrated_energy
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.analysis.emg.zero_phase import zero_phase_bandpass
 from bowden.errors import ParameterError
