@@ -91,9 +91,9 @@ def test_learning_moves_what_the_feedback_keeps_supplying_into_the_plan(particip
     # A participant that over-estimates its arm's weight by 15 % holds it too high, and its feedback
     # has to pull it down on every cycle; learning takes that over, so the arm's bias shrinks.
     wrong = dict(internal_model_error=1.15, cocontraction_gain=0.0)
-    learning = _trial(participant, learning_time_s=5.0, **wrong)
-    fixed = _trial(participant, learning_time_s=0.0, **wrong)
-    right = _trial(participant, learning_time_s=0.0, cocontraction_gain=0.0, internal_model_error=1.0)
+    learning = _trial(participant, learning_cycles=2.0, **wrong)
+    fixed = _trial(participant, learning_cycles=0.0, **wrong)
+    right = _trial(participant, learning_cycles=0.0, cocontraction_gain=0.0, internal_model_error=1.0)
 
     def bias(trial, first: int, last: int) -> float:
         rep = trial.repetition_index()
@@ -113,15 +113,15 @@ def test_cocontraction_builds_with_the_errors_and_vanishes_without_gain(particip
     none = _trial(participant, "support_50", cocontraction_gain=0.0)
     assert np.all(none[COCONTRACTION] == 0.0)
     small = _trial(participant, "support_50", internal_model_error=1.0)
-    large = _trial(participant, "support_50", internal_model_error=1.15, learning_time_s=0.0)
+    large = _trial(participant, "support_50", internal_model_error=1.15, learning_cycles=0.0)
     assert np.all(small[COCONTRACTION] >= 0.0)
     assert np.mean(large[COCONTRACTION]) > np.mean(small[COCONTRACTION])
 
 
 def test_the_lag_wanders_between_repetitions_only_when_asked(participant) -> None:
-    steady = _repetition_rmse(_trial(participant, learning_time_s=0.0, cocontraction_gain=0.0))[2:]
+    steady = _repetition_rmse(_trial(participant, learning_cycles=0.0, cocontraction_gain=0.0))[2:]
     wandering = _repetition_rmse(
-        _trial(participant, learning_time_s=0.0, cocontraction_gain=0.0, lag_wander_sd=0.3)
+        _trial(participant, learning_cycles=0.0, cocontraction_gain=0.0, lag_wander_sd=0.3)
     )[2:]
     assert np.std(steady) / np.mean(steady) < 0.01  # a noiseless participant repeats itself
     assert np.std(wandering) / np.mean(wandering) > 0.03
@@ -150,9 +150,9 @@ def test_session_trial_counts_the_trials_before() -> None:
 
 
 def test_practice_reaches_the_trial(participant) -> None:
-    first = _trial(participant, learning_time_s=0.0)
+    first = _trial(participant, learning_cycles=0.0)
     model = CompensationModel.from_friction(k=0.1)
     settings = ProtocolSettings(repetitions=8, speeds=("V2",))
-    who = dataclasses.replace(participant, learning_time_s=0.0, practice_lag_reduction=0.3)
+    who = dataclasses.replace(participant, learning_cycles=0.0, practice_lag_reduction=0.3)
     practised = simulate_trial(who, "no_suit", "V2", model=model, settings=settings, seed=3, session_trial=11)
     assert np.mean(_repetition_rmse(practised)[1:]) < 0.95 * np.mean(_repetition_rmse(first)[1:])

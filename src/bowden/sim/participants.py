@@ -138,11 +138,13 @@ class VirtualParticipant:
         stiffness it adds per Nm (muscle stiffness grows with force: Hogan 1984, IEEE TAC 29:681).
         Errors raise co-contraction and it decays without them (Franklin et al. 2008, J Neurosci
         28:11165); a suit whose tension departs from what the wearer expects makes such errors.
-    learning_time_s
-        Time constant of learning what the feedback keeps correcting (feedback-error learning,
-        Kawato et al. 1987) as smooth functions of the intended movement: a gravity-like, a
-        friction-like and a viscous-like torque (0: no learning). Force fields of this kind are
-        learned within tens of movements (Shadmehr & Mussa-Ivaldi 1994).
+    learning_cycles
+        Time constant, in raise-and-lower cycles, of learning what the feedback keeps correcting
+        (feedback-error learning, Kawato et al. 1987) as smooth functions of the intended movement:
+        a gravity-like, a friction-like and a viscous-like torque (0: no learning). Force fields of
+        this kind are learned movement by movement, a fifth to a third of the error at a time
+        (Thoroughman & Shadmehr 2000, Nature 407:742), within tens of movements (Shadmehr &
+        Mussa-Ivaldi 1994).
     practice_lag_reduction, practice_trials
         Practice: the lag shrinks by this fraction over the session, with this many trials to
         e-fold, as the participant learns to anticipate the periodic reference (a law of practice,
@@ -185,7 +187,7 @@ class VirtualParticipant:
     cocontraction_gain: float = 1.0
     cocontraction_time_s: float = 1.5
     cocontraction_stiffness_per_nm: float = 6.0
-    learning_time_s: float = 10.0
+    learning_cycles: float = 3.0
     practice_lag_reduction: float = 0.05
     practice_trials: float = 4.0
     lag_trial_sd: float = 0.02
@@ -215,7 +217,7 @@ class VirtualParticipant:
             "cocontraction_gain": (0.0, 10.0),
             "cocontraction_time_s": (0.05, 60.0),
             "cocontraction_stiffness_per_nm": (0.0, 30.0),
-            "learning_time_s": (0.0, 600.0),
+            "learning_cycles": (0.0, 100.0),
             "practice_lag_reduction": (0.0, 0.5),
             "practice_trials": (0.1, 100.0),
             "lag_trial_sd": (0.0, 0.5),
@@ -302,7 +304,7 @@ def human_vector(
     h[k.H_COCON_GAIN] = participant.cocontraction_gain
     h[k.H_COCON_TIME_S] = participant.cocontraction_time_s
     h[k.H_COCON_STIFFNESS] = participant.cocontraction_stiffness_per_nm
-    h[k.H_LEARN_TIME_S] = participant.learning_time_s
+    h[k.H_LEARN_TIME_S] = participant.learning_cycles * cycle.period_s
     h[k.H_LAG_SD] = participant.lag_wander_sd
     h[k.H_LAG_TIME_S] = participant.lag_wander_time_s
     return h
