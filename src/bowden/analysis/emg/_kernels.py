@@ -74,11 +74,12 @@ def sosfiltfilt_rows(
     zi: NDArray[np.float64],
     edge: int,
     scratch: NDArray[np.float64],
-) -> tuple[NDArray[np.float64], bool]:
+    out: NDArray[np.float64],
+) -> bool:
     """``scipy.signal.sosfiltfilt(sos, x, axis=0)`` (odd padding of ``edge`` rows; needs n > edge).
 
-    ``zi`` is ``sosfilt_zi(sos)``; ``scratch`` holds at least (n + 2·edge)·channels values. Returns
-    the filtered rows and whether every input was finite
+    ``zi`` is ``sosfilt_zi(sos)``; ``scratch`` holds at least (n + 2·edge)·channels values; the
+    result goes to ``out`` (n x channels). Returns whether every input was finite
     (checked on the way, so the caller needs no separate pass over the data).
     """
     n, channels = x.shape
@@ -97,7 +98,6 @@ def sosfiltfilt_rows(
     for k in range(edge):
         for c in range(channels):
             padded[edge + n + k, c] = 2.0 * x[n - 1, c] - x[n - 2 - k, c]
-    out = np.empty((n, channels))
     z0 = np.empty((sections, channels))
     z1 = np.empty((sections, channels))
     last = n + 2 * edge - 1
@@ -111,12 +111,12 @@ def sosfiltfilt_rows(
             z0[s, c] = zi[s, 0] * padded[last, c]
             z1[s, c] = zi[s, 1] * padded[last, c]
     _sos_pass(padded, out, edge, sos, z0, z1, True)
-    return out, nonfinite == 0
+    return nonfinite == 0
 
 
 @jit
-def sliding_rms_rows(x: NDArray[np.float64], width: int) -> tuple[NDArray[np.float64], bool]:
-    """Centred sliding RMS over ``width`` rows, shrinking at the ends, and whether x was finite.
+def sliding_rms_rows(x: NDArray[np.float64], width: int, out: NDArray[np.float64]) -> bool:
+    """Centred sliding RMS over ``width`` rows into ``out``, shrinking at the ends; whether x was finite.
 
     The window of row i is rows [i − width//2, i − width//2 + width) clipped to the record. Its sum
     of squares is the difference of two running sums, each accumulated in record order exactly as
@@ -125,7 +125,6 @@ def sliding_rms_rows(x: NDArray[np.float64], width: int) -> tuple[NDArray[np.flo
     """
     n, channels = x.shape
     back = width // 2
-    out = np.empty((n, channels))
     ahead = np.zeros(channels)  # running sum of squares up to the window's end (exclusive)
     behind = np.zeros(channels)  # the same up to its start
     hi = 0
@@ -153,7 +152,7 @@ def sliding_rms_rows(x: NDArray[np.float64], width: int) -> tuple[NDArray[np.flo
             count = float(hi - lo)
             for c in range(channels):
                 out_row[c] = math.sqrt(max((ahead[c] - behind[c]) / count, 0.0))
-    return out, nonfinite == 0
+    return nonfinite == 0
 
 
 @jit

@@ -128,7 +128,8 @@ def emg_envelope(emg: EmgSignal, *, window_s: float = 0.1) -> EmgSignal:
         raise ParameterError(f"window_s={window_s} s is shorter than one sample at {emg.rate_hz} Hz")
     # One compiled pass: running sums of x² in record order (float64 keeps the cancellation error
     # far below EMG noise for hour-long records), the finiteness check on the way.
-    envelope, finite = sliding_rms_rows(np.ascontiguousarray(emg.values), width)
+    envelope = np.empty(emg.values.shape)  # from NumPy: huge pages, few page faults
+    finite = sliding_rms_rows(np.ascontiguousarray(emg.values), width, envelope)
     if not finite:
         _require_finite(emg, "emg_envelope")
     return emg.with_values(envelope, adopt=True)

@@ -31,7 +31,13 @@ def zero_phase_bandpass(
     if values.shape[0] <= edge:
         raise ValueError(f"The length of the input vector x must be greater than padlen, which is {edge}.")
     size = (values.shape[0] + 2 * edge) * values.shape[1]
-    return sosfiltfilt_rows(np.ascontiguousarray(values, dtype=np.float64), sos, zi, edge, _scratch(size))
+    # Large buffers come from NumPy, which asks the kernel for huge pages (few page faults), not
+    # from inside the compiled code.
+    out = np.empty(values.shape)
+    finite = sosfiltfilt_rows(
+        np.ascontiguousarray(values, dtype=np.float64), sos, zi, edge, _scratch(size), out
+    )
+    return out, finite
 
 
 _SCRATCH = threading.local()
