@@ -17,6 +17,7 @@ from bowden.cli.serve import serve_config
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
 from bowden.model.model_file import save_model
+from bowden.runtime.sample_chunks import read_samples
 from bowden.sim.parameters import SuitParameters
 
 HARDWARE = ["--channel", "can1", "--interface", "virtual", "--motor-id", "3", "--firmware", "peak-9nm",
@@ -116,9 +117,8 @@ def test_the_simulated_arm_follows_the_run_reference_from_the_loop_start(tmp_pat
     assert main(["run", "--backend", "sim", "--duration", "2.6", "--lead-in", str(lead_in_s), "--speed", "V3",
                  "--rate", "250", "--record", str(store)]) == 0
     with sqlite3.connect(store) as connection:
-        rows = np.array(connection.execute(
-            "SELECT time_s, reference_elevation_rad, elevation_rad FROM samples ORDER BY time_s"
-        ).fetchall(), dtype=float)
+        columns = ["time_s", "reference_elevation_rad", "elevation_rad"]
+        rows = read_samples(connection).loc[:, columns].to_numpy()
     t, reference, elevation = rows.T
     reference_deg, elevation_deg = np.degrees(reference), np.degrees(elevation)
     # The recorded reference is the one shown: rest at 20°, one V3 cycle to 100° and back, rest.

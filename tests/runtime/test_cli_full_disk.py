@@ -17,6 +17,8 @@ from pathlib import Path
 
 import pytest
 
+from bowden.runtime.sample_chunks import last_sample_times, sample_count
+
 LIMIT_BYTES = 256 * 1024
 
 
@@ -47,5 +49,5 @@ def test_full_disk_stops_safely_and_keeps_what_was_written(tmp_path: Path) -> No
     assert "motor mode exited" in out  # the safe-state path ran to its end
     assert "recording: recording into" in out  # the summary says what became of the recording
     with sqlite3.connect(store) as check:
-        rows, last = check.execute("SELECT COUNT(*), MAX(time_s) FROM samples").fetchone()
+        rows, last = sample_count(check), max(last_sample_times(check).values())
     assert rows > 100 and last < 50.0  # it stopped long before the 60 s, with the rows it had

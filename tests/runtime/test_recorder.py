@@ -6,16 +6,19 @@ import importlib.util
 import json
 import math
 import os
+import random
 import signal
 import sqlite3
+import struct
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 
-from bowden.contracts import TRIAL_COLUMNS
 from bowden.errors import ParameterError, StoreError
+from bowden.runtime import sample_chunks
 from bowden.runtime.recorder import Recorder, TrialInfo
 from bowden.runtime.store_schema import SCHEMA_VERSION
 
@@ -30,10 +33,17 @@ TRIAL = TrialInfo(participant="P07", condition="support_25", speed="V1", support
 
 
 def read_samples(path: Path) -> list[tuple[object, ...]]:
+    """Every stored row as ``(trial_id, *TRIAL_COLUMNS)``, None where a value is missing (NaN)."""
     with sqlite3.connect(path) as connection:
-        return connection.execute(
-            f"SELECT trial_id, {', '.join(TRIAL_COLUMNS)} FROM samples ORDER BY rowid"
-        ).fetchall()
+        frame = sample_chunks.read_samples(connection)
+    return [
+        tuple(None if isinstance(v, float) and math.isnan(v) else v for v in row)
+        for row in frame.astype(object).itertuples(index=False, name=None)
+    ]
+
+
+def chunk_sizes(connection: sqlite3.Connection) -> list[int]:
+    return [n for (n,) in connection.execute("SELECT row_count FROM sample_chunks ORDER BY start_time_s")]
 
 
 def test_round_trip_with_schema_and_trial(tmp_path: Path) -> None:
@@ -72,7 +82,7 @@ def test_second_trial_appends(tmp_path: Path) -> None:
             recorder.record(record_child.row(0))
     with sqlite3.connect(path) as connection:
         assert connection.execute("SELECT count(*) FROM trials").fetchone()[0] == 2
-        assert connection.execute("SELECT count(DISTINCT trial_id) FROM samples").fetchone()[0] == 2
+        assert sample_chunks.trials_with_samples(connection) == [1, 2]
 
 
 def test_stop_reason_is_stored(tmp_path: Path) -> None:
@@ -86,14 +96,19 @@ def test_stop_reason_is_stored(tmp_path: Path) -> None:
 
 def test_sigkill_keeps_every_committed_sample(tmp_path: Path) -> None:
     path = tmp_path / "study.db"
-    child = subprocess.Popen([sys.executable, str(CHILD), str(path)], stdout=subprocess.PIPE, text=True)
+    progress = tmp_path / "newest"
+    # Full chunks of 256 rows: by the kill the writer has merged its small chunks several times.
+    chunk_rows = 256
+    child = subprocess.Popen([sys.executable, str(CHILD), str(path), str(progress), str(chunk_rows)],
+                             stdout=subprocess.PIPE, text=True)
     reported = 0
     try:
         assert child.stdout is not None
         for line in child.stdout:
             reported = int(line.split()[1])
-            if reported >= 300:
+            if reported >= 1500:
                 break
+        time.sleep(random.uniform(0.0, 0.05))  # anywhere between two commits
         os.kill(child.pid, signal.SIGKILL)
     finally:
         child.kill()
@@ -101,17 +116,41 @@ def test_sigkill_keeps_every_committed_sample(tmp_path: Path) -> None:
         if child.stdout is not None:
             child.stdout.close()
     assert child.returncode == -signal.SIGKILL
+    (newest,) = struct.unpack("<q", progress.read_bytes())
     with sqlite3.connect(path) as connection:
         assert connection.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
         ended = connection.execute("SELECT ended_utc FROM trials").fetchone()[0]
+        counts = chunk_sizes(connection)
     assert ended is None  # the trial never closed: the crash is visible
     rows = read_samples(path)
-    # Every sample reported committed is there, in order, exactly as recorded.
-    assert len(rows) >= reported >= 300
+    # Every sample reported committed is there, once, in order, exactly as recorded.
+    assert len(rows) >= reported >= 1500
     for i, stored in enumerate(rows):
         expected = record_child.row(i)
         assert stored[1:10] == pytest.approx(expected[:9], abs=0.0)
+        assert stored[10] is None  # NaN (no load cell) comes back missing
         assert stored[11:] == expected[10:]
+    # At most the last 0.2 s (200 rows at 1 kHz) of what the loop handed over is lost.
+    assert 0 <= newest + 1 - len(rows) <= 200, (newest, len(rows))
+    # Merged chunks are full; only the rows since the last merge are still in small chunks.
+    full = len(rows) // chunk_rows
+    assert full >= 5 and counts[:full] == [chunk_rows] * full
+    assert sum(counts[full:]) == len(rows) - full * chunk_rows
+
+
+def test_chunks_are_merged_when_full_and_at_the_end(tmp_path: Path) -> None:
+    path = tmp_path / "study.db"
+    with Recorder(path, TRIAL, chunk_rows=100, commit_interval_s=0.01) as recorder:
+        for i in range(1050):
+            recorder.record(record_child.row(i))
+            if i % 40 == 0:
+                time.sleep(0.012)  # several commits, so small chunks are made and merged
+    assert recorder.stats.commits > 10
+    with sqlite3.connect(path) as connection:
+        counts = chunk_sizes(connection)
+    assert counts == [100] * 10 + [50]
+    rows = read_samples(path)
+    assert [r[1] for r in rows] == [record_child.row(i)[0] for i in range(1050)]
 
 
 def test_bad_row_fails_loudly(tmp_path: Path) -> None:
@@ -145,5 +184,7 @@ def test_trial_info_validation() -> None:
         TrialInfo(participant=" ", condition="support_50")
     with pytest.raises(ParameterError, match="metadata"):
         TrialInfo(participant="P1", condition="support_50", metadata={"x": math.nan})
+    with pytest.raises(ParameterError, match="chunk_rows"):
+        Recorder("x.db", TrialInfo(participant="P1", condition="no_suit"), chunk_rows=0)
     with pytest.raises(ParameterError, match="commit_interval_s"):
         Recorder("x.db", TrialInfo(participant="P1", condition="no_suit"), commit_interval_s=0.5)

@@ -48,6 +48,7 @@ from bowden.runtime import (
     stop_on_signals,
 )
 from bowden.runtime.clock import MonotonicClock
+from bowden.runtime.sample_chunks import sample_count
 
 if TYPE_CHECKING:
     from conftest import Rig
@@ -282,7 +283,7 @@ def test_recorder_backlog_stops(rig: Rig, controller: Controller, caplog: pytest
         blocker.close()
     recorder.close(stop_reason=report.reason)  # the lock is gone: the backlog is written after all
     with sqlite3.connect(store) as check:
-        rows = check.execute("SELECT COUNT(*) FROM samples").fetchone()[0]
+        rows = sample_count(check)
         reason = check.execute("SELECT stop_reason FROM trials").fetchone()[0]
     assert rows == len(tap.rows)  # nothing the loop handed over was lost
     assert "recording failed" in reason

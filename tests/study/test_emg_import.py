@@ -151,7 +151,9 @@ def test_the_same_file_again_is_a_no_op_and_another_needs_replace(session, store
     args = ["emg", "import", str(store), str(edf), "--trigger-channel", TRIGGER, *MAP]
     assert main(args) == 0
     with StudyStore(store) as opened:
-        before = opened.read_sql("SELECT trial_id, muscle, start_time_s, data FROM emg ORDER BY 1, 2")
+        before = opened.read_sql(
+            "SELECT trial_id, muscle, first_sample, start_time_s, data FROM emg_chunks ORDER BY 1, 2, 3"
+        )
     assert main(args) == 0
     assert "nothing new to import; trial(s) 1, 2, 3 already from this file" in capsys.readouterr().out
     other = tmp_path / "other.edf"
@@ -164,14 +166,16 @@ def test_the_same_file_again_is_a_no_op_and_another_needs_replace(session, store
     assert err.count("\n") == 0 and "EMG already stored for trial 1 from P01_session.edf" in err
     assert "--replace" in err
     with StudyStore(store) as opened:
-        after = opened.read_sql("SELECT trial_id, muscle, start_time_s, data FROM emg ORDER BY 1, 2")
+        after = opened.read_sql(
+            "SELECT trial_id, muscle, first_sample, start_time_s, data FROM emg_chunks ORDER BY 1, 2, 3"
+        )
     pd.testing.assert_frame_equal(before, after)
     assert (
         main(["emg", "import", str(store), str(other), "--trigger-channel", TRIGGER, *MAP, "--replace"]) == 0
     )
     with StudyStore(store) as opened:
         assert {meta["file"] for meta in emg_imports(opened).values()} == {"other.edf"}
-        assert len(opened.read_sql("SELECT * FROM emg")) == 3 * len(MUSCLES)
+        assert len(opened.read_sql("SELECT DISTINCT trial_id, muscle FROM emg_chunks")) == 3 * len(MUSCLES)
 
 
 def _refused(store: Path, path: Path, *extra: str, capsys: pytest.CaptureFixture[str]) -> str:
@@ -179,7 +183,7 @@ def _refused(store: Path, path: Path, *extra: str, capsys: pytest.CaptureFixture
     err = capsys.readouterr().err.strip()
     assert code == 1 and err.startswith("bowden: error: ") and "\n" not in err, err
     with StudyStore(store) as opened:  # nothing half-imported
-        assert opened.read_sql("SELECT COUNT(*) AS n FROM emg")["n"][0] == 0
+        assert opened.trials_with_emg() == []
     return err
 
 

@@ -19,6 +19,7 @@ from bowden.cli import main
 from bowden.contracts import BACKEND_CAN, BACKEND_SIM, TRIAL_COLUMNS
 from bowden.errors import OutputFileError, StoreError
 from bowden.runtime.recorder import TrialInfo
+from bowden.runtime.sample_chunks import sample_count
 from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE, made_by_study_pipeline, read_trial_origins
 from bowden.study.pipeline import StudySettings, run_study
 from bowden.study.store import StudyStore
@@ -151,9 +152,7 @@ def test_only_the_pipelines_unfinished_trials_are_discarded(tmp_path: Path) -> N
         assert store.discard_unfinished_trials() == 2
         remaining = [row[0] for row in store._db.execute("SELECT id FROM trials ORDER BY id")]
         assert remaining == kept
-        counts = dict(
-            store._db.execute("SELECT trial_id, COUNT(*) FROM samples GROUP BY trial_id").fetchall()
-        )
+        counts = {trial_id: sample_count(store._db, trial_id) for trial_id in store.trials_with_samples()}
     assert all(counts[trial_id] == 50 for trial_id in kept) and not set(dropped) & set(counts)
 
 

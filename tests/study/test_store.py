@@ -8,6 +8,7 @@ from bowden.contracts import MUSCLES, TRIAL_COLUMNS
 from bowden.errors import StoreError
 from bowden.model import Subject
 from bowden.runtime.recorder import TrialInfo
+from bowden.runtime.sample_chunks import sample_count
 from bowden.study.store import StudyStore, check_participant_id
 
 
@@ -61,7 +62,7 @@ def test_write_is_all_or_nothing(tmp_path):
         with pytest.raises(StoreError, match="non-finite"):
             store.write_trial(INFO, samples(), emg=bad)
         assert store.completed_trials() == []
-        assert store._db.execute("SELECT COUNT(*) FROM samples").fetchone()[0] == 0
+        assert sample_count(store._db) == 0
 
 
 def test_unfinished_trials_are_discarded(tmp_path):

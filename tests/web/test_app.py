@@ -1,6 +1,7 @@
 """The HTTP API and WebSockets through starlette's TestClient, with trials on the simulated suit."""
 
 import json
+import math
 import re
 import sqlite3
 
@@ -11,6 +12,7 @@ from starlette.websockets import WebSocketDisconnect
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.control import Fault
 from bowden.runtime import LoopState
+from bowden.runtime.sample_chunks import read_samples
 from bowden.web.app import STATIC_DIR
 
 from .conftest import AUTH, BASE, TOKEN, store_snapshot, trial_request
@@ -177,9 +179,9 @@ def test_a_simulated_trial_streams_to_the_display_and_is_recorded(client, web):
     samples = [m for m in messages if m["type"] == "samples"]
     shown = {t: el for m in samples for t, el in zip(m["t"], m["elevation_deg"], strict=True)}
     with sqlite3.connect(web.config.store_path) as connection:
-        stored = dict(connection.execute(
-            "SELECT round(time_s, 4), degrees(elevation_rad) FROM samples WHERE trial_id = ?", (trial_id,)
-        ).fetchall())
+        rows = read_samples(connection, trial_id)
+        stored = {round(t, 4): math.degrees(el)
+                  for t, el in zip(rows["time_s"], rows["elevation_rad"], strict=True)}
         reason = connection.execute("SELECT stop_reason FROM trials WHERE id = ?", (trial_id,)).fetchone()[0]
     assert len(shown) == pytest.approx(len(stored) / 2.5, abs=2)  # 250 Hz loop thinned to 100 Hz
     for t, elevation in shown.items():
@@ -202,10 +204,8 @@ def test_the_stop_button_puts_the_suit_in_the_safe_state(client, web):
     assert result["motor_disabled"] is True and result["reason"] == "operator stop (console)"
     assert result["clean"] is True  # an operator stop is a clean end, not a watchdog fault
     with sqlite3.connect(web.config.store_path) as connection:
-        rows = connection.execute(
-            "SELECT controller_state, commanded_torque_nm FROM samples WHERE trial_id = ? ORDER BY time_s",
-            (trial_id,),
-        ).fetchall()
+        rows = list(read_samples(connection, trial_id).loc[:, ["controller_state", "commanded_torque_nm"]]
+                    .itertuples(index=False, name=None))
         events = connection.execute("SELECT kind FROM events WHERE trial_id = ?", (trial_id,)).fetchall()
     assert rows[-1] == (int(LoopState.RAMPING_DOWN), 0.0)  # the ramp ended at zero torque
     assert any(state == int(LoopState.RAMPING_DOWN) for state, _ in rows)
@@ -273,9 +273,7 @@ def test_a_watchdog_fault_reaches_the_console_and_the_store(tmp_path):
     assert result["clean"] is False and result["faults"] == [Fault.IMU_STALE.name]
     assert result["reason"].startswith("IMU: newest sample") and result["motor_disabled"] is True
     with sqlite3.connect(config.store_path) as connection:
-        flags = connection.execute(
-            "SELECT max(fault_flags) FROM samples WHERE trial_id = ?", (trial_id,)
-        ).fetchone()[0]
+        flags = int(read_samples(connection, trial_id)["fault_flags"].max())
         events = connection.execute("SELECT kind FROM events WHERE trial_id = ?", (trial_id,)).fetchall()
     assert flags & int(Fault.IMU_STALE) and ("fault",) in events
 

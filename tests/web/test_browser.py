@@ -19,6 +19,7 @@ from bowden.cli import build_parser
 from bowden.cli.serve import serve_config
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.model import CompensationModel
+from bowden.runtime.sample_chunks import read_samples
 from bowden.web.server import ServeConfig, ServerThread
 from bowden.web.suits import SimulatedBackend
 from bowden.web.trial_setup import parse_setup
@@ -76,10 +77,8 @@ def browser() -> Iterator[Windows]:
 
 def stored_samples(path: Path, trial_id: int) -> dict[float, float]:
     with sqlite3.connect(path) as connection:
-        rows = connection.execute(
-            "SELECT time_s, elevation_rad FROM samples WHERE trial_id = ? ORDER BY time_s", (trial_id,)
-        ).fetchall()
-    return {round(t, 4): math.degrees(el) for t, el in rows}
+        rows = read_samples(connection, trial_id).loc[:, ["time_s", "elevation_rad"]]
+    return {round(t, 4): math.degrees(el) for t, el in rows.itertuples(index=False, name=None)}
 
 
 def test_an_operator_action_without_the_token_is_refused_and_changes_nothing(server, browser):

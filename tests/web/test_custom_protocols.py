@@ -18,6 +18,8 @@ from bowden.cli.serve import session_protocol
 from bowden.errors import ParameterError
 from bowden.protocol.catalogue import Catalogue, catalogue_of
 from bowden.protocol.session_plan import StudyProtocol
+from bowden.runtime.sample_chunks import read_samples
+from bowden.runtime.store_schema import SCHEMA_VERSION
 from bowden.study.store import StudyStore
 from bowden.web.questionnaire_store import QuestionnaireStore
 
@@ -75,10 +77,9 @@ def test_a_plan_with_a_custom_condition_and_speed_runs_from_the_console(tmp_path
     with sqlite3.connect(web.config.store_path) as connection:
         trial_id, support, speed, metadata = connection.execute(
             "SELECT id, support, speed, metadata FROM trials WHERE condition = 'support_70'").fetchone()
-        reference = np.array([r[0] for r in connection.execute(
-            "SELECT reference_elevation_rad FROM samples WHERE trial_id = ? ORDER BY time_s", (trial_id,))])
-        times = np.array([r[0] for r in connection.execute(
-            "SELECT time_s FROM samples WHERE trial_id = ? ORDER BY time_s", (trial_id,))])
+        samples = read_samples(connection, trial_id)
+        reference = samples["reference_elevation_rad"].to_numpy()
+        times = samples["time_s"].to_numpy()
         rpe = connection.execute("SELECT score FROM questionnaires WHERE condition = 'support_70' "
                                  "AND questionnaire = 'borg_rpe'").fetchone()
     assert support == 0.7 and speed == "V4" and rpe == (12,)
@@ -165,7 +166,8 @@ def test_an_older_store_s_questionnaires_table_is_migrated_and_keeps_its_answers
         tables = [r[0] for r in connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
         sql = connection.execute("SELECT sql FROM sqlite_master WHERE name = 'questionnaires'").fetchone()[0]
         version = connection.execute("PRAGMA user_version").fetchone()[0]
-    assert "condition IN (" not in sql and "questionnaires_migrated" not in tables and version == 3
+    assert "condition IN (" not in sql and "questionnaires_migrated" not in tables
+    assert version == SCHEMA_VERSION
 
 
 def answers_frame(condition: str):

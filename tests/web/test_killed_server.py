@@ -16,6 +16,7 @@ from pathlib import Path
 import httpx2 as httpx  # what the dev extra installs (starlette's TestClient uses it too)
 
 from bowden.cli import build_parser, main
+from bowden.runtime.sample_chunks import sample_count
 from bowden.runtime.store_schema import STORE_FILE_NAME
 from bowden.web.session_store import LEFT_OPEN
 
@@ -57,8 +58,7 @@ def serving(store: Path) -> Iterator[tuple[str, dict[str, str], subprocess.Popen
 
 def _samples(store: Path, trial_id: int) -> int:
     with sqlite3.connect(store) as connection:
-        query = "SELECT count(*) FROM samples WHERE trial_id = ?"
-        return int(connection.execute(query, (trial_id,)).fetchone()[0])
+        return sample_count(connection, trial_id)
 
 
 def test_a_killed_server_s_open_trial_is_resumed_and_named(tmp_path: Path, capsys) -> None:

@@ -5,6 +5,7 @@ import pytest
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.errors import ConflictError
 from bowden.runtime import Recorder, TrialInfo
+from bowden.runtime.sample_chunks import sample_count
 from bowden.web.questionnaire_store import QuestionnaireStore
 from bowden.web.questionnaires import QuestionnaireResponse
 
@@ -82,6 +83,6 @@ def test_questionnaires_share_the_file_with_recorded_trials(tmp_path):
     store = QuestionnaireStore(path)
     store.save(response("P01", "no_suit"))
     with sqlite3.connect(path) as connection:
-        assert connection.execute("SELECT count(*) FROM samples").fetchone()[0] == 1
+        assert sample_count(connection) == 1
         assert connection.execute("SELECT count(*) FROM questionnaires").fetchone()[0] == 23
         assert connection.execute("PRAGMA journal_mode").fetchone()[0] == "wal"

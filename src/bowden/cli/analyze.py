@@ -35,7 +35,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         action="store_true",
         help="with --export, also export the raw sEMG (emg table, one row per EMG sample: large)",
     )
-    parser.add_argument("--format", choices=("parquet", "csv"), default="parquet", help="export format")
+    parser.add_argument(
+        "--format", choices=("parquet", "csv"), default="parquet",
+        help="export format (default: parquet; both are written a chunk at a time, in bounded memory)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=run)
 

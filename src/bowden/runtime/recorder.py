@@ -7,6 +7,12 @@ time a commit takes, well inside the 0.2 s of docs/design.md) into the SQLite st
 :mod:`bowden.runtime.store_schema` (WAL journal, ``synchronous=FULL``). A ``kill -9`` therefore loses
 only rows not yet committed and never corrupts what was (tested by killing a recording process).
 
+Each commit adds the rows since the last one as a small chunk of ``sample_chunks``. The writer keeps
+the rows of the trial's small chunks in memory (at most :data:`~bowden.runtime.sample_chunks.CHUNK_ROWS`)
+and, once they fill a full chunk and when the trial closes, replaces them by full chunks in the
+same transaction as that commit's rows: a crash leaves either the small chunks or the full ones,
+never both or neither.
+
 Failures reach the loop: :attr:`Recorder.failure` says why the recording cannot go on — the writer
 failed (a full disk, a removed file), or the backlog passed ``max_backlog_rows`` (the disk cannot keep
 up). The loop reads it every cycle and, by default, stops safely. The queue's policy: rows are queued
@@ -32,9 +38,24 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any, Final, Self
 
-from bowden.contracts import PROTOCOL_NAME_RULE, TRIAL_COLUMNS, is_participant_id, is_protocol_name
+from bowden.contracts import (
+    PROTOCOL_NAME_RULE,
+    TRIAL_COLUMNS,
+    TRIAL_TIME,
+    is_participant_id,
+    is_protocol_name,
+)
 from bowden.errors import ParameterError, StoreError
-from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection, create_schema
+from bowden.runtime.sample_chunks import (
+    CHUNK_ROWS,
+    INSERT_CHUNK_SQL,
+    Columns,
+    chunk_row,
+    columns_from_rows,
+    concat_columns,
+    split_columns,
+)
+from bowden.runtime.store_schema import configure_connection, create_schema
 
 _log = logging.getLogger(__name__)
 _STOP: Final = object()
@@ -121,6 +142,9 @@ class Recorder:
     max_backlog_rows
         Rows waiting for the writer beyond which the recording counts as failed (default 5000:
         10 s at 500 Hz, where a healthy writer keeps fewer than a hundred).
+    chunk_rows
+        Rows of a full chunk of ``sample_chunks`` (default
+        :data:`~bowden.runtime.sample_chunks.CHUNK_ROWS`; tests make it small to merge often).
     """
 
     def __init__(
@@ -132,12 +156,16 @@ class Recorder:
         synchronous: str = "FULL",
         on_commit: Callable[[int], None] | None = None,
         max_backlog_rows: int = 5000,
+        chunk_rows: int = CHUNK_ROWS,
     ) -> None:
         if not (math.isfinite(commit_interval_s) and 0.0 < commit_interval_s <= 0.2):
             raise ParameterError(f"commit_interval_s must be in (0, 0.2] s, got {commit_interval_s!r}")
         if isinstance(max_backlog_rows, bool) or not isinstance(max_backlog_rows, int) \
                 or max_backlog_rows < 1:
             raise ParameterError(f"max_backlog_rows must be a whole number ≥ 1, got {max_backlog_rows!r}")
+        if isinstance(chunk_rows, bool) or not isinstance(chunk_rows, int) or chunk_rows < 1:
+            raise ParameterError(f"chunk_rows must be a whole number ≥ 1, got {chunk_rows!r}")
+        self.chunk_rows = chunk_rows
         self.path = Path(path)
         self.trial = trial
         self.commit_interval_s = commit_interval_s
@@ -283,9 +311,10 @@ class Recorder:
             connection.close()
 
     def _drain(self, connection: sqlite3.Connection) -> None:
-        trial_id = self.trial_id
+        assert self.trial_id is not None
+        chunks = _TrialChunks(self.trial_id, self.chunk_rows)
         columns = len(TRIAL_COLUMNS)
-        samples: list[tuple[float | int | None, ...]] = []
+        samples: list[tuple[float | int, ...]] = []
         events: list[tuple[int | None, float, str, str]] = []
         get = self._queue.get
         last_commit = time.monotonic()
@@ -300,10 +329,9 @@ class Recorder:
                 if item is _STOP:
                     stopping = True
                 elif isinstance(item, _Event):
-                    events.append((trial_id, item.time_s, item.kind, item.message))
+                    events.append((self.trial_id, item.time_s, item.kind, item.message))
                 elif isinstance(item, tuple) and len(item) == columns:
-                    # SQLite has no NaN; store it as NULL explicitly (what sqlite3 would do anyway).
-                    samples.append((trial_id, *(None if v != v else v for v in item)))
+                    samples.append(item)
                 else:
                     size = len(item) if isinstance(item, tuple) else item
                     raise StoreError(f"recorder got a row of {size!r} values, expected {columns}")
@@ -316,9 +344,9 @@ class Recorder:
             now = time.monotonic()
             if now - last_commit >= self.commit_interval_s or stopping:
                 backlog = self._queue.qsize()
+                batch = columns_from_rows(samples) if samples else None
                 with connection:
-                    if samples:
-                        connection.executemany(INSERT_SAMPLE_SQL, samples)
+                    chunks.commit(connection, batch, final=stopping)
                     if events:
                         connection.executemany(
                             "INSERT INTO events (trial_id, time_s, kind, message) VALUES (?, ?, ?, ?)", events
@@ -326,13 +354,12 @@ class Recorder:
                     if stopping:
                         connection.execute(
                             "UPDATE trials SET ended_utc = ?, stop_reason = ? WHERE id = ?",
-                            (utc_now_iso(), self._stop_reason, trial_id),
+                            (utc_now_iso(), self._stop_reason, self.trial_id),
                         )
                 stats = self.stats
                 stats.committed_rows += len(samples)
-                if samples:
-                    newest = samples[-1][1]  # [0] is the trial id
-                    stats.last_committed_time_s = float(newest) if newest is not None else math.nan
+                if batch is not None:
+                    stats.last_committed_time_s = float(batch[TRIAL_TIME][-1])
                 stats.commits += 1
                 stats.max_commit_gap_s = max(stats.max_commit_gap_s, time.monotonic() - last_commit)
                 stats.max_backlog = max(stats.max_backlog, backlog)
@@ -341,6 +368,42 @@ class Recorder:
                 last_commit = time.monotonic()
                 if self.on_commit is not None:
                     self.on_commit(stats.committed_rows)
+
+
+class _TrialChunks:
+    """The writer's view of its trial's ``sample_chunks``: small chunks merged into full ones."""
+
+    def __init__(self, trial_id: int, chunk_rows: int) -> None:
+        self.trial_id = trial_id
+        self.chunk_rows = chunk_rows
+        self._pending: list[Columns] = []  # the rows of the small chunks, in order
+        self._pending_ids: list[int] = []  # their rowids
+        self._pending_rows = 0
+
+    def commit(self, connection: sqlite3.Connection, batch: Columns | None, *, final: bool) -> None:
+        """Store ``batch`` (inside the caller's transaction); merge when a chunk is full or at the end."""
+        rows = 0 if batch is None else len(batch[TRIAL_TIME])
+        if batch is not None and not final and self._pending_rows + rows < self.chunk_rows:
+            cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, batch))
+            self._pending.append(batch)
+            self._pending_ids.append(int(cursor.lastrowid or 0))
+            self._pending_rows += rows
+            return
+        if batch is None and not (final and len(self._pending) > 1):
+            return  # nothing new, and nothing worth merging
+        blocks = [*self._pending, *([batch] if batch is not None else [])]
+        # Full chunks, then at most one partial one.
+        merged = list(split_columns(concat_columns(blocks), self.chunk_rows))
+        keep = merged if final else [block for block in merged if len(block[TRIAL_TIME]) == self.chunk_rows]
+        connection.executemany(
+            "DELETE FROM sample_chunks WHERE rowid = ?", ((rowid,) for rowid in self._pending_ids)
+        )
+        connection.executemany(INSERT_CHUNK_SQL, (chunk_row(self.trial_id, block) for block in keep))
+        self._pending, self._pending_ids, self._pending_rows = [], [], 0
+        for rest in merged[len(keep):]:  # a partial chunk stays small until it fills
+            cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, rest))
+            self._pending, self._pending_ids = [rest], [int(cursor.lastrowid or 0)]
+            self._pending_rows = len(rest[TRIAL_TIME])
 
 
 @dataclass(frozen=True, slots=True)

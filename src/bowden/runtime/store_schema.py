@@ -15,12 +15,22 @@ Tables (``STRICT``: a wrong type is an error, not a silent conversion):
     ``ended_utc`` (ISO 8601; ``ended_utc`` NULL while recording or after a crash); ``stop_reason``
     (why the loop stopped); ``metadata`` (a JSON object: rate, backend, model file, software
     version, the speed's ``speed_peak_deg_s``...).
-``samples``
-    one row per control cycle: ``trial_id`` then the columns of ``contracts.TRIAL_COLUMNS``
-    (SI units as named). SQLite has no NaN: a NaN (e.g. no load cell) is stored as NULL.
+``sample_chunks``
+    the control cycles in blocks: ``trial_id``; ``start_time_s`` / ``end_time_s`` (the block's first
+    and last loop time); ``row_count``; ``data``, the columns of ``contracts.TRIAL_COLUMNS`` (SI
+    units as named; float64, the state and fault codes int64; NaN kept, e.g. no load cell) encoded
+    losslessly by :mod:`bowden.runtime.column_codec`. The recorder commits a block every 0.1 s and
+    merges a trial's blocks into blocks of up to :data:`~bowden.runtime.sample_chunks.CHUNK_ROWS`
+    rows as it goes (:mod:`bowden.runtime.sample_chunks` reads and writes them).
 ``events``
     things that happened during a trial, in loop time: ``trial_id``, ``time_s``, ``kind``
     (``start``, ``safe_stop``, ``fault``, ...), ``message``.
+
+Version 3 and older stores kept one row per control cycle in a ``samples`` table (and the study
+store's EMG one row per trial and muscle in ``emg``): about 110 bytes a cycle with its index, against
+about 40 in chunks.
+Those :data:`LEGACY_TABLES` are read as they are (and their trials deleted or replaced as before),
+never created; new trials in an old store go to the chunk tables.
 
 The version is kept in ``PRAGMA user_version``. Before anything changes a file, :func:`check_store`
 makes sure it is a bowden store (or an empty file): a file from a newer bowden, an SQLite file of
@@ -35,7 +45,7 @@ import sqlite3
 from collections.abc import Mapping
 from typing import Final
 
-from bowden.contracts import TRIAL_COLUMNS, TRIAL_FAULT, TRIAL_STATE, TRIAL_TIME
+from bowden.contracts import TRIAL_COLUMNS
 from bowden.errors import StoreError
 
 # The study store's file name wherever bowden makes or looks for one (serve, run, study, analyze).
@@ -44,17 +54,8 @@ STORE_FILE_NAME: Final = "study.db"
 # 2: the participant registry's columns and the session plans (bowden.web.registry, .session_store).
 # 3: custom protocols: conditions and speeds named by contracts.is_protocol_name; the questionnaires
 #    table's CHECK follows that rule (bowden.web.questionnaire_store.migrate_questionnaires).
-SCHEMA_VERSION: Final = 3
-
-_INTEGER_COLUMNS: Final = frozenset({TRIAL_STATE, TRIAL_FAULT})
-_REQUIRED_COLUMNS: Final = frozenset({TRIAL_TIME, TRIAL_STATE, TRIAL_FAULT})
-
-
-def _sample_column(name: str) -> str:
-    kind = "INTEGER" if name in _INTEGER_COLUMNS else "REAL"
-    null = " NOT NULL" if name in _REQUIRED_COLUMNS else ""
-    return f"    {name} {kind}{null}"
-
+# 4: samples and EMG in compressed chunks (sample_chunks, emg_chunks); samples and emg are legacy.
+SCHEMA_VERSION: Final = 4
 
 TRIALS_DDL: Final = """
 CREATE TABLE IF NOT EXISTS trials (
@@ -70,15 +71,18 @@ CREATE TABLE IF NOT EXISTS trials (
 ) STRICT
 """
 
-SAMPLES_DDL: Final = (
-    "\nCREATE TABLE IF NOT EXISTS samples (\n"
-    "    trial_id INTEGER NOT NULL REFERENCES trials(id),\n"
-    + ",\n".join(_sample_column(name) for name in TRIAL_COLUMNS)
-    + "\n) STRICT\n"
-)
+SAMPLE_CHUNKS_DDL: Final = """
+CREATE TABLE IF NOT EXISTS sample_chunks (
+    trial_id INTEGER NOT NULL REFERENCES trials(id),
+    start_time_s REAL NOT NULL,
+    end_time_s REAL NOT NULL,
+    row_count INTEGER NOT NULL CHECK (row_count > 0),
+    data BLOB NOT NULL
+) STRICT
+"""
 
-SAMPLES_INDEX_DDL: Final = (
-    f"CREATE INDEX IF NOT EXISTS samples_by_trial_time ON samples (trial_id, {TRIAL_TIME})"
+SAMPLE_CHUNKS_INDEX_DDL: Final = (
+    "CREATE INDEX IF NOT EXISTS sample_chunks_by_trial_time ON sample_chunks (trial_id, start_time_s)"
 )
 
 EVENTS_DDL: Final = """
@@ -90,28 +94,26 @@ CREATE TABLE IF NOT EXISTS events (
 ) STRICT
 """
 
-INSERT_SAMPLE_SQL: Final = (
-    f"INSERT INTO samples (trial_id, {', '.join(TRIAL_COLUMNS)}) "
-    f"VALUES ({', '.join('?' * (len(TRIAL_COLUMNS) + 1))})"
-)
-
-
-# Every table a bowden store may hold, with the columns bowden reads from it. The runtime makes the
-# first three; the study store (bowden.study.store), the questionnaire forms, the participant
-# registry and the session plans (bowden.web) add the others. They are listed here, below all three,
-# so whichever opens a file first can tell a bowden store from another program's file before
-# changing anything. tests/runtime/test_store_schema.py
-# checks this list against the tables those modules create.
+# Every table a bowden store may hold, with the columns bowden reads from it. The runtime makes
+# trials, sample_chunks and events; the study store (bowden.study.store), the questionnaire forms,
+# the participant registry and the session plans (bowden.web) add the others; older stores may hold
+# the LEGACY_TABLES. They are listed here, below the runtime's, so whichever opens a file first can
+# tell a bowden store from another program's file before changing anything.
+# tests/runtime/test_store_schema.py checks this list against the tables those modules create.
 STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
     "trials": (
         "id", "participant", "condition", "speed", "support", "started_utc", "ended_utc",
         "stop_reason", "metadata",
     ),
+    "sample_chunks": ("trial_id", "start_time_s", "end_time_s", "row_count", "data"),
     "samples": ("trial_id", *TRIAL_COLUMNS),
     "events": ("trial_id", "time_s", "kind", "message"),
     "participants": (
         "id", "sex", "height_m", "mass_kg", "metadata", "arm_side", "hand_load_kg", "age_years",
         "registered_utc",
+    ),
+    "emg_chunks": (
+        "trial_id", "muscle", "first_sample", "sample_count", "rate_hz", "start_time_s", "gain", "data",
     ),
     "emg": ("trial_id", "muscle", "rate_hz", "start_time_s", "gain", "data"),
     "questionnaires": ("participant", "condition", "questionnaire", "item", "score", "submitted_utc"),
@@ -124,6 +126,8 @@ STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
     "session_trials": ("trial_id", "session_id", "position", "status", "reason", "updated_utc"),
     "session_notes": ("session_id", "participant", "condition", "position", "kind", "reason", "noted_utc"),
 }
+# Tables of version 3 and older stores: read, never created (their data moved to the chunk tables).
+LEGACY_TABLES: Final = frozenset({"samples", "emg"})
 # Columns added to a table after its first release. A store written before lacks them until the
 # module owning the table adds them (bowden.web.registry.migrate_participants), so their absence
 # does not make the file unreadable.
@@ -203,7 +207,7 @@ def create_schema(connection: sqlite3.Connection) -> None:
     """Create the tables if missing and stamp the version, after :func:`check_store` accepts the file."""
     check_store(connection)
     with connection:
-        for ddl in (TRIALS_DDL, SAMPLES_DDL, SAMPLES_INDEX_DDL, EVENTS_DDL):
+        for ddl in (TRIALS_DDL, SAMPLE_CHUNKS_DDL, SAMPLE_CHUNKS_INDEX_DDL, EVENTS_DDL):
             connection.execute(ddl)
         connection.execute(f"PRAGMA user_version={SCHEMA_VERSION}")
 

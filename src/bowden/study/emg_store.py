@@ -8,14 +8,13 @@ which makes a second import of the same file a no-op and lets the report name th
 from __future__ import annotations
 
 import json
-import sqlite3
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Final
 
 import pandas as pd
 
-from bowden.errors import RecordingError, StoreError
+from bowden.errors import RecordingError
 from bowden.runtime.sync_events import SYNC_KIND, SyncEvent
 from bowden.study.store import StudyStore
 
@@ -60,8 +59,7 @@ def trial_syncs(store: StudyStore) -> dict[int, TrialSync]:
         except RecordingError as error:
             raise RecordingError(f"trial {trial_id}: {error}") from None
         edges.setdefault(int(trial_id), {})[event.edge] = event
-    ends = store.read_sql("SELECT trial_id, MAX(time_s) AS last FROM samples GROUP BY trial_id")
-    last = {int(t): float(v) for t, v in ends.itertuples(index=False, name=None) if pd.notna(v)}
+    last = store.last_sample_times()
     return {
         trial_id: TrialSync(
             trial_id=trial_id, start=pair["start"], end=pair["end"], last_sample_s=last.get(trial_id, 0.0)
@@ -85,7 +83,7 @@ def emg_imports(store: StudyStore) -> dict[int, dict[str, Any]]:
 
 
 def trials_with_emg(store: StudyStore) -> set[int]:
-    return {int(t) for t in store.read_sql("SELECT DISTINCT trial_id FROM emg")["trial_id"]}
+    return set(store.trials_with_emg())
 
 
 def write_imported_emg(
@@ -93,20 +91,10 @@ def write_imported_emg(
 ) -> None:
     """Store (or replace) the EMG of several trials with its provenance, in one transaction.
 
-    A trial's previous EMG and import events are deleted first. Every trial is written, or none.
+    A trial's previous EMG and import events are replaced. Every trial is written, or none.
     """
-    # The store's own connection and EMG encoder, so imported EMG is stored exactly as recorded EMG;
-    # StudyStore has no public multi-trial transaction yet (store.py is being reworked elsewhere).
-    db = store._db
-    try:
-        with db:
-            for trial_id, frame in emg.items():
-                db.execute("DELETE FROM emg WHERE trial_id = ?", (trial_id,))
-                db.execute("DELETE FROM events WHERE trial_id = ? AND kind = ?", (trial_id, EMG_IMPORT_KIND))
-                store._insert_emg(trial_id, frame)
-                db.execute(
-                    "INSERT INTO events (trial_id, time_s, kind, message) VALUES (?, NULL, ?, ?)",
-                    (trial_id, EMG_IMPORT_KIND, json.dumps(dict(provenance[trial_id]), allow_nan=False)),
-                )
-    except sqlite3.Error as error:
-        raise StoreError(f"cannot write the EMG into {store.path}: {error}") from None
+    events = {
+        trial_id: (EMG_IMPORT_KIND, json.dumps(dict(provenance[trial_id]), allow_nan=False))
+        for trial_id in emg
+    }
+    store.replace_emg(emg, events)

@@ -6,9 +6,11 @@ It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``tria
 ``participants``
     the registry (:mod:`bowden.web.registry`): pseudonymous id, sex, height, mass, arm side, hand
     load, age (never a name);
-``emg``
-    one row per trial and muscle: rate, start time on the controller time base, and the samples as a
-    16-bit integer blob with its gain (the resolution of EDF/BDF-16 files, 2 bytes a sample);
+``emg_chunks``
+    the raw sEMG: per trial and muscle, blocks of 16-bit codes (the resolution of EDF/BDF-16 files)
+    with the gain, rate and start time on the controller time base, compressed losslessly
+    (:mod:`bowden.study.emg_chunks`; stores of schema 3 and older keep one raw ``emg`` row per trial
+    and muscle, still read);
 ``questionnaires``
     one row per answered item: participant, condition, questionnaire, item, score (the table of
     :mod:`bowden.web.questionnaire_store`, which the browser forms write);
@@ -22,7 +24,8 @@ It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``tria
 
 Why SQLite over DuckDB: the recorder must commit every 0.1 s from a small ARM board and survive
 ``kill -9``; SQLite's WAL gives that from the standard library. Analyses read whole trials into
-pandas, where DuckDB's column engine would buy little.
+pandas, where DuckDB's column engine would buy little; the signals are stored as compressed column
+chunks (:mod:`bowden.runtime.column_codec`), so SQLite holds a few rows per trial, not one per sample.
 """
 
 from __future__ import annotations
@@ -42,21 +45,20 @@ import pandas as pd
 from bowden.contracts import (
     BORG_RPE_ITEM,
     FATIGUE_SITES,
-    MUSCLES,
     NORDIC_SITES,
     PROTOCOL_NAME_RULE,
     QUESTIONNAIRE_BORG_RPE,
     QUESTIONNAIRE_FATIGUE,
     QUESTIONNAIRE_NORDIC,
-    TRIAL_COLUMNS,
-    TRIAL_TIME,
     is_participant_id,
     is_protocol_name,
 )
 from bowden.errors import StoreError
 from bowden.model import Subject
+from bowden.runtime import sample_chunks
 from bowden.runtime.recorder import TrialInfo, utc_now_iso
-from bowden.runtime.store_schema import INSERT_SAMPLE_SQL, configure_connection, create_schema
+from bowden.runtime.store_schema import configure_connection, create_schema
+from bowden.study import emg_chunks
 from bowden.study.export import export_store
 from bowden.study.ownership import made_by_study_pipeline, metadata_object
 
@@ -74,17 +76,7 @@ _QUESTIONNAIRE_ITEMS: Final = {
 }
 
 _STUDY_DDL: Final = (
-    """
-CREATE TABLE IF NOT EXISTS emg (
-    trial_id INTEGER NOT NULL REFERENCES trials(id),
-    muscle TEXT NOT NULL,
-    rate_hz REAL NOT NULL,
-    start_time_s REAL NOT NULL,
-    gain REAL NOT NULL,
-    data BLOB NOT NULL,
-    PRIMARY KEY (trial_id, muscle)
-) STRICT
-""",
+    emg_chunks.EMG_CHUNKS_DDL,
     """
 CREATE TABLE IF NOT EXISTS outcomes (
     participant TEXT NOT NULL,
@@ -244,10 +236,7 @@ class StudyStore:
         and one column per muscle at a constant rate. Either all of it is committed or none.
         """
         check_participant_id(info.participant)
-        missing = [name for name in TRIAL_COLUMNS if name not in samples.columns]
-        if missing:
-            raise StoreError(f"trial samples lack the column(s) {missing}")
-        rows = samples.loc[:, list(TRIAL_COLUMNS)].astype(object).where(samples.notna(), None)
+        columns = sample_chunks.columns_from_frame(samples)
         try:
             with self._db:
                 cursor = self._db.execute(
@@ -263,11 +252,9 @@ class StudyStore:
                     ),
                 )
                 trial_id = int(cursor.lastrowid or 0)
-                self._db.executemany(
-                    INSERT_SAMPLE_SQL, ((trial_id, *row) for row in rows.itertuples(index=False, name=None))
-                )
+                sample_chunks.insert_samples(self._db, trial_id, columns)
                 if emg is not None:
-                    self._insert_emg(trial_id, emg)
+                    emg_chunks.insert_trial_emg(self._db, trial_id, emg)
                 self._db.execute(
                     "UPDATE trials SET ended_utc = ?, stop_reason = ? WHERE id = ?",
                     (utc_now_iso(), stop_reason, trial_id),
@@ -276,28 +263,29 @@ class StudyStore:
             raise StoreError(f"cannot write the trial into {self.path}: {error}") from None
         return trial_id
 
-    def _insert_emg(self, trial_id: int, emg: pd.DataFrame) -> None:
-        if TRIAL_TIME not in emg.columns or len(emg) < 2:
-            raise StoreError("EMG needs a time_s column and at least two samples")
-        time = emg[TRIAL_TIME].to_numpy(dtype=np.float64)
-        steps = np.diff(time)
-        rate = 1.0 / float(np.median(steps))
-        if not np.allclose(steps, 1.0 / rate, rtol=1e-3, atol=0.0):
-            raise StoreError("EMG samples must be evenly spaced to be stored")
-        for muscle in emg.columns:
-            if muscle == TRIAL_TIME:
-                continue
-            values = emg[muscle].to_numpy(dtype=np.float64)
-            peak = float(np.max(np.abs(values))) if values.size else 0.0
-            if not math.isfinite(peak):
-                raise StoreError(f"EMG channel {muscle!r} has non-finite samples")
-            gain = peak / 32767.0 if peak > 0.0 else 1.0
-            data = np.rint(values / gain).astype("<i2").tobytes()
-            self._db.execute(
-                "INSERT INTO emg (trial_id, muscle, rate_hz, start_time_s, gain, data) "
-                "VALUES (?, ?, ?, ?, ?, ?)",
-                (trial_id, muscle, rate, float(time[0]), gain, data),
-            )
+    def replace_emg(self, emg: Mapping[int, pd.DataFrame], events: Mapping[int, tuple[str, str]]) -> None:
+        """Replace the EMG of several trials, each with one event ``(kind, message)`` replacing that
+        trial's events of the same kind, in one transaction: every trial is written, or none.
+
+        Raises
+        ------
+        StoreError
+            An EMG frame cannot be stored (see :func:`bowden.study.emg_chunks.insert_trial_emg`) or
+            the file cannot be written.
+        """
+        try:
+            with self._db:
+                for trial_id, frame in emg.items():
+                    emg_chunks.delete_trial_emg(self._db, trial_id)
+                    emg_chunks.insert_trial_emg(self._db, trial_id, frame)
+                    kind, message = events[trial_id]
+                    self._db.execute("DELETE FROM events WHERE trial_id = ? AND kind = ?", (trial_id, kind))
+                    self._db.execute(
+                        "INSERT INTO events (trial_id, time_s, kind, message) VALUES (?, NULL, ?, ?)",
+                        (trial_id, kind, message),
+                    )
+        except sqlite3.Error as error:
+            raise StoreError(f"cannot write the EMG into {self.path}: {error}") from None
 
     def completed_trials(self) -> list[StoredTrial]:
         """Trials that finished (``ended_utc`` set), in recording order."""
@@ -329,39 +317,43 @@ class StudyStore:
             rows = self._db.execute("SELECT id, metadata FROM trials WHERE ended_utc IS NULL").fetchall()
             ids = [row[0] for row in rows if made_by_study_pipeline(metadata_object(row[1]))]
             for trial_id in ids:
-                for table in ("samples", "emg", "events"):
-                    self._db.execute(f"DELETE FROM {table} WHERE trial_id = ?", (trial_id,))
+                sample_chunks.delete_trial_samples(self._db, trial_id)
+                emg_chunks.delete_trial_emg(self._db, trial_id)
+                self._db.execute("DELETE FROM events WHERE trial_id = ?", (trial_id,))
                 self._db.execute("DELETE FROM trials WHERE id = ?", (trial_id,))
         return len(ids)
 
     def trial_samples(self, trial_id: int) -> pd.DataFrame:
-        """The samples of a trial (NULL back to NaN), ordered by time."""
-        frame = pd.read_sql_query(
-            f"SELECT {', '.join(TRIAL_COLUMNS)} FROM samples WHERE trial_id = ? ORDER BY {TRIAL_TIME}",
-            self._db,
-            params=(trial_id,),
-        )
-        return frame.astype({name: np.float64 for name in TRIAL_COLUMNS if frame[name].dtype == object})
+        """The samples of a trial (NaN where a value is missing), ordered by time."""
+        return sample_chunks.read_trial_samples(self._db, trial_id)
+
+    def trial_sample_chunks(self, trial_id: int) -> Iterator[pd.DataFrame]:
+        """The samples of a trial a block at a time (bounded memory, for exports)."""
+        return sample_chunks.iter_trial_samples(self._db, trial_id)
+
+    def trials_with_samples(self) -> list[int]:
+        """Ids of every trial with samples (finished or not), in order."""
+        return sample_chunks.trials_with_samples(self._db)
+
+    def last_sample_times(self) -> dict[int, float]:
+        """Per trial id, the loop time of its last recorded cycle."""
+        return sample_chunks.last_sample_times(self._db)
 
     def trial_emg(self, trial_id: int) -> pd.DataFrame | None:
         """The EMG of a trial as ``time_s`` + one column per muscle, or None if none was stored."""
-        rows = self._db.execute(
-            "SELECT muscle, rate_hz, start_time_s, gain, data FROM emg WHERE trial_id = ?", (trial_id,)
-        ).fetchall()
-        if not rows:
-            return None
-        columns: dict[str, np.ndarray] = {}
-        rate, start, length = rows[0][1], rows[0][2], None
-        for muscle, _rate, _start, gain, data in rows:
-            values = np.frombuffer(data, dtype="<i2").astype(np.float64) * gain
-            length = values.size if length is None else min(length, values.size)
-            columns[muscle] = values
-        assert length is not None
-        order = [m for m in MUSCLES if m in columns] + [m for m in columns if m not in MUSCLES]
-        frame = pd.DataFrame({TRIAL_TIME: start + np.arange(length) / rate})
-        for muscle in order:
-            frame[muscle] = columns[muscle][:length]
-        return frame
+        return emg_chunks.read_trial_emg(self._db, trial_id)
+
+    def trial_emg_chunks(self, trial_id: int) -> Iterator[pd.DataFrame]:
+        """The EMG of a trial a block at a time (bounded memory, for exports); nothing if none."""
+        return emg_chunks.iter_trial_emg(self._db, trial_id)
+
+    def trials_with_emg(self) -> list[int]:
+        """Ids of the trials with stored EMG, in order."""
+        return emg_chunks.trials_with_emg(self._db)
+
+    def emg_muscles(self) -> list[str]:
+        """Every muscle with stored EMG (the paper's in their order, then others by name)."""
+        return emg_chunks.emg_muscles(self._db)
 
     def iter_trials(
         self, *, with_emg: bool = True

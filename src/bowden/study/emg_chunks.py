@@ -1,0 +1,192 @@
+"""A trial's raw sEMG in the study store: 16-bit codes in compressed chunks, or an old store's rows.
+
+The EMG is kept at the resolution of EDF/BDF-16 files: each muscle's samples as 16-bit codes with
+one gain per trial and muscle (volts = code × gain; gain = the trial's peak / 32767). Schema 4 stores
+them in ``emg_chunks``, one row per muscle and block of :data:`EMG_CHUNK_SAMPLES` samples, the codes
+encoded losslessly by :mod:`bowden.runtime.column_codec` (first differences, byte planes, zstd).
+Stores of schema 3 and older hold a trial's codes raw in one ``emg`` row per muscle; every reader
+here reads both.
+"""
+
+from __future__ import annotations
+
+import math
+import sqlite3
+from collections.abc import Iterator
+from typing import Any, Final
+
+import numpy as np
+import pandas as pd
+
+from bowden.contracts import MUSCLES, TRIAL_TIME
+from bowden.errors import StoreError
+from bowden.runtime.column_codec import decode_columns, encode_columns
+from bowden.runtime.sample_chunks import has_table
+
+# Samples of a chunk per muscle: about 16 s at 2 kHz, 64 kB of codes.
+EMG_CHUNK_SAMPLES: Final = 32768
+_CODES: Final = "codes"
+_LEGACY_TABLE: Final = "emg"
+
+EMG_CHUNKS_DDL: Final = """
+CREATE TABLE IF NOT EXISTS emg_chunks (
+    trial_id INTEGER NOT NULL REFERENCES trials(id),
+    muscle TEXT NOT NULL,
+    first_sample INTEGER NOT NULL CHECK (first_sample >= 0),
+    sample_count INTEGER NOT NULL CHECK (sample_count > 0),
+    rate_hz REAL NOT NULL,
+    start_time_s REAL NOT NULL,
+    gain REAL NOT NULL,
+    data BLOB NOT NULL,
+    PRIMARY KEY (trial_id, muscle, first_sample)
+) STRICT
+"""
+
+
+def insert_trial_emg(connection: sqlite3.Connection, trial_id: int, emg: pd.DataFrame) -> None:
+    """Store a trial's EMG (``time_s`` + one column per muscle, evenly spaced), in the caller's
+    transaction.
+
+    Raises
+    ------
+    StoreError
+        No time column, fewer than two samples, uneven spacing, or non-finite samples (names the
+        muscle).
+    """
+    if TRIAL_TIME not in emg.columns or len(emg) < 2:
+        raise StoreError("EMG needs a time_s column and at least two samples")
+    time = emg[TRIAL_TIME].to_numpy(dtype=np.float64)
+    steps = np.diff(time)
+    rate = 1.0 / float(np.median(steps))
+    if not np.allclose(steps, 1.0 / rate, rtol=1e-3, atol=0.0):
+        raise StoreError("EMG samples must be evenly spaced to be stored")
+    rows = []
+    for muscle in emg.columns:
+        if muscle == TRIAL_TIME:
+            continue
+        values = emg[muscle].to_numpy(dtype=np.float64)
+        peak = float(np.max(np.abs(values))) if values.size else 0.0
+        if not math.isfinite(peak):
+            raise StoreError(f"EMG channel {muscle!r} has non-finite samples")
+        gain = peak / 32767.0 if peak > 0.0 else 1.0
+        codes = np.rint(values / gain).astype(np.int16)
+        for first in range(0, codes.size, EMG_CHUNK_SAMPLES):
+            block = codes[first : first + EMG_CHUNK_SAMPLES]
+            blob = encode_columns({_CODES: block})
+            rows.append((trial_id, str(muscle), first, block.size, rate, float(time[0]), gain, blob))
+    connection.executemany(
+        "INSERT INTO emg_chunks (trial_id, muscle, first_sample, sample_count, rate_hz, start_time_s, gain, "
+        "data) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+        rows,
+    )
+
+
+def delete_trial_emg(connection: sqlite3.Connection, trial_id: int) -> None:
+    connection.execute("DELETE FROM emg_chunks WHERE trial_id = ?", (trial_id,))
+    if has_table(connection, _LEGACY_TABLE):
+        connection.execute("DELETE FROM emg WHERE trial_id = ?", (trial_id,))
+
+
+def trials_with_emg(connection: sqlite3.Connection) -> list[int]:
+    query = "SELECT DISTINCT trial_id FROM emg_chunks"
+    if has_table(connection, _LEGACY_TABLE):
+        query += " UNION SELECT DISTINCT trial_id FROM emg"
+    return sorted(int(row[0]) for row in connection.execute(query))
+
+
+def emg_muscles(connection: sqlite3.Connection) -> list[str]:
+    """Every muscle with stored EMG: the paper's in their order, then the others by name."""
+    query = "SELECT DISTINCT muscle FROM emg_chunks"
+    if has_table(connection, _LEGACY_TABLE):
+        query += " UNION SELECT DISTINCT muscle FROM emg"
+    stored = {str(row[0]) for row in connection.execute(query)}
+    return [m for m in MUSCLES if m in stored] + sorted(stored - set(MUSCLES))
+
+
+def iter_trial_emg(connection: sqlite3.Connection, trial_id: int) -> Iterator[pd.DataFrame]:
+    """A trial's EMG in consecutive blocks (``time_s`` + one column per muscle, in volts), bounded in
+    memory by the chunk size; nothing if the trial has none. All muscles are cut to the shortest.
+
+    Raises
+    ------
+    StoreError
+        A chunk cannot be decoded or the chunks of a muscle do not follow each other (names the trial).
+    """
+    legacy = has_table(connection, _LEGACY_TABLE) and connection.execute(
+        "SELECT 1 FROM emg WHERE trial_id = ? LIMIT 1", (trial_id,)
+    ).fetchone() is not None
+    table = _LEGACY_TABLE if legacy else "emg_chunks"
+    query = f"SELECT muscle, gain FROM {table} WHERE trial_id = ?"
+    gains = {str(muscle): float(gain) for muscle, gain in connection.execute(query, (trial_id,))}
+    blocks = _legacy_blocks(connection, trial_id) if legacy else _chunk_blocks(connection, trial_id)
+    for start, rate, first, codes in blocks:
+        length = min(values.size for values in codes.values())
+        frame = pd.DataFrame({TRIAL_TIME: start + np.arange(first, first + length) / rate})
+        for muscle in _ordered(codes):
+            frame[muscle] = codes[muscle][:length].astype(np.float64) * gains[muscle]
+        yield frame
+
+
+def read_trial_emg(connection: sqlite3.Connection, trial_id: int) -> pd.DataFrame | None:
+    """A trial's whole EMG (``time_s`` + one column per muscle), or None if it has none."""
+    frames = list(iter_trial_emg(connection, trial_id))
+    if not frames:
+        return None
+    return frames[0] if len(frames) == 1 else pd.concat(frames, ignore_index=True)
+
+
+Block = tuple[float, float, int, dict[str, np.ndarray[Any, Any]]]
+
+
+def _chunk_blocks(connection: sqlite3.Connection, trial_id: int) -> Iterator[Block]:
+    """Per block of samples: start time, rate, first sample, the codes of every muscle."""
+    lengths = dict(
+        connection.execute(
+            "SELECT muscle, SUM(sample_count) FROM emg_chunks WHERE trial_id = ? GROUP BY muscle", (trial_id,)
+        ).fetchall()
+    )
+    if not lengths:
+        return
+    length = min(int(n) for n in lengths.values())
+    cursor = connection.execute(
+        "SELECT first_sample, muscle, sample_count, rate_hz, start_time_s, data FROM emg_chunks "
+        "WHERE trial_id = ? AND first_sample < ? ORDER BY first_sample, rowid",
+        (trial_id, length),
+    )
+    current: int | None = None
+    codes: dict[str, np.ndarray[Any, Any]] = {}
+    rate = start = math.nan
+    for first, muscle, count, rate_hz, start_time, blob in cursor:
+        if first != current:
+            if codes:
+                yield start, rate, int(current or 0), codes
+            current, codes = first, {}
+        rate, start = float(rate_hz), float(start_time)
+        try:
+            values = decode_columns(blob)[_CODES]
+        except (StoreError, KeyError) as error:
+            raise StoreError(f"trial {trial_id}: a stored EMG chunk of {muscle!r} is unreadable ({error})") \
+                from None
+        if values.size != count:
+            raise StoreError(f"trial {trial_id}: a stored EMG chunk of {muscle!r} has {values.size} samples, "
+                             f"its row says {count}")
+        codes[str(muscle)] = values[: length - int(first)]
+    if codes:
+        yield start, rate, int(current or 0), codes
+
+
+def _legacy_blocks(connection: sqlite3.Connection, trial_id: int) -> Iterator[Block]:
+    """An old store's trial EMG (one raw row per muscle), cut into blocks as the chunks are."""
+    rows = connection.execute(
+        "SELECT muscle, rate_hz, start_time_s, data FROM emg WHERE trial_id = ? ORDER BY rowid", (trial_id,)
+    ).fetchall()
+    codes = {str(muscle): np.frombuffer(data, dtype="<i2") for muscle, _rate, _start, data in rows}
+    length = min(values.size for values in codes.values())
+    for first in range(0, length, EMG_CHUNK_SAMPLES):
+        block = {muscle: values[first : first + EMG_CHUNK_SAMPLES] for muscle, values in codes.items()}
+        yield float(rows[0][2]), float(rows[0][1]), first, {m: v[: length - first] for m, v in block.items()}
+
+
+def _ordered(codes: dict[str, np.ndarray[Any, Any]]) -> list[str]:
+    """The paper's muscles in their order, then any other in stored order (as the store always did)."""
+    return [m for m in MUSCLES if m in codes] + [m for m in codes if m not in MUSCLES]
