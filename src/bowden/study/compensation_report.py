@@ -130,7 +130,8 @@ def compensation_section(
         "Averaged over conditions and speeds (simulated): tension RMSE while lowering "
         f"{lowering['dynamic']:.2f} N against {lowering['paper']:.2f} N, lowering-onset peak "
         f"{peak['dynamic']:.0f} % against {peak['paper']:.0f} %. "
-        "The virtual participants' muscles do not yet answer excess cable tension with antagonist "
-        "activity (issue 18), so the posterior deltoid column shows little of the paper's mechanism."
+        "The posterior deltoid column is the virtual participants' extensor response to cable force "
+        "they did not plan for (docs/simulation.md): the corrections a spike at the lowering onset "
+        "calls for, which the paper held responsible for its +32 %."
     )
     return table

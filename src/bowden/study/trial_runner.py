@@ -59,8 +59,8 @@ class TrialRecord:
 def simulate_task(task: TrialTask) -> TrialRecord:
     """Simulate one trial and synthesise its sEMG (module level, so that workers can run it)."""
     trial = simulate_trial(
-        task.participant, task.condition, task.speed, model=task.model, settings=task.protocol, seed=task.seed,
-        session_trial=task.session_trial,
+        task.participant, task.condition, task.speed, model=task.model, settings=task.protocol,
+        seed=task.seed, session_trial=task.session_trial,
     )
     support = c.CONDITION_SUPPORT[task.condition]
     info = TrialInfo(
