@@ -34,3 +34,42 @@ def test_multi_level_tables_have_one_header_row_per_column_level() -> None:
     body = document.parts[-1]
     assert "simulated" in body and "paper" in body and "raising" in body
     assert frame.index.names == ["source", "condition"]  # the caller's frame is left alone
+
+
+def _line_figure(points: int, colour: str):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(2, 1))
+    FigureCanvasAgg(figure)
+    figure.add_subplot().plot(range(points), color=colour)
+    return figure
+
+
+def test_later_figures_are_drawn_in_their_places_alike_in_a_pool_or_here() -> None:
+    from concurrent.futures import ProcessPoolExecutor
+
+    def build() -> HtmlDocument:
+        document = HtmlDocument(title="t", caption_label="simulated")
+        document.paragraph("before")
+        document.figure_later(_line_figure, 3, "red", caption="three points")
+        document.paragraph("between")
+        document.figure_later(_line_figure, 5, "blue", caption="five points", dpi=50)
+        document.figure(_line_figure(4, "green"), "drawn at once")
+        return document
+
+    serial = build()
+    html_serial = serial.render()  # draws what is pending
+    pooled = build()
+    banner = HtmlDocument(title="")
+    banner.banner("inserted in front after the figures were added")
+    pooled.parts[:0] = banner.parts
+    with ProcessPoolExecutor(2) as pool:
+        pooled.draw_figures(pool.map)
+    html_pooled = pooled.render()
+    assert html_pooled.replace(banner.parts[0] + "\n", "") == html_serial
+    body = html_serial.split("<body>")[1]
+    order = [body.index(text) for text in ("before", "three points (simulated)", "between", "five points",
+                                          "drawn at once")]
+    assert order == sorted(order)
+    assert body.count("<img") == 3 and "<!--figure" not in body

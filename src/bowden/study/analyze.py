@@ -59,7 +59,7 @@ from bowden.study.custom_protocols import (
     paper_part,
 )
 from bowden.study.emg_store import emg_imports, trials_with_emg
-from bowden.study.html import HtmlDocument
+from bowden.study.html import FigureJob, FigureMapper, HtmlDocument
 from bowden.study.parallel import Engine, Pending, study_engine
 from bowden.study.progress import StageProgress
 from bowden.study.report import ReportInputs, build_report
@@ -191,31 +191,32 @@ def analyze_store(
             model = _stored_model(store)
             figure, text = _identification_figure(identification)
 
-    given: DataKind = "simulated" if simulated else "measured"
-    kind = data_kind(kept.values()) if simulated is None else given
-    inputs = ReportInputs(
-        outcomes=outcomes,
-        statistics=statistics,
-        methods=methods_text(info=outcomes.info),
-        model=model,
-        # Results that pool measured and simulated trials are not measured results.
-        simulated=kind != "measured",
-        n_participants=outcomes.info.n_participants,
-        n_trials=outcomes.info.n_trials,
-        identification_figure=figure,
-        identification_text=text,
-        timings=dict(timings or {}),
-        questionnaires=answers,
-    )
-    with progress.spinner("writing the report"):
-        document = build_report(inputs)
-        if kind == "mixed":
-            _label_mixed(document, kept)
-        custom_section(document, beyond)
-        _session_sections(document, facts)
-        if appendix is not None:
-            appendix(document)
-        report = document.write(report_path)
+            given: DataKind = "simulated" if simulated else "measured"
+            kind = data_kind(kept.values()) if simulated is None else given
+            inputs = ReportInputs(
+                outcomes=outcomes,
+                statistics=statistics,
+                methods=methods_text(info=outcomes.info),
+                model=model,
+                # Results that pool measured and simulated trials are not measured results.
+                simulated=kind != "measured",
+                n_participants=outcomes.info.n_participants,
+                n_trials=outcomes.info.n_trials,
+                identification_figure=figure,
+                identification_text=text,
+                timings=dict(timings or {}),
+                questionnaires=answers,
+            )
+            with progress.spinner("writing the report"):
+                document = build_report(inputs)
+                if kind == "mixed":
+                    _label_mixed(document, kept)
+                custom_section(document, beyond)
+                _session_sections(document, facts)
+                if appendix is not None:
+                    appendix(document)
+                document.draw_figures(_figure_mapper(engine))  # the figures in parallel
+                report = document.write(report_path)
     return AnalysisReport(
         report=report,
         outcomes=outcomes,
@@ -311,6 +312,13 @@ def _combine(
         raise StoreError(
             f"{store_path} holds no trial that can be analysed: " + "; ".join(skipped)
         ) from None
+
+
+def _figure_mapper(engine: Engine) -> FigureMapper:
+    def mapper(function: Callable[[FigureJob], bytes], jobs: Iterable[FigureJob]) -> Iterator[bytes]:
+        return engine.map(function, jobs)
+
+    return mapper
 
 
 def _fit_mapper(engine: Engine) -> FitMapper:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,6 +39,32 @@ pre { white-space: pre-wrap; font-size: 0.85em; }
 """
 
 
+@dataclass(frozen=True)
+class FigureJob:
+    """A figure to draw later: ``make(*args)`` returns a matplotlib figure.
+
+    ``make`` is a module-level function and ``args`` plain data, so that a worker process can draw it.
+    """
+
+    make: Callable[..., Any]
+    args: tuple[Any, ...]
+    dpi: int
+
+
+def figure_png(job: FigureJob) -> bytes:
+    """Draw a :class:`FigureJob` and return its PNG (a task for a worker)."""
+    buffer = io.BytesIO()
+    job.make(*job.args).savefig(buffer, format="png", dpi=job.dpi, bbox_inches="tight")
+    return buffer.getvalue()
+
+
+FigureMapper = Callable[[Callable[[FigureJob], bytes], Iterable[FigureJob]], Iterator[bytes]]
+
+
+def _serial(function: Callable[[FigureJob], bytes], jobs: Iterable[FigureJob]) -> Iterator[bytes]:
+    return map(function, jobs)
+
+
 @dataclass
 class HtmlDocument:
     """Accumulates body fragments and writes them as one HTML file.
@@ -49,6 +76,8 @@ class HtmlDocument:
     title: str
     parts: list[str] = field(default_factory=list)
     caption_label: str = ""
+    # Figures whose drawing waits for draw_figures(), each behind a placeholder in ``parts``.
+    _pending: dict[str, tuple[FigureJob, str]] = field(default_factory=dict, repr=False)
 
     def _caption(self, caption: str) -> str:
         label = self.caption_label
@@ -102,14 +131,38 @@ class HtmlDocument:
         """Embed a matplotlib figure (with a canvas attached) as a PNG data URI."""
         buffer = io.BytesIO()
         fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
-        data = base64.b64encode(buffer.getvalue()).decode("ascii")
+        self.parts.append(self._figure_html(buffer.getvalue(), caption))
+
+    def figure_later(self, make: Callable[..., Any], *args: Any, caption: str, dpi: int = 110) -> None:
+        """A figure ``make(*args)`` drawn by :meth:`draw_figures` (in worker processes, if it is given
+        a parallel map), in this place of the document."""
+        placeholder = f"<!--figure {len(self._pending)} of {id(self)}-->"
+        self._pending[placeholder] = (FigureJob(make=make, args=args, dpi=dpi), caption)
+        self.parts.append(placeholder)
+
+    def draw_figures(self, mapper: FigureMapper = _serial) -> None:
+        """Draw every figure added by :meth:`figure_later`; ``mapper(function, jobs)`` returns the results
+        in the jobs' order (``map``, or a process pool's)."""
+        pending = list(self._pending.items())
+        self._pending.clear()
+        drawn = dict(zip((placeholder for placeholder, _ in pending),
+                         mapper(figure_png, [job for _, (job, _) in pending]), strict=True))
+        captions = {placeholder: caption for placeholder, (_, caption) in pending}
+        self.parts = [
+            self._figure_html(drawn[part], captions[part]) if part in drawn else part for part in self.parts
+        ]
+
+    def _figure_html(self, png: bytes, caption: str) -> str:
+        data = base64.b64encode(png).decode("ascii")
         caption = self._caption(caption)
-        self.parts.append(
+        return (
             f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
             f"<figcaption>{html.escape(caption)}</figcaption></figure>"
         )
 
     def render(self) -> str:
+        if self._pending:
+            self.draw_figures()
         body = "\n".join(self.parts)
         return (
             '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'

@@ -10,6 +10,7 @@ import html
 import math
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
@@ -262,9 +263,9 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
 
     participants = sorted(set(inputs.outcomes.curves["participant"]))
     if participants:
-        doc.figure(
-            figures.participant_curves(inputs.outcomes.curves, participants[0]),
-            f"Participant {participants[0]} ({kind}): mean ± SD over the kept repetitions",
+        doc.figure_later(
+            figures.participant_curves, inputs.outcomes.curves, participants[0],
+            caption=f"Participant {participants[0]} ({kind}): mean ± SD over the kept repetitions",
             dpi=80,
         )
 
@@ -274,9 +275,9 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
         data = outcome_data(outcomes, measure, "entire")
         if not data.empty:
             pairs = _condition_comparisons(kinematic_fits.get(KINEMATIC_LABELS[measure]))
-            doc.figure(
-                figures.condition_boxplots(data, label, f"{label}, {kind}", pairs, paper_means(measure)),
-                f"{label} per participant, the paper's mean (Table S4) as a diamond; ** p < 0.001, "
+            doc.figure_later(
+                figures.condition_boxplots, data, label, f"{label}, {kind}", pairs, paper_means(measure),
+                caption=f"{label} per participant, the paper's mean (Table S4) as a diamond; ** p < 0.001, "
                 "* p < 0.05 between conditions, speeds grouped (Holm), where the condition effect has "
                 "p < 0.05",
             )
@@ -303,11 +304,10 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
         if not data.empty:
             label = muscle.replace("_", " ")
             pairs = _condition_comparisons(entire_fits.get(MUSCLE_LABELS[muscle]))
-            doc.figure(
-                figures.condition_boxplots(
-                    data, "normalised iEMG", f"{label}, {kind}", pairs, paper_means(IEMG_PREFIX + muscle)
-                ),
-                f"Mean normalised iEMG of the {label}, the paper's mean (Table S7) as a diamond; "
+            doc.figure_later(
+                figures.condition_boxplots,
+                data, "normalised iEMG", f"{label}, {kind}", pairs, paper_means(IEMG_PREFIX + muscle),
+                caption=f"Mean normalised iEMG of the {label}, the paper's mean (Table S7) as a diamond; "
                 "** p < 0.001, * p < 0.05 between conditions, speeds grouped (Holm), where the condition "
                 "effect has p < 0.05",
             )
@@ -365,19 +365,20 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
                       "Results give one", "{:.3g}")
     if not inputs.questionnaires.empty:
         answers, posthoc = inputs.questionnaires, inputs.statistics.questionnaire_posthoc
-        doc.figure(
-            questionnaire_figures.nordic_body_map(answers, title=f"Nordic questionnaire, {kind}"),
-            "Median discomfort per body site and condition, seen from behind",
+        doc.figure_later(
+            partial(questionnaire_figures.nordic_body_map, title=f"Nordic questionnaire, {kind}"), answers,
+            caption="Median discomfort per body site and condition, seen from behind",
             dpi=80,
         )
         for questionnaire, ylabel in ((QUESTIONNAIRE_BORG_RPE, "Borg RPE (6–20)"),
                                       (QUESTIONNAIRE_FATIGUE, "perceived fatigue (1–7)")):
-            doc.figure(
-                questionnaire_figures.questionnaire_boxplots(
-                    answers, questionnaire, posthoc, ylabel=ylabel, title=f"{ylabel}, {kind}"
-                ),
-                f"{ylabel} per condition, one dot per participant; ** p < 0.001, * p < 0.05 (Bonferroni "
-                "post-hoc after a Friedman test with p < 0.05)",
+            boxplots = partial(
+                questionnaire_figures.questionnaire_boxplots, ylabel=ylabel, title=f"{ylabel}, {kind}"
+            )
+            doc.figure_later(
+                boxplots, answers, questionnaire, posthoc,
+                caption=f"{ylabel} per condition, one dot per participant; ** p < 0.001, * p < 0.05 "
+                "(Bonferroni post-hoc after a Friedman test with p < 0.05)",
                 dpi=80,
             )
 
