@@ -9,6 +9,8 @@ R(1−k)/(1+k)/c lowering (the friction terms only move the intercepts).
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from bowden.identify import TransmissionIdentifier
@@ -73,7 +75,9 @@ def test_identified_model_controls_the_simulated_suit() -> None:
     identified = TransmissionIdentifier().fit(frame).model_
     no_friction = CompensationModel.from_friction(k=0.0)
     slopes_only = CompensationModel.from_friction(k=suit.sheath.kinetic_coefficient)
-    participant = participants.generate_cohort(0)[0]
+    # A steady participant (little motor noise, no wandering lag): the model's effect, not the noise's.
+    steady = {"motor_noise_nm": 0.1, "lag_wander_sd": 0.0}
+    participant = dataclasses.replace(participants.generate_cohort(0)[0], **steady)
     settings = batch.ProtocolSettings(repetitions=3)
 
     def tension_rmse_n(model: CompensationModel, speed: str) -> float:

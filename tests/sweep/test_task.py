@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -106,7 +107,8 @@ def test_a_narrow_blend_beats_the_papers_at_the_slow_speed(spec, model):
     # At V1 the elevation speed peaks at 1.05 rad/s: with the paper's ±1 rad/s blend the controller
     # sits between its two lines for most of the movement, a 0.6 rad/s blend commits to the right one.
     protocol = protocol_settings(spec)
-    participant = cohort(spec, 0)[0]
+    # A steady participant (little motor noise, no wandering lag): the blend's effect, not the noise's.
+    participant = dataclasses.replace(cohort(spec, 0)[0], motor_noise_nm=0.1, lag_wander_sd=0.0)
     by_blend = {p.blend_velocities: p for p in spec.points()}
     narrow = score_participant(by_blend[(-0.1, 0.5)], SUIT, model, participant, 0, protocol)
     paper = score_participant(by_blend[(-1.0, 1.0)], SUIT, model, participant, 0, protocol)
