@@ -25,7 +25,8 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-import statsmodels.api as sm
+from statsmodels.robust.norms import TukeyBiweight
+from statsmodels.robust.robust_linear_model import RLM, RLMResults
 from numpy.typing import NDArray
 
 from bowden.errors import FitError
@@ -48,7 +49,7 @@ class DynamicIdentification:
     """The identified dynamic compensation and what it was identified from."""
 
     dynamic: DynamicCompensation
-    viscous_fit: sm.robust.robust_linear_model.RLMResults
+    viscous_fit: RLMResults
 
 
 def identify_dynamic(
@@ -71,7 +72,7 @@ def identify_dynamic(
             "runs 0.5–6 rad/s) to tell drag from Coulomb friction; this recording has one speed"
         )
     design, torque = _steady_design(selection)
-    fit = sm.RLM(torque, design, M=sm.robust.norms.TukeyBiweight()).fit()
+    fit = RLM(torque, design, M=TukeyBiweight()).fit()
     low_i, low_s, up_i, up_s, viscous = (float(v) for v in fit.params)
     viscous_se = float(fit.bse[4])
     if viscous < 0.0:
@@ -156,7 +157,7 @@ def _inertia(
     residual = f.motor_torque_nm[ramps] - _coulomb(raising, lowering, f.tension_n[ramps], direction)
     residual -= viscous * velocity
     acceleration = f.motor_acceleration_rad_s2[ramps][:, None]
-    fit = sm.RLM(residual, acceleration, M=sm.robust.norms.TukeyBiweight()).fit()
+    fit = RLM(residual, acceleration, M=TukeyBiweight()).fit()
     inertia = float(fit.params[0])
     # A negative or absurd inertia is noise on too gentle ramps: the term is then left out.
     if not 0.0 <= inertia <= 0.05:
