@@ -3,7 +3,14 @@ import math
 import numpy as np
 import pytest
 
-from bowden.analysis.metrics import integrate_between, percent_error, rmse, root_mean_square, signed_peak
+from bowden.analysis.metrics import (
+    integrate_between,
+    integrate_columns_between,
+    percent_error,
+    rmse,
+    root_mean_square,
+    signed_peak,
+)
 from bowden.errors import ParameterError, RecordingError
 
 
@@ -47,3 +54,17 @@ def test_integral_splits_exactly_at_a_boundary_between_grid_points():
     assert integrate_between(tau, y, 0.0, turn) + integrate_between(tau, y, turn, 1.0) == pytest.approx(whole)
     with pytest.raises(ParameterError, match="outside"):
         integrate_between(tau, y, -0.1, 0.5)
+
+
+def test_columns_are_integrated_as_one_column_at_a_time() -> None:
+    rng = np.random.default_rng(7)
+    tau = np.linspace(0.0, 1.0, 101)
+    values = rng.normal(size=(101, 8)).cumsum(axis=0)
+    for lower, upper in ((0.0, 1.0), (0.0, 0.4567), (0.4567, 1.0), (0.3, 0.3), (0.25, 0.75)):
+        together = integrate_columns_between(tau, values, lower, upper)
+        one_by_one = [integrate_between(tau, values[:, k], lower, upper) for k in range(8)]
+        np.testing.assert_allclose(together, one_by_one, rtol=1e-12, atol=1e-14)
+    with pytest.raises(ParameterError, match="outside the grid"):
+        integrate_columns_between(tau, values, -0.1, 0.5)
+    with pytest.raises(ParameterError, match="shape"):
+        integrate_columns_between(tau, values[:50], 0.0, 0.5)

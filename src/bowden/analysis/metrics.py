@@ -76,3 +76,26 @@ def integrate_between(tau: ArrayLike, values: ArrayLike, lower: float, upper: fl
     grid = np.concatenate([[lower], x[inner], [upper]])
     curve = np.concatenate([[np.interp(lower, x, y)], y[inner], [np.interp(upper, x, y)]])
     return float(np.sum(0.5 * (curve[1:] + curve[:-1]) * np.diff(grid)))
+
+
+def integrate_columns_between(
+    tau: ArrayLike, values: ArrayLike, lower: float, upper: float
+) -> NDArray[np.float64]:
+    """:func:`integrate_between` of every column of ``values`` (shape ``(len(tau), k)``) at once."""
+    x = np.asarray(tau, dtype=np.float64)
+    y = np.asarray(values, dtype=np.float64)
+    if y.ndim != 2 or y.shape[0] != x.size or x.size < 2:
+        raise ParameterError(f"values must have shape ({x.size}, k) on a grid of ≥ 2 points, got {y.shape}")
+    if not (x[0] <= lower <= upper <= x[-1]):
+        raise ParameterError(f"integration limits {lower}..{upper} outside the grid {x[0]}..{x[-1]}")
+    inner = (x > lower) & (x < upper)
+    grid = np.concatenate([[lower], x[inner], [upper]])
+    curve = np.concatenate([_row_at(x, y, lower)[None, :], y[inner], _row_at(x, y, upper)[None, :]])
+    return np.asarray((0.5 * (curve[1:] + curve[:-1]) * np.diff(grid)[:, None]).sum(axis=0))
+
+
+def _row_at(x: NDArray[np.float64], y: NDArray[np.float64], point: float) -> NDArray[np.float64]:
+    """Every column of ``y`` interpolated linearly at ``point`` (inside the grid ``x``)."""
+    j = min(max(int(np.searchsorted(x, point, side="right")) - 1, 0), x.size - 2)
+    weight = (point - x[j]) / (x[j + 1] - x[j])
+    return np.asarray(y[j] + weight * (y[j + 1] - y[j]))

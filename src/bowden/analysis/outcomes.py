@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from bowden.analysis.metrics import integrate_between
+from bowden.analysis.metrics import integrate_columns_between
 from bowden.analysis.segmentation import normalised_time
 from bowden.analysis.trial_outcomes import (
     CURVE_SIGNALS,
@@ -237,23 +237,16 @@ def _iemg_rows(
     rows = []
     for i, rep in enumerate(result.repetitions):
         turn = rep.turn_fraction
+        # Every channel of the repetition at once (one grid, one pair of limits per phase).
+        limits = {"entire": (0.0, 1.0), "raising": (0.0, turn), "lowering": (turn, 1.0)}
+        phases = {
+            phase: integrate_columns_between(tau, normalised[i], *ends) for phase, ends in limits.items()
+        }
         for j, name in enumerate(result.emg_channels):
-            curve = normalised[i, :, j]
-            for phase, (lo, hi) in (
-                ("entire", (0.0, 1.0)),
-                ("raising", (0.0, turn)),
-                ("lowering", (turn, 1.0)),
-            ):
+            for phase, integrals in phases.items():
                 rows.append(
-                    (
-                        m.participant,
-                        m.condition,
-                        m.speed,
-                        rep.number,
-                        phase,
-                        IEMG_PREFIX + name,
-                        integrate_between(tau, curve, lo, hi),
-                    )
+                    (m.participant, m.condition, m.speed, rep.number, phase, IEMG_PREFIX + name,
+                     float(integrals[j]))
                 )
     return rows
 

@@ -25,9 +25,9 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import NDArray
 from statsmodels.robust.norms import TukeyBiweight
 from statsmodels.robust.robust_linear_model import RLM, RLMResults
-from numpy.typing import NDArray
 
 from bowden.errors import FitError
 from bowden.identify.preprocess import SteadyStateSelection
