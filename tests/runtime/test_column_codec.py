@@ -71,3 +71,15 @@ def test_a_damaged_blob_is_a_store_error() -> None:
         decode_columns(b"SQLite" + blob)
     with pytest.raises(StoreError, match=r"truncated|cannot be decoded|do not match"):
         decode_columns(blob[:-10])
+
+
+def test_uncompressed_blobs_round_trip_and_keep_every_plane_raw() -> None:
+    columns = {"time_s": np.arange(200) * 0.002, "state": np.full(200, 3, dtype=np.int64)}
+    raw = encode_columns(columns, compress=False)
+    packed = encode_columns(columns)
+    assert len(packed) < len(raw)
+    for blob in (raw, packed):
+        back = decode_columns(blob)
+        assert back["time_s"].tobytes() == columns["time_s"].tobytes()
+        assert np.array_equal(back["state"], columns["state"])
+    assert b'"zstd"' not in raw and b'"zstd"' in packed

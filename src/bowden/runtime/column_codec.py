@@ -52,8 +52,11 @@ def _zstd() -> pa.Codec:
     return pa.Codec("zstd", compression_level=_ZSTD_LEVEL)
 
 
-def encode_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> bytes:
+def encode_columns(columns: Mapping[str, np.ndarray[Any, Any]], *, compress: bool = True) -> bytes:
     """One BLOB holding ``columns`` (equal lengths; float64/32 or int64/32/16), losslessly.
+
+    ``compress=False`` keeps every byte plane raw: for the recorder's short-lived 0.1 s chunks, whose
+    hundred tiny compressions per commit would hold the interpreter while the control loop waits.
 
     Raises
     ------
@@ -79,7 +82,7 @@ def encode_columns(columns: Mapping[str, np.ndarray[Any, Any]]) -> bytes:
         filtered = _filter(np.ascontiguousarray(array, dtype=code), _DTYPES[code])
         planes = []
         for plane in _planes(filtered):
-            packed = _zstd().compress(plane, asbytes=True)
+            packed = _zstd().compress(plane, asbytes=True) if compress else plane
             if len(packed) < len(plane):
                 planes.append(["zstd", len(packed)])
                 payload.append(packed)

@@ -384,7 +384,8 @@ class _TrialChunks:
         """Store ``batch`` (inside the caller's transaction); merge when a chunk is full or at the end."""
         rows = 0 if batch is None else len(batch[TRIAL_TIME])
         if batch is not None and not final and self._pending_rows + rows < self.chunk_rows:
-            cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, batch))
+            # Small chunks live until the merge: stored raw, so the commit stays short.
+            cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, batch, compress=False))
             self._pending.append(batch)
             self._pending_ids.append(int(cursor.lastrowid or 0))
             self._pending_rows += rows
@@ -401,7 +402,7 @@ class _TrialChunks:
         connection.executemany(INSERT_CHUNK_SQL, (chunk_row(self.trial_id, block) for block in keep))
         self._pending, self._pending_ids, self._pending_rows = [], [], 0
         for rest in merged[len(keep):]:  # a partial chunk stays small until it fills
-            cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, rest))
+            cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, rest, compress=False))
             self._pending, self._pending_ids = [rest], [int(cursor.lastrowid or 0)]
             self._pending_rows = len(rest[TRIAL_TIME])
 

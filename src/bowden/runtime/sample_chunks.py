@@ -84,10 +84,14 @@ def _typed(columns: Columns) -> Columns:
     return columns
 
 
-def chunk_row(trial_id: int, columns: ColumnsView) -> tuple[int, float, float, int, bytes]:
-    """The ``sample_chunks`` row of a block of columns (at least one row)."""
+def chunk_row(
+    trial_id: int, columns: ColumnsView, *, compress: bool = True
+) -> tuple[int, float, float, int, bytes]:
+    """The ``sample_chunks`` row of a block of columns (at least one row); ``compress`` as in
+    :func:`bowden.runtime.column_codec.encode_columns`."""
     time = columns[TRIAL_TIME]
-    return trial_id, float(time[0]), float(time[-1]), int(time.size), encode_columns(columns)
+    blob = encode_columns(columns, compress=compress)
+    return trial_id, float(time[0]), float(time[-1]), int(time.size), blob
 
 
 def split_columns(columns: ColumnsView, size: int = CHUNK_ROWS) -> Iterator[Columns]:
