@@ -7,7 +7,9 @@ every seed gives a cohort with the paper's summary statistics and different indi
 
 Each participant moves its arm with the controller of :func:`bowden.sim._kernels.human_torque`:
 feedforward from an imperfect internal model of its own arm minus the assistance it expects from
-the suit, an impedance about the intended movement, a visuomotor lag and signal-dependent noise.
+the suit, an impedance about the intended movement stiffened by co-contraction, what it learns of the
+suit's forces, a practised and wandering visuomotor lag and force-dependent noise. Its corrections
+are made by the muscles that oppose the force (:mod:`bowden.sim.muscles`; docs/simulation.md).
 """
 
 from __future__ import annotations
