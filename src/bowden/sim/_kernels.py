@@ -411,8 +411,9 @@ def integrate(
 ) -> int:
     """Advance up to ``n_steps`` plant steps with a held motor command; row ``i`` of ``record`` gets
     the state after step ``i``. For ``ARM_HUMAN``, ``arm_a`` and ``arm_b`` hold unit normal draws
-    for the motor noise and the lag's wander, and ``h`` the participant (``H_*``). With ``stop_direction`` +1 (−1) integration stops after
-    the step where the elevation reaches ``stop_elevation`` from below (above); returns the steps done."""
+    for the motor noise and the lag's wander, and ``h`` the participant (``H_*``). With
+    ``stop_direction`` +1 (−1) integration stops after the step where the elevation reaches
+    ``stop_elevation`` from below (above); returns the steps done."""
     lag = 1.0 - math.exp(-dt / p[P_CURRENT_TAU])
     for i in range(n_steps):
         if motor_mode == MOTOR_TORQUE:
