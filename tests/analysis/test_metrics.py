@@ -68,3 +68,22 @@ def test_columns_are_integrated_as_one_column_at_a_time() -> None:
         integrate_columns_between(tau, values, -0.1, 0.5)
     with pytest.raises(ParameterError, match="shape"):
         integrate_columns_between(tau, values[:50], 0.0, 0.5)
+
+
+def test_curves_are_interpolated_as_np_interp_does() -> None:
+    from bowden.analysis.outcomes import interpolate_curves
+
+    rng = np.random.default_rng(3)
+    tau = np.linspace(0.0, 1.0, 201)
+    data = rng.normal(size=(4, 201, 5))
+    data[:, :, 1] = np.nan  # a signal absent from the trial
+    data[2, 50:60, 3] = np.nan  # a gap
+    for grid in (np.linspace(0.0, 1.0, 101), np.sort(rng.uniform(0.0, 1.0, 77))):
+        ours = interpolate_curves(grid, tau, data)
+        reference = np.stack(
+            [np.stack([np.interp(grid, tau, data[r, :, s]) for s in range(5)], axis=1) for r in range(4)]
+        )
+        if grid.size == 101:  # nested grids: exactly np.interp's values
+            np.testing.assert_array_equal(ours, reference)
+        else:
+            np.testing.assert_allclose(ours, reference, rtol=1e-12, atol=1e-12)

@@ -261,13 +261,7 @@ def _mean_sd_curves(
         names += [f"emg_{name}" for name in result.emg_channels]
         data = np.concatenate([data, normalised], axis=2)
     grid = normalised_time(points)
-    # Interpolate every repetition's curve onto the output grid (exact when the grids nest).
-    coarse = np.stack(
-        [
-            np.stack([np.interp(grid, tau, data[r, :, s]) for s in range(data.shape[2])], axis=1)
-            for r in range(data.shape[0])
-        ]
-    )
+    coarse = interpolate_curves(grid, tau, data)
     finite = np.isfinite(coarse)
     count = np.sum(finite, axis=0)
     filled = np.where(finite, coarse, 0.0)
@@ -290,3 +284,19 @@ def _mean_sd_curves(
         }
     )
     return frame
+
+
+def interpolate_curves(
+    grid: NDArray[np.float64], tau: NDArray[np.float64], data: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``np.interp(grid, tau, data[r, :, s])`` for every repetition r and signal s at once.
+
+    ``tau`` is increasing and ``grid`` inside it. Grid points on ``tau``'s points take their values
+    exactly (the grids nest), as ``np.interp`` does; a NaN neighbour gives NaN, as it does there.
+    """
+    j = np.clip(np.searchsorted(tau, grid, side="right") - 1, 0, tau.size - 2)
+    weight = ((grid - tau[j]) / (tau[j + 1] - tau[j]))[None, :, None]
+    left, right = data[:, j, :], data[:, j + 1, :]
+    between = left + weight * (right - left)
+    on_left = np.where(weight == 0.0, left, between)
+    return np.asarray(np.where(weight == 1.0, right, on_left))
