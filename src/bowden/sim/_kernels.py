@@ -523,12 +523,14 @@ def human_torque(
 ) -> float:
     """Shoulder torque of the virtual participant (elevation > 0).
 
-    Feedforward inverse dynamics of the intended movement (the reference delayed by the visuomotor
-    lag, with aim offset and amplitude error) using the participant's own estimates of inertia and
-    gravity, minus the assistance it expects from the suit; plus a muscle impedance about the intended
-    movement (co-contraction stiffness and damping) that turns unexpected cable tension into movement
-    errors; plus signal-dependent motor noise (Harris & Wolpert 1998, Nature 394:780) as a unit
-    Ornstein–Uhlenbeck process scaled by the feedforward torque.
+    The *planned* torque: inverse dynamics of the intended movement (the reference delayed by a
+    wandering visuomotor lag, with aim offset and amplitude error) with the participant's own
+    estimates of inertia and gravity, minus the assistance it expects from the suit. The
+    *correction*: an impedance about the intended movement, stiffened by co-contraction, that turns
+    unexpected cable tension into movement errors, plus what it has learned of such forces. Then
+    motor noise (Harris & Wolpert 1998, Nature 394:780), a unit Ornstein–Uhlenbeck process scaled by
+    the force of both sides' muscles. The correction and the co-contraction are left in ``x`` for
+    the muscles (:mod:`bowden.sim.muscles`), which make them with the opposing muscles.
     """
     time_s = x[X_TIME]
     # Timing wanders slowly from cycle to cycle (an Ornstein–Uhlenbeck deviation of the lag).
