@@ -1,12 +1,14 @@
 """Muscle activations of the eight recorded shoulder muscles from the torque the arm needs.
 
-The net shoulder torque the participant produces (elevation > 0) is shared among agonists of forward
+The shoulder torque the participant plans (elevation > 0) is shared among agonists of forward
 elevation (anterior and medial deltoid, trapezius, clavicular pectoralis major, biceps long head) and
 antagonists (posterior deltoid, latissimus dorsi, triceps long head) as the paper groups them
-(Protocol). Eccentric work (lowering against gravity) needs less activation for the same torque
-(Enoka 1996, J Appl Physiol 81:2339: ≈ 30 % less); the trapezius is recruited more as the arm rises
-(scapular upward rotation, Inman et al. 1944); co-contraction grows with movement speed. Activation
-follows excitation with first-order dynamics, faster to rise than to fall (Zajac 1989: ≈ 15/50 ms).
+(Protocol); its corrections against forces it did not plan for are made by the muscles that oppose
+those forces, and its co-contraction by both groups (see :func:`muscle_activations`). Eccentric
+work (lowering against gravity) needs less activation for the same torque (Enoka 1996, J Appl
+Physiol 81:2339: ≈ 30 % less); the trapezius is recruited more as the arm rises (scapular upward
+rotation, Inman et al. 1944); co-contraction grows with movement speed. Activation follows
+excitation with first-order dynamics, faster to rise than to fall (Zajac 1989: ≈ 15/50 ms).
 """
 
 from __future__ import annotations
