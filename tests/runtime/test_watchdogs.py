@@ -1,6 +1,7 @@
 """Fault injection over the wire: one test per fault, each ending in the safe state, measured on the bus.
 
-The loop runs on the real clock with its default watchdogs against the simulated suit through its
+The loop runs on the real clock with its default watchdogs (those a test does not inject into made
+patient, below) against the simulated suit through its
 peers (AK60 on virtual CAN, NGIMU over UDP, ADS1115 on the fake I²C bus). A fault is injected from
 the recorder tap once the loop has run 0.15 s; the test then checks: the right watchdog fired, for the
 logged reason, not before the fault existed; the torque followed the ramp to zero; motor mode was
@@ -59,6 +60,11 @@ INJECT_AT_S = 0.15
 # so a busy machine stalls them with the loop (host stalls have their own tests, on the suit's clock
 # and through bowden run with the suit in its own process).
 DEFAULTS = SafetyConfig(max_tension_n=120.0, host_stall_max_s=2.0)
+# For the same reason, the silence watchdogs a test does not inject into wait a second: a busy host
+# starving the peer threads for 30 ms must not make "no reply" beat the fault under test.
+PATIENT_MOTOR = replace(DEFAULTS, motor_max_silence_s=1.0)
+PATIENT_IMU = replace(DEFAULTS, imu_max_age_s=1.0)
+PATIENT = replace(DEFAULTS, motor_max_silence_s=1.0, imu_max_age_s=1.0)
 ZERO_BUDGET_S = 0.080
 EXIT_BUDGET_S = 0.100
 LIMITS = FIRMWARE_LIMITS[DEFAULT_FIRMWARE]
@@ -82,7 +88,7 @@ class Tap:
             self.inject()
 
 
-def make_loop(rig: Rig, controller: Controller, tap: Tap, safety: SafetyConfig = DEFAULTS,
+def make_loop(rig: Rig, controller: Controller, tap: Tap, safety: SafetyConfig = PATIENT,
               **extra: object) -> ControlLoop:
     return ControlLoop(
         controller=controller, motor=rig.motor, elevation_sensor=rig.imu, clock=MonotonicClock(),
@@ -92,7 +98,7 @@ def make_loop(rig: Rig, controller: Controller, tap: Tap, safety: SafetyConfig =
 
 
 def run(rig: Rig, controller: Controller, inject: Callable[[], None],
-        safety: SafetyConfig = DEFAULTS) -> tuple[LoopReport, Tap]:
+        safety: SafetyConfig = PATIENT) -> tuple[LoopReport, Tap]:
     tap = Tap(inject)
     return make_loop(rig, controller, tap, safety).run(), tap
 
@@ -175,7 +181,7 @@ def bus_times_from(frames: list[can.Message], cause_wall_s: float) -> BusTimes:
 
 def test_imu_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
-    report, tap = run(rig, controller, rig.imu_peer.pause)
+    report, tap = run(rig, controller, rig.imu_peer.pause, PATIENT_MOTOR)
     check_safe_stop(rig, report, tap, Fault.IMU_STALE, "IMU: newest sample", caplog)
     # The watchdog waited for the age limit (the IMU stopped at the injection, or earlier if its
     # thread was late on a busy machine).
@@ -193,7 +199,7 @@ def test_imu_nan(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixt
 
 def test_motor_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
-    report, tap = run(rig, controller, rig.motor_peer.mute)
+    report, tap = run(rig, controller, rig.motor_peer.mute, PATIENT_IMU)
     check_safe_stop(rig, report, tap, Fault.MOTOR_NO_REPLY, "motor: no valid reply", caplog)
     # It waited for the limits: ≥ 5 commands unanswered, the oldest sent ≥ 30 ms before (replies to
     # commands sent just before the mute, still unanswered then, count too).
@@ -205,7 +211,7 @@ def test_motor_silent(rig: Rig, controller: Controller, caplog: pytest.LogCaptur
 
 def test_bad_replies(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
-    report, tap = run(rig, controller, lambda: rig.motor_peer.garble_replies(True))
+    report, tap = run(rig, controller, lambda: rig.motor_peer.garble_replies(True), PATIENT_IMU)
     check_safe_stop(rig, report, tap, Fault.MOTOR_NO_REPLY, "(malformed frames)", caplog)
     assert rig.motor.counters.malformed >= DEFAULTS.motor_min_unanswered
 
@@ -249,7 +255,7 @@ def test_load_cell_lost_then_overload_never_goes_unnoticed(rig: Rig, controller:
         rig.adc.fail_next(10**9)
         rig.adc.override_tension_n(260.0)
 
-    report, tap = run(rig, controller, lose_then_overload, replace(DEFAULTS, on_load_cell_lost="continue"))
+    report, tap = run(rig, controller, lose_then_overload, replace(PATIENT, on_load_cell_lost="continue"))
     # Degraded, explicitly: every row after the loss carries the flag, the summary says it.
     assert report.fault == Fault.NONE and "duration" in report.reason
     lost = [row for row in tap.rows if row[11] & int(Fault.LOAD_CELL_LOST)]
@@ -362,7 +368,7 @@ def test_duration_ends_cleanly(rig: Rig, controller: Controller, caplog: pytest.
     tap = Tap(lambda: None)
     loop = ControlLoop(
         controller=controller, motor=rig.motor, elevation_sensor=rig.imu, clock=MonotonicClock(),
-        config=LoopConfig(rate_hz=RATE_HZ, duration_s=0.3, safety=DEFAULTS), tension_sensor=rig.load_cell,
+        config=LoopConfig(rate_hz=RATE_HZ, duration_s=0.3, safety=PATIENT), tension_sensor=rig.load_cell,
         record=tap,
     )
     report = loop.run()
