@@ -219,7 +219,7 @@ def simulate_trial(
     )
     signals = {name: np.ascontiguousarray(out[:, index]) for index, name in _OUTPUT_NAMES.items()}
     signals[c.TRIAL_STATE] = np.full(n_control, float(c.LOOP_STATE_RUNNING))  # no watchdog in a batch trial
-    ordered = {name: signals[name] for name in (*c.TRIAL_COLUMNS[1:], LIMIT_FLAGS, *_truth_names())}
+    ordered = {name: signals[name] for name in (*c.TRIAL_COLUMNS[1:], LIMIT_FLAGS, *TRUTH_SIGNALS)}
     return TrialSimulation(
         participant=participant,
         condition=condition,
@@ -231,10 +231,6 @@ def simulate_trial(
         repetitions=settings.repetitions,
         seed=seed,
     )
-
-
-def _truth_names() -> tuple[str, ...]:
-    return TRUTH_SIGNALS
 
 
 def session_trial(order: Sequence[str], condition: str, speeds: Sequence[str], speed: str) -> int:
