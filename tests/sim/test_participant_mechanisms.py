@@ -16,16 +16,21 @@ import pytest
 from bowden import contracts as c
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
+from bowden.protocol.minimum_jerk import MinimumJerkCycle
+from bowden.sim import _kernels as k
 from bowden.sim import muscles
 from bowden.sim.batch import ProtocolSettings, session_trial, simulate_trial
-from bowden.sim.participants import generate_cohort
+from bowden.sim.participants import generate_cohort, human_vector
 from bowden.sim.results import COCONTRACTION, CORRECTION_TORQUE, TRUE_ELEVATION
 
 MAX_TORQUE = 40.0
 N = 2000  # 4 s at 500 Hz: the activation dynamics have settled
 PD = c.MUSCLES.index("posterior_deltoid")
 AD = c.MUSCLES.index("anterior_deltoid")
-QUIET = dict(motor_noise_nm=0.0, motor_noise_fraction=0.0, lag_wander_sd=0.0, lag_trial_sd=0.0)
+QUIET = dict(
+    motor_noise_nm=0.0, motor_noise_fraction=0.0, lag_wander_sd=0.0, lag_trial_sd=0.0,
+    excursion_repetition_sd=0.0,
+)
 
 
 def _settled(**kwargs: np.ndarray) -> np.ndarray:
@@ -156,3 +161,34 @@ def test_practice_reaches_the_trial(participant) -> None:
     who = dataclasses.replace(participant, learning_cycles=0.0, practice_lag_reduction=0.3)
     practised = simulate_trial(who, "no_suit", "V2", model=model, settings=settings, seed=3, session_trial=11)
     assert np.mean(_repetition_rmse(practised)[1:]) < 0.95 * np.mean(_repetition_rmse(first)[1:])
+
+
+def test_each_repetition_has_the_excursion_of_its_own_draw(participant) -> None:
+    cycle = MinimumJerkCycle(low_rad=0.3, high_rad=1.7, peak_speed_rad_s=2.0)
+    draws = np.array([0.0, 1.0, -2.0])
+    who = dataclasses.replace(participant, excursion_repetition_sd=0.1)
+    h = human_vector(who, cycle, cycles=3, start_s=1.0, expected=None, excursion_draws=draws)
+    period = 2.0 * cycle.movement_duration_s
+    for repetition, draw in enumerate(draws):
+        middle = 1.0 + (repetition + 0.5) * period
+        assert k.repetition_excursion(h, middle) == pytest.approx(math.exp(0.1 * draw), rel=1e-12)
+    assert k.repetition_excursion(h, 0.0) == 1.0  # before the start: the first repetition's
+    assert k.repetition_excursion(h, 1.0 + 10 * period) == pytest.approx(math.exp(-0.2))  # after: the last's
+    # Without draws, or without spread, every repetition is alike.
+    assert k.repetition_excursion(human_vector(who, cycle, cycles=3, start_s=1.0, expected=None), 2.0) == 1.0
+    with pytest.raises(ParameterError, match="one finite draw per repetition"):
+        human_vector(who, cycle, cycles=3, start_s=1.0, expected=None, excursion_draws=np.zeros(2))
+
+
+def test_repetitions_reach_different_peaks_only_when_asked(participant) -> None:
+    def excursions(trial) -> np.ndarray:
+        rep = trial.repetition_index()
+        low = math.radians(c.ELEVATION_LOW_DEG)
+        return np.array([trial[TRUE_ELEVATION][rep == r].max() - low for r in range(trial.repetitions)])
+
+    plain = dict(learning_cycles=0.0, cocontraction_gain=0.0)
+    steady = excursions(_trial(participant, **plain))[1:]
+    varied = excursions(_trial(participant, **plain, excursion_repetition_sd=0.1))[1:]
+    assert np.std(steady) / np.mean(steady) < 0.005
+    assert np.std(varied) / np.mean(varied) > 0.03
+    assert np.mean(varied) == pytest.approx(np.mean(steady), rel=0.1)

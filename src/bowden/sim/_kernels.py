@@ -469,7 +469,8 @@ H_COCON_STIFFNESS = 21  # 1/rad: joint stiffness added per Nm of co-contraction 
 H_LEARN_TIME_S = 22  # s: time constant of learning the torque its feedback keeps supplying (0: none)
 H_LAG_SD = 23  # log-normal SD of the lag's slow wandering within a trial
 H_LAG_TIME_S = 24  # s: correlation time of that wandering
-N_HUMAN = 25
+H_EXCURSION_SD = 25  # log-normal SD of the excursion from one repetition to the next
+N_HUMAN = 26  # then, optionally, one unit normal draw per repetition for its excursion
 LEARNED_FRICTION_SPEED = 0.1  # rad/s: the friction-like basis is tanh(θ̇ / this)
 
 
@@ -498,6 +499,24 @@ def reference_state(h: NDArray[np.float64], time_s: float) -> tuple[float, float
         return low + span * s, span * ds / move, span * dds / (move * move)
     s, ds, dds = _minimum_jerk((phase - move) / move)
     return low + span * (1.0 - s), -span * ds / move, -span * dds / (move * move)
+
+
+@jit
+def repetition_excursion(h: NDArray[np.float64], time_s: float) -> float:
+    """Factor on the excursion of the repetition the participant is in at (lagged) ``time_s``.
+
+    Each repetition's peak differs (endpoint variability: Harris & Wolpert 1998, Nature 394:780;
+    van Beers et al. 2004, J Neurophysiol 91:1050): a log-normal factor per repetition from the
+    draws after ``N_HUMAN`` (none: 1). It changes at the low point, where the excursion is zero and
+    the reference at rest, so the intended movement stays smooth.
+    """
+    draws = h.size - N_HUMAN
+    if draws <= 0 or h[H_EXCURSION_SD] == 0.0:
+        return 1.0
+    cycle = 2.0 * h[H_REF_MOVE_S]
+    repetition = math.floor((time_s - h[H_REF_START]) / cycle) if cycle > 0.0 else 0
+    repetition = min(max(repetition, 0), draws - 1)
+    return math.exp(h[H_EXCURSION_SD] * h[N_HUMAN + repetition])
 
 
 @jit
@@ -539,7 +558,7 @@ def human_torque(
     lag = h[H_LAG] * math.exp(h[H_LAG_SD] * x[X_LAG_NOISE])
     ref, ref_d, ref_dd = reference_state(h, time_s - lag)
     low = h[H_REF_LOW]
-    amp = h[H_AMPLITUDE]
+    amp = h[H_AMPLITUDE] * repetition_excursion(h, time_s - lag)
     intended = low + amp * (ref - low) + h[H_OFFSET]
     intended_d = amp * ref_d
     intended_dd = amp * ref_dd

@@ -195,7 +195,7 @@ def simulate_trial(
     lag_s = participant.trial_lag_s(session_trial, float(rng.standard_normal()))
     h = human_vector(
         participant, cycle, cycles=settings.repetitions, start_s=settings.lead_in_s, expected=expected,
-        lag_s=lag_s,
+        lag_s=lag_s, excursion_draws=rng.standard_normal(settings.repetitions),
     )
     p = pack_parameters(worn, participant.arm_parameters())
     start_elevation = cycle.low_rad + participant.aim_offset_rad

@@ -157,6 +157,10 @@ class VirtualParticipant:
     lag_wander_sd, lag_wander_time_s
         Within a trial the lag wanders slowly (log-normal SD, correlation time), so that no two
         repetitions are tracked alike.
+    excursion_repetition_sd
+        Log-normal SD of each repetition's excursion about :attr:`amplitude_gain`: people do not
+        reach the same peak twice (endpoint variability grows with the movement, Harris & Wolpert
+        1998; van Beers, Haggard & Wolpert 2004, J Neurophysiol 91:1050).
     sheath_friction_scale
         The suit's sheath friction on this body relative to the mannequin bench. The sheath's bends
         follow the wearer's back and shoulder, and in the capstan limit ``k ≈ μ·Φ/2`` grows with the
@@ -195,6 +199,7 @@ class VirtualParticipant:
     lag_trial_sd: float = 0.02
     lag_wander_sd: float = 0.3
     lag_wander_time_s: float = 0.5
+    excursion_repetition_sd: float = 0.05
 
     def __post_init__(self) -> None:
         checks = {
@@ -225,6 +230,7 @@ class VirtualParticipant:
             "lag_trial_sd": (0.0, 0.5),
             "lag_wander_sd": (0.0, 0.5),
             "lag_wander_time_s": (0.1, 60.0),
+            "excursion_repetition_sd": (0.0, 0.3),
         }
         for name, (low, high) in checks.items():
             value = getattr(self, name)
@@ -274,15 +280,21 @@ def human_vector(
     start_s: float,
     expected: ExpectedAssistance | None,
     lag_s: float | None = None,
+    excursion_draws: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """The compiled human controller's parameter vector (indices ``H_*`` of the kernels).
 
     ``lag_s`` is the trial's visuomotor lag (:meth:`VirtualParticipant.trial_lag_s`); None takes the
-    participant's own.
+    participant's own. ``excursion_draws`` (one unit normal draw per repetition, or None: every
+    repetition alike) set each repetition's excursion (:attr:`VirtualParticipant.excursion_repetition_sd`).
     """
     if cycles < 0:
         raise ParameterError(f"cycles must be >= 0, got {cycles}")
-    h = np.zeros(k.N_HUMAN)
+    draws = np.zeros(0) if excursion_draws is None else np.asarray(excursion_draws, dtype=np.float64)
+    if draws.ndim != 1 or (draws.size and draws.size < cycles) or not np.isfinite(draws).all():
+        raise ParameterError(f"excursion_draws needs one finite draw per repetition ({cycles})")
+    h = np.zeros(k.N_HUMAN + draws.size)
+    h[k.N_HUMAN :] = draws
     h[k.H_LAG] = participant.visuomotor_lag_s if lag_s is None else lag_s
     h[k.H_OFFSET] = participant.aim_offset_rad
     h[k.H_AMPLITUDE] = participant.amplitude_gain
@@ -309,6 +321,7 @@ def human_vector(
     h[k.H_LEARN_TIME_S] = participant.learning_cycles * cycle.period_s
     h[k.H_LAG_SD] = participant.lag_wander_sd
     h[k.H_LAG_TIME_S] = participant.lag_wander_time_s
+    h[k.H_EXCURSION_SD] = participant.excursion_repetition_sd
     return h
 
 
