@@ -55,87 +55,6 @@ def moving_templates(
 
 
 @jit
-def qrs_variant_sums(
-    y: NDArray[np.float64],
-    aligned: NDArray[np.int64],
-    offsets: NDArray[np.int64],
-    evaluate: tuple[NDArray[np.int32], NDArray[np.int32], NDArray[np.float64]],
-    coefficients: NDArray[np.float64],
-    starts: NDArray[np.int64],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Every QRS variant's template samples and the five sums of its least-squares fit, per beat.
-
-    ``evaluate`` is the CSR (indptr, indices, data) of the PCHIP evaluation matrix; the template
-    samples are ``evaluate @ coefficients`` (points x beats) and the sums (Σt, Σt², Σy, Σty, Σy²;
-    variants x beats each) run over each variant's segment of points, the signal read at
-    ``offsets + aligned``. Both accumulate in the order of SciPy's CSR product (``csr_matvecs``),
-    so the results are the sparse products' to the last bit, without their temporaries.
-    """
-    indptr, indices, data = evaluate
-    points = offsets.size
-    beats = aligned.size
-    variants = starts.size
-    t_qrs = np.zeros((points, beats))
-    for p in range(points):
-        target = t_qrs[p]
-        for jj in range(indptr[p], indptr[p + 1]):
-            a = data[jj]
-            row = coefficients[indices[jj]]
-            for b in range(beats):
-                target[b] += a * row[b]
-    sums = np.zeros((5, variants, beats))
-    for v in range(variants):
-        stop = starts[v + 1] if v + 1 < variants else points
-        for p in range(starts[v], stop):
-            for b in range(beats):
-                t = t_qrs[p, b]
-                x = y[offsets[p] + aligned[b]]
-                sums[0, v, b] += t
-                sums[1, v, b] += t * t
-                sums[2, v, b] += x
-                sums[3, v, b] += t * x
-                sums[4, v, b] += x * x
-    return t_qrs, sums
-
-
-@jit
-def fitted_artefact(
-    template: NDArray[np.float64],
-    t_qrs: NDArray[np.float64],
-    first_point: NDArray[np.int64],
-    width: NDArray[np.int64],
-    inside: NDArray[np.bool_],
-    scale: NDArray[np.float64],
-    offset: NDArray[np.float64],
-    half: int,
-    outer: int,
-) -> tuple[NDArray[np.float64], NDArray[np.int8], NDArray[np.float64]]:
-    """Each beat's template with its chosen QRS variant, the section of every cell, the artefact.
-
-    Row b of the grid (offsets −half…half) takes the variant's samples ``t_qrs[first_point[b] + …]``
-    where |offset| ≤ width[b]; cells before the QRS are section 0 (P), after it 2 (T), in it 1,
-    outside the beat 3; the artefact is ``scale[section]·template + offset[section]`` (sections
-    0–2 by position, inside the beat or not).
-    """
-    beats, columns = template.shape
-    points = t_qrs.shape[0]
-    values = template.copy()
-    section_of = np.empty((beats, columns), dtype=np.int8)
-    artefact = np.empty((beats, columns))
-    for b in range(beats):
-        w = width[b]
-        for j in range(-outer, outer + 1):
-            if abs(j) <= w:
-                values[b, half + j] = t_qrs[min(max(first_point[b] + j + w, 0), points - 1), b]
-        for col in range(columns):
-            shift = col - half
-            section = 0 if shift < -w else (2 if shift > w else 1)
-            section_of[b, col] = section if inside[b, col] else 3
-            artefact[b, col] = scale[section, b] * values[b, col] + offset[section, b]
-    return values, section_of, artefact
-
-
-@jit
 def subtract_templates(
     y: NDArray[np.float64],
     peaks: NDArray[np.int64],
@@ -149,26 +68,4 @@ def subtract_templates(
     for b in range(peaks.size):
         for i in range(max(start[b], peaks[b] - half), min(end[b], peaks[b] + half + 1)):
             cleaned[i] -= template[b, i - peaks[b] + half]
-    return cleaned
-
-
-@jit
-def subtract_sections(
-    y: NDArray[np.float64],
-    index: NDArray[np.int64],
-    section_of: NDArray[np.int8],
-    keep: NDArray[np.bool_],
-    artefact: NDArray[np.float64],
-) -> NDArray[np.float64]:
-    """``y`` minus the artefact of the cells whose section (0–2; 3 is outside the beat) is kept.
-
-    ``keep`` is sections x beats; beats do not overlap, so every sample is changed at most once.
-    """
-    cleaned = y.copy()
-    beats, columns = index.shape
-    for b in range(beats):
-        for j in range(columns):
-            section = section_of[b, j]
-            if section < 3 and keep[section, b]:
-                cleaned[index[b, j]] -= artefact[b, j]
     return cleaned

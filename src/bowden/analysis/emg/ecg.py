@@ -47,7 +47,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from bowden.analysis.emg._ecg_kernels import moving_templates, subtract_sections, subtract_templates
+from bowden.analysis.emg._ecg_kernels import moving_templates, subtract_templates
 from bowden.analysis.emg.ecg_fit import BeatFit, alignment_shifts, fit_beats
 from bowden.analysis.emg.ecg_noise import NoiseModel, denoised_templates, shaped_emg, white_spectrum
 from bowden.analysis.emg.signal import EmgSignal
@@ -187,8 +187,8 @@ def remove_ecg_from_channel(
     if noise is not None and params.gate:
         penalty = _search_penalty(fit, fit_to, noise, n, start, end)
         keep = _pooled_gate(fit.energy - fit.sse - 2.0 * penalty, noise.beat_scale)
-    # Each cell of a kept section (per beat) loses its fitted artefact.
-    return subtract_sections(y, fit.index, fit.section_of, keep, fit.artefact)
+    # Each sample of a kept section (per beat) loses its fitted artefact.
+    return fit.subtracted_from(y, keep)
 
 
 def _pooled_gate(gain: NDArray[np.float64], beat_scale: NDArray[np.float64]) -> NDArray[np.bool_]:
@@ -238,16 +238,13 @@ def _search_penalty(
     rows = np.unique(
         np.linspace(0, start.size - 1, min(start.size, _BOOTSTRAP_BEATS)).round().astype(np.int64)
     )
-    mean_artefact = np.zeros(n)
-    mean_artefact[fit.index[fit.inside]] = fit.artefact[fit.inside]
+    mean_artefact = fit.placed(n)
     scale = np.maximum(noise.beat_scale, np.finfo(float).tiny)
     pooled = np.zeros(3)
     for white in _bootstrap_white_spectra(n):
         emg = shaped_emg(noise, n, start, end, white)
         refit = fit_to(mean_artefact + emg, rows)
-        products = np.where(refit.inside, refit.artefact * emg[refit.index], 0.0)
-        for section, mask in enumerate(refit.sections):
-            pooled[section] += np.mean(np.sum(np.where(mask, products, 0.0), axis=1) / scale[rows])
+        pooled += np.mean(refit.products(emg) / scale[rows], axis=1)
     return np.asarray(pooled[:, np.newaxis] / _BOOTSTRAP_DRAWS * scale[np.newaxis, :], dtype=np.float64)
 
 

@@ -4,56 +4,95 @@ Alignment by cross-correlation and the search over QRS stretch variants, each wi
 scale and offset per P/QRS/T section (Petersen et al. 2020, IEEE Access 8:30905), for
 all beats and all variants at once:
 
-- the shifts are scored by one product of the QRS templates with a sliding window view of the
-  signal (no loop over lags);
+- the shifts are scored by the product of each centred QRS template with the beat at every lag;
 - the QRS variants of every beat come from one PCHIP evaluation at the concatenated sample
   positions of all variants (their derivatives are computed once, not once per variant);
-- the six sums each section's least-squares fit needs (n, Σt, Σt², Σy, Σty, Σy²) come from
-  prefix sums: over the signal for Σy and Σy², over each template row for Σt, Σt² and Σty of the
-  P and T sections (whose extent depends on the variant only through where they end), and from a
-  segmented sum over the concatenated variants for the QRS section.
+- the six sums each section's least-squares fit needs (n, Σt, Σt², Σy, Σty, Σy²) come, for the P
+  and T sections (whose extent depends on the variant only through where they end), from a fixed
+  part plus the prefix sums of the band where the variants differ, and from a segmented sum over
+  the concatenated variants for the QRS section.
+
+The loops are compiled (:mod:`bowden.analysis.emg._fit_kernels`, :mod:`bowden.analysis.emg._ecg_kernels`).
 """
 
 from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 from scipy import sparse
 
-from bowden.analysis.emg._ecg_kernels import fitted_artefact, qrs_variant_sums
+from bowden.analysis.emg._fit_kernels import (
+    CORRELATE,
+    PLACE,
+    SUBTRACT,
+    apply_fit,
+    best_shifts,
+    choose_variants,
+    qrs_variant_sums,
+)
 
 
 @dataclass(frozen=True)
 class BeatFit:
     """The fitted artefact of every beat, and what a gate needs to judge its sections.
 
-    All grids are beats x offsets ``-half…half`` from the aligned R-peaks. ``index``: the sample
-    index of every grid cell (clipped to the record), ``inside``: the cells inside their beat
-    (beats do not overlap, so ``index[inside]`` holds each sample once); ``artefact``: the fitted
-    artefact; ``template``: each beat's template row with its chosen QRS variant; ``sections``:
-    boolean masks (P, QRS, T) of the cells inside the beat; ``sse``/``energy``: residual energy of
-    each section's fit and its energy before subtraction (3 x beats), V²; ``section_of``: per
-    (beat, offset) the section number 0/1/2 (3 outside the beat), to spread per-section decisions.
+    Beat k is fitted around its aligned R-peak ``aligned[k]`` within its samples [start, end):
+    ``template`` holds its template at offsets ``-half…half`` (the P and T sections' samples),
+    ``qrs`` the chosen QRS variant at offsets ``-outer…outer`` (valid within ``±width``, the
+    variant's half width), and ``scale``/``offset`` the least-squares fit of each section (P, QRS,
+    T; 3 x beats); the artefact of a sample is ``scale·template + offset`` of its section.
+    ``sse``/``energy``: residual energy of each section's fit and its energy before subtraction
+    (3 x beats), V². The artefact is never stored as a grid: the methods recompute it per sample.
     """
 
-    index: NDArray[np.int64]
-    inside: NDArray[np.bool_]
-    artefact: NDArray[np.float64]
+    aligned: NDArray[np.int64]
+    start: NDArray[np.int64]
+    end: NDArray[np.int64]
+    width: NDArray[np.int64]
     template: NDArray[np.float64]
-    sections: tuple[NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]
+    qrs: NDArray[np.float64]
+    scale: NDArray[np.float64]
+    offset: NDArray[np.float64]
     sse: NDArray[np.float64]
     energy: NDArray[np.float64]
-    section_of: NDArray[np.int8]
+
+    def _apply(
+        self, mode: int, e: NDArray[np.float64], keep: NDArray[np.bool_], out: NDArray[np.float64]
+    ) -> Any:
+        fit = (
+            self.aligned,
+            self.start,
+            self.end,
+            self.width,
+            self.template,
+            self.qrs,
+            self.scale,
+            self.offset,
+        )
+        return apply_fit(mode, e, *fit, keep, out)
+
+    def subtracted_from(self, y: NDArray[np.float64], keep: NDArray[np.bool_]) -> NDArray[np.float64]:
+        """A copy of ``y`` without the artefact of the sections kept (``keep``: 3 x beats)."""
+        cleaned = y.copy()  # NumPy's allocation (huge pages), filled by the kernel
+        self._apply(SUBTRACT, y, keep, cleaned)
+        return cleaned
+
+    def placed(self, n: int) -> NDArray[np.float64]:
+        """A record of ``n`` zeros holding every beat's fitted artefact (all sections)."""
+        record = np.zeros(n)
+        self._apply(PLACE, record, _NO_SECTIONS, record)
+        return record
+
+    def products(self, e: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Σ artefact·e over each section of each beat (3 x beats), ``e`` a record."""
+        return np.asarray(self._apply(CORRELATE, e, _NO_SECTIONS, e), dtype=np.float64)
 
 
-def _prefix(band: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Prefix sums along the last axis with a leading 0 (entry k: sum of the first k columns)."""
-    zeros = np.zeros((*band.shape[:-1], 1))
-    return np.concatenate([zeros, np.cumsum(band, axis=-1)], axis=-1)
+_NO_SECTIONS = np.zeros((3, 0), dtype=np.bool_)  # ``keep`` where the mode does not read it
 
 
 @dataclass(frozen=True)
@@ -132,33 +171,12 @@ def alignment_shifts(
     """Lag (samples) maximising the cross-correlation of each template's QRS with its beat.
 
     The QRS template is centred, so its product with a window equals its product with the
-    centred window (the window's mean drops out): one sliding-window product scores every lag.
+    centred window (the window's mean drops out): the product alone scores every lag.
     """
     if max_shift == 0:
         return np.zeros(peaks.size, dtype=np.int64)
-    q = template[:, half - qrs : half + qrs + 1]
-    q = q - q.mean(axis=1, keepdims=True)
-    span = np.arange(-qrs - max_shift, qrs + max_shift + 1)
-    windows = sliding_window_view(y[peaks[:, np.newaxis] + span], 2 * qrs + 1, axis=1)
-    score = np.einsum("bj,blj->bl", q, windows)
-    return np.asarray(np.argmax(score, axis=1) - max_shift, dtype=np.int64)
-
-
-def section_fit(
-    sums: tuple[NDArray[np.float64], ...],
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """LS scale a, offset b and residual energy of y ≈ a·t + b from (n, Σt, Σt², Σy, Σty, Σy²).
-
-    A flat or empty template section gets a = 0 (the offset alone is fitted). Works elementwise
-    on arrays of any shape.
-    """
-    n, st, stt, sy, sty, syy = sums
-    det = n * stt - st * st
-    ok = det > 1e-12 * np.maximum(n * stt, 1e-300)
-    a = np.where(ok, (n * sty - st * sy) / np.where(ok, det, 1.0), 0.0)
-    b = np.where(n > 0, (sy - a * st) / np.maximum(n, 1.0), 0.0)
-    sse = np.maximum(syy - a * sty - b * sy, 0.0)
-    return np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64), np.asarray(sse, dtype=np.float64)
+    qrs_templates = np.ascontiguousarray(template[:, half - qrs : half + qrs + 1])
+    return np.asarray(best_shifts(y, peaks, qrs_templates, max_shift), dtype=np.int64)
 
 
 def fit_beats(
@@ -175,90 +193,30 @@ def fit_beats(
 
     The QRS section of variant ``d`` covers offsets ``-(qrs+d)…qrs+d`` from the aligned R-peak and
     holds the template's QRS part resampled by PCHIP; the P section is the beat before it, the T
-    section the beat after it, both with the template's own samples.
+    section the beat after it, both with the template's own samples. ``template`` is beats x
+    (2·half + 1), offsets ``-half…half``.
     """
-    n_beats = aligned.size
-    offsets = np.arange(-half, half + 1)
-    lo = start - aligned  # first offset of each beat relative to its aligned R-peak
-    hi = end - aligned  # one past the last offset
-    index = np.clip(aligned[:, np.newaxis] + offsets, 0, y.size - 1)
-    inside = (offsets >= lo[:, np.newaxis]) & (offsets < hi[:, np.newaxis])
-    widths = qrs + np.arange(-stretch, stretch + 1)  # QRS half widths of the variants
-
-    # The beat's samples and template on the grid, zero outside the beat, so that a sum over a
-    # column range counts the beat's own cells only. Sums are taken per beat (not as differences
-    # of prefix sums over the whole record), so a perfect fit leaves a residual of rounding size.
-    yz = np.where(inside, y[index], 0.0)
-    tz = np.where(inside, template, 0.0)
-    # The P section of variant w is columns [0, half - w): a part no variant changes plus a band of
-    # 2·stretch columns whose prefix sums give every variant's share; likewise the T section.
-    outer = qrs + stretch
-
-    def fixed_sums(columns: slice) -> NDArray[np.float64]:
-        t, x = tz[:, columns], yz[:, columns]
-        return np.stack(
-            [
-                inside[:, columns].sum(axis=1, dtype=np.float64),
-                t.sum(axis=1),
-                np.einsum("ij,ij->i", t, t),
-                x.sum(axis=1),
-                np.einsum("ij,ij->i", t, x),
-                np.einsum("ij,ij->i", x, x),
-            ]
-        )
-
-    p_fixed = fixed_sums(slice(0, half - outer))
-    t_fixed = fixed_sums(slice(half + outer + 1, offsets.size))
-
-    def band_prefix(columns: slice) -> NDArray[np.float64]:
-        t, x = tz[:, columns], yz[:, columns]
-        return _prefix(np.stack([inside[:, columns].astype(np.float64), t, t * t, x, t * x, x * x]))
-
-    p_band = band_prefix(slice(half - outer, half - qrs + stretch))
-    t_band = band_prefix(slice(half + qrs - stretch + 1, half + outer + 1))
-    d = widths - qrs
-    p_stack = p_fixed[:, :, np.newaxis] + p_band[:, :, stretch - d]
-    t_stack = t_fixed[:, :, np.newaxis] + t_band[:, :, -1:] - t_band[:, :, d + stretch]
-    p_sums, t_sums = tuple(p_stack), tuple(t_stack)
-
+    template = np.ascontiguousarray(template, dtype=np.float64)
     # Every variant's QRS side by side (variants x beats layout): segment k holds offsets
     # -w_k…w_k, the template's QRS part at positions offset·qrs/w_k, evaluated for all beats from
-    # the PCHIP coefficients and summed per segment in one compiled pass (the sparse products'
-    # arithmetic, without their temporaries).
+    # the PCHIP coefficients and summed per segment in one compiled pass.
     grid = _qrs_variant_grid(qrs, stretch)
     qrs_part = template[:, half - qrs : half + qrs + 1].T
-    coefficients = pchip_coefficients(qrs_part).reshape(4 * 2 * qrs, n_beats)
+    coefficients = pchip_coefficients(qrs_part).reshape(4 * 2 * qrs, aligned.size)
     evaluate = (grid.evaluate.indptr, grid.evaluate.indices, grid.evaluate.data)
-    t_qrs, sums = qrs_variant_sums(y, aligned, grid.offsets, evaluate, coefficients, grid.starts)
-    q_sums = (np.broadcast_to((2.0 * widths + 1.0), (n_beats, widths.size)), *(x.T for x in sums))
-    fits = [section_fit(sums) for sums in (p_sums, q_sums, t_sums)]
-    total = fits[0][2] + fits[1][2] + fits[2][2]
-    best = np.argmin(total, axis=1)  # the first of equal minima, as a loop over variants keeps
-    rows = np.arange(n_beats)
-    width = widths[best]
-
-    # Each beat's template row with its chosen QRS variant, the cells' sections and the artefact.
-    values, section_of, artefact = fitted_artefact(
-        template,
-        t_qrs,
-        grid.starts[best],
-        width,
-        inside,
-        np.stack([fit[0][rows, best] for fit in fits]),
-        np.stack([fit[1][rows, best] for fit in fits]),
-        half,
-        outer,
+    q_sums = qrs_variant_sums(y, aligned, grid.offsets, evaluate, coefficients, grid.starts)
+    best, scale, offset, sse, energy, qrs_values = choose_variants(
+        y, aligned, start, end, template, qrs, stretch, q_sums, evaluate, coefficients, grid.starts
     )
-    sse = np.stack([fit[2][rows, best] for fit in fits])
-    energy = np.stack([sums[5][rows, best] for sums in (p_sums, q_sums, t_sums)])
-    sections = (section_of == 0, section_of == 1, section_of == 2)
     return BeatFit(
-        index=np.asarray(index, dtype=np.int64),
-        inside=inside,
-        artefact=artefact,
-        template=values,
-        sections=sections,
+        aligned=aligned,
+        start=start,
+        end=end,
+        width=np.asarray(qrs - stretch + best, dtype=np.int64),
+        template=template,
+        qrs=qrs_values,
+        scale=scale,
+        offset=offset,
         sse=sse,
         energy=energy,
-        section_of=section_of,
     )
