@@ -71,7 +71,9 @@ def test_a_stop_that_fails_on_the_network_is_said_and_retried_and_the_display_sa
     display.goto(f"{server.url}/display")
     display.wait_for_function("() => bowdenDisplay.connected()")
     console = live_console(browser, server.url)
-    start_from_form(console, "P41", "V1", 10)
+    # 30 repetitions (the form's most; 38 s at this time scale), stopped by the test long before: a
+    # loaded host's slow browser must not let the trial end by itself first.
+    start_from_form(console, "P41", "V1", 30)
     display.wait_for_function("() => bowdenDisplay.running()")
     console.route("**/api/trial/stop", lambda route: route.abort())
     console.click("#stop")
@@ -85,7 +87,7 @@ def test_a_stop_that_fails_on_the_network_is_said_and_retried_and_the_display_sa
         "() => document.getElementById('stop-message').textContent.startsWith('Stop requested')"
     )
     display.wait_for_function("() => !bowdenDisplay.running()")
-    assert display.evaluate("bowdenDisplay.headline()") == "Stopped — rest"  # not "Done: 10 of 10"
+    assert display.evaluate("bowdenDisplay.headline()") == "Stopped — rest"  # not "Done: 30 of 30"
     console.wait_for_function("() => document.getElementById('h-state').textContent === 'safe (ended)'")
     assert "stopped before its end: operator stop (console)" in text_of(console, "last-result")
     display.context.close()
@@ -94,13 +96,13 @@ def test_a_stop_that_fails_on_the_network_is_said_and_retried_and_the_display_sa
 
 def test_a_console_reloaded_mid_trial_shows_that_trial_and_escape_stops_it(server, browser):
     console = live_console(browser, server.url)
-    start_from_form(console, "P42", "V1", 10)
+    start_from_form(console, "P42", "V1", 30)  # stopped long before its end, as above
     console.reload()  # the token stays in this tab's session storage
     console.wait_for_function("() => document.getElementById('trial-state').textContent === 'running'")
     assert console.input_value("#participant") == "P42" and console.input_value("#speed") == "V1"
-    assert console.input_value("#repetitions") == "10" and console.input_value("#condition") == "support_25"
+    assert console.input_value("#repetitions") == "30" and console.input_value("#condition") == "support_25"
     running = text_of(console, "last-result")
-    assert re.match(r"Trial \d+ running: P42, support_25, V1, 10 repetitions", running)
+    assert re.match(r"Trial \d+ running: P42, support_25, V1, 30 repetitions", running)
     console.keyboard.press("Escape")
     console.wait_for_function("() => document.getElementById('h-state').textContent === 'safe (ended)'")
     assert "operator stop (console)" in text_of(console, "last-result")
