@@ -29,6 +29,8 @@ def best_shifts(
     qrs = (length - 1) // 2
     shifts = np.zeros(beats, dtype=np.int64)
     centred = np.empty(length)
+    lags = 2 * max_shift + 1
+    scores = np.empty(lags)
     for b in range(beats):
         total = 0.0
         for j in range(length):
@@ -37,14 +39,17 @@ def best_shifts(
         for j in range(length):
             centred[j] = qrs_templates[b, j] - mean
         first = peaks[b] - qrs - max_shift
+        # All lags side by side (each still summed over j in order): the inner loop vectorises.
+        scores[:] = 0.0
+        for j in range(length):
+            q = centred[j]
+            window = y[first + j : first + j + lags]
+            for lag in range(lags):
+                scores[lag] += q * window[lag]
         best = 0
-        best_score = 0.0
-        for lag in range(2 * max_shift + 1):
-            score = 0.0
-            for j in range(length):
-                score += centred[j] * y[first + lag + j]
-            if lag == 0 or score > best_score:
-                best, best_score = lag, score
+        for lag in range(1, lags):
+            if scores[lag] > scores[best]:
+                best = lag
         shifts[b] = best - max_shift
     return shifts
 

@@ -14,6 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import fft as sp_fft
 
+from bowden.analysis.emg._noise_kernels import beat_energies, mean_power, scale_beats
+
 
 @dataclass(frozen=True)
 class NoiseModel:
@@ -42,14 +44,17 @@ class NoiseModel:
         nfft = 1 << math.ceil(math.log2(2 * width))  # rows of ``width`` never wrap onto themselves
         segment = nfft // 2
         count = max(1, residual.size // segment)
-        segments = np.resize(residual, count * segment).reshape(count, segment)
-        if residual.size < segment:
-            segments[0, residual.size :] = 0.0
-        spectra = sp_fft.rfft(segments, nfft, axis=1)
-        power = np.mean(spectra.real**2 + spectra.imag**2, axis=0) / min(segment, residual.size)
-        channel_variance = float(np.mean(residual * residual))
-        squares = np.concatenate([[0.0], np.cumsum(residual * residual)])
-        beat_variance = (squares[end] - squares[start]) / np.maximum(end - start, 1)
+        if residual.size >= segment:  # the whole segments, as a view
+            segments = residual[: count * segment].reshape(count, segment)
+        else:
+            segments = np.zeros((1, segment))
+            segments[0, : residual.size] = residual
+        # NumPy's FFT zero-pads row by row in its own buffer (SciPy's pads a copy of the stack).
+        spectra = np.fft.rfft(segments, nfft, axis=1)
+        power = mean_power(spectra) / min(segment, residual.size)
+        squares = residual * residual
+        channel_variance = float(np.mean(squares))
+        beat_variance = beat_energies(residual, start, end) / np.maximum(end - start, 1)
         scale = beat_variance / channel_variance if channel_variance > 0.0 else np.zeros(start.size)
         return cls(nfft=nfft, power=np.asarray(power, dtype=np.float64), beat_scale=scale)
 
@@ -66,11 +71,12 @@ def denoised_templates(template: NDArray[np.float64], noise: NoiseModel, n_beats
     is the :class:`NoiseModel`'s. The filter is zero-phase (a real gain applied to the spectrum).
     """
     width = template.shape[1]
-    spectra = sp_fft.rfft(template, noise.nfft, axis=1)
-    template_power = np.mean(spectra.real**2 + spectra.imag**2, axis=0)
+    spectra = np.fft.rfft(template, noise.nfft, axis=1)  # zero-padded row by row, no padded copy
+    template_power = mean_power(spectra)
     noise_power = width * noise.power / n_beats
     gain = np.maximum(0.0, 1.0 - noise_power / np.maximum(template_power, np.finfo(float).tiny))
-    return np.asarray(sp_fft.irfft(spectra * gain, noise.nfft, axis=1)[:, :width], dtype=np.float64)
+    spectra *= gain
+    return np.asarray(np.fft.irfft(spectra, noise.nfft, axis=1)[:, :width], dtype=np.float64)
 
 
 def synthetic_emg(
@@ -102,9 +108,6 @@ def shaped_emg(
     model_frequency = np.arange(noise.power.size) / noise.nfft  # cycles per sample
     frequency = np.arange(white.size) / length
     spectrum = white * np.sqrt(np.interp(frequency, model_frequency, noise.power))
-    out = np.asarray(sp_fft.irfft(spectrum, length)[:n], dtype=np.float64)
-    gain = np.ones(n)
-    for first, stop, scale in zip(start, end, noise.beat_scale, strict=True):
-        gain[first:stop] = math.sqrt(max(float(scale), 0.0))
-    out *= gain
+    out = np.asarray(np.fft.irfft(spectrum, length)[:n], dtype=np.float64)
+    scale_beats(out, start, end, np.ascontiguousarray(noise.beat_scale, dtype=np.float64))
     return out
