@@ -23,7 +23,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Final, Protocol, Self
+from typing import Any, Final, Protocol, Self
 
 from bowden.errors import DeviceTimeoutError, HardwareError, MalformedFrameError, ParameterError
 from bowden.hardware.lifecycle import StartedInWith, StoppableThread
@@ -90,6 +90,16 @@ def conversion_to_volts(data: Sequence[int], full_scale_v: float) -> float:
     code = word_from_bytes(data)
     if code >= 0x8000:
         code -= 0x10000
+    volts: float = code_to_volts(code, full_scale_v)
+    return volts
+
+
+def code_to_volts(code: Any, full_scale_v: float) -> Any:
+    """A signed 16-bit conversion code (an int or an integer array) → volts, code × FS/32768.
+
+    The one formula the driver reads with; the simulation and the store's grid filter
+    (:mod:`bowden.runtime.sensor_grids`) use it too, so their values equal the driver's bit for bit.
+    """
     return code * full_scale_v / 32768.0
 
 
@@ -117,8 +127,8 @@ class LoadCellCalibration:
         gain = (tension_2_n - tension_1_n) / (volts_2 - volts_1)
         return cls(offset_v=volts_1 - tension_1_n / gain, gain_n_per_v=gain)
 
-    def tension_n(self, volts: float) -> float:
-        """Tension (N) for a reading (V)."""
+    def tension_n(self, volts: Any) -> Any:
+        """Tension (N) for a reading (V; a float or an array, element-wise the same arithmetic)."""
         return (volts - self.offset_v) * self.gain_n_per_v
 
 

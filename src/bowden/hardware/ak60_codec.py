@@ -32,7 +32,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Final
+from typing import Any, Final, overload
+
+import numpy as np
+from numpy.typing import NDArray
 
 from bowden.errors import MalformedFrameError, ParameterError
 
@@ -158,8 +161,18 @@ def float_to_uint(value: float, low: float, high: float, bits: int) -> int:
     return math.floor((clamped - low) * ((1 << bits) - 1) / (high - low) + 0.5)
 
 
-def uint_to_float(code: int, low: float, high: float, bits: int) -> float:
-    """Inverse of :func:`float_to_uint` (exact at the field's grid points)."""
+@overload
+def uint_to_float(code: int, low: float, high: float, bits: int) -> float: ...
+@overload
+def uint_to_float(
+    code: NDArray[np.integer[Any]], low: float, high: float, bits: int
+) -> NDArray[np.float64]: ...
+def uint_to_float(code: Any, low: float, high: float, bits: int) -> Any:
+    """Inverse of :func:`float_to_uint` (exact at the field's grid points).
+
+    ``code`` may be an integer array: element-wise the same arithmetic, so the simulation and the
+    store's grid filter (:mod:`bowden.runtime.sensor_grids`) decode as the driver does, bit for bit.
+    """
     return low + code * (high - low) / ((1 << bits) - 1)
 
 

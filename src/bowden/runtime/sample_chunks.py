@@ -1,7 +1,8 @@
 """A trial's control samples in the store: chunks of encoded columns, or the rows of an old store.
 
 Schema 4 stores samples in ``sample_chunks`` (:mod:`bowden.runtime.store_schema`): each row a block
-of consecutive control cycles, its columns encoded losslessly by :mod:`bowden.runtime.column_codec`.
+of consecutive control cycles, its columns encoded losslessly by :mod:`bowden.runtime.column_codec`
+(sensor readings on a known grid as their integer codes, float32 readings as float32).
 Stores of schema 3 and older hold one row per cycle in ``samples``; every reader here reads both, so
 an old store opens as it is and a new trial in it goes to the chunks.
 """
@@ -18,6 +19,7 @@ import pandas as pd
 from bowden.contracts import TRIAL_COLUMNS, TRIAL_FAULT, TRIAL_STATE, TRIAL_TIME
 from bowden.errors import StoreError
 from bowden.runtime.column_codec import decode_columns, encode_columns
+from bowden.runtime.sensor_grids import KNOWN_GRIDS
 
 # Rows of a full chunk: about 33 s at 500 Hz, 1.6 MB decoded. Bigger chunks compress a little
 # better (2 % from 8192 to 32768 rows); this size keeps a reader's memory small.
@@ -88,9 +90,10 @@ def chunk_row(
     trial_id: int, columns: ColumnsView, *, compress: bool = True
 ) -> tuple[int, float, float, int, bytes]:
     """The ``sample_chunks`` row of a block of columns (at least one row); ``compress`` as in
-    :func:`bowden.runtime.column_codec.encode_columns`."""
+    :func:`bowden.runtime.column_codec.encode_columns`. The motor's and the load cell's readings are
+    kept as codes where they lie on a known sensor grid (:data:`~bowden.runtime.sensor_grids.KNOWN_GRIDS`)."""
     time = columns[TRIAL_TIME]
-    blob = encode_columns(columns, compress=compress)
+    blob = encode_columns(columns, compress=compress, grids=KNOWN_GRIDS)
     return trial_id, float(time[0]), float(time[-1]), int(time.size), blob
 
 

@@ -3,7 +3,9 @@
 The EMG is kept at the resolution of EDF/BDF-16 files: each muscle's samples as 16-bit codes with
 one gain per trial and muscle (volts = code × gain; gain = the trial's peak / 32767). Schema 4 stores
 them in ``emg_chunks``, one row per muscle and block of :data:`EMG_CHUNK_SAMPLES` samples, the codes
-encoded losslessly by :mod:`bowden.runtime.column_codec` (first differences, byte planes, zstd).
+encoded losslessly by :mod:`bowden.runtime.column_codec` (the residual of an exact integer linear
+prediction, byte planes, zstd; chunks written before the predictor existed hold first differences
+and read as before).
 Stores of schema 3 and older hold a trial's codes raw in one ``emg`` row per muscle; every reader
 here reads both.
 """
