@@ -316,6 +316,12 @@ N_SENSOR = 7
 
 
 @jit
+def float32_reading(value: float) -> float:
+    """A value sent as float32 (the NGIMU's OSC floats), read back as float64."""
+    return float(np.float32(value))
+
+
+@jit
 def run_trial(
     x: NDArray[np.float64],
     p: NDArray[np.float64],
@@ -331,11 +337,14 @@ def run_trial(
 ) -> None:
     """Run one trial of ``out.shape[0]`` control cycles.
 
-    Each cycle at ``t = i·control_dt``: the IMU and the load cell sample the true state (with noise),
-    the controller computes a torque from the IMU, the motor reply of that moment is recorded, then the
-    plant runs ``substeps`` steps with that command while the participant moves. Without the suit the
-    arm moves freely (no cable, controller not run, suit signals NaN). ``draws_control`` holds three
-    unit normal draws per cycle (IMU elevation, IMU velocity, load cell), ``draws_human`` one per step.
+    Each cycle at ``t = i·control_dt``: the IMU and the load cell sample the true state (with noise;
+    the IMU's readings rounded to float32 as the NGIMU sends them), the controller computes a torque
+    from the IMU, the motor reply of that moment is recorded, then the plant runs ``substeps`` steps
+    with that command while the participant moves. Without the suit the arm moves freely (no cable,
+    controller not run, suit signals NaN). ``draws_control`` holds three unit normal draws per cycle
+    (IMU elevation, IMU velocity, load cell), ``draws_human`` one per step.
+    The motor's reply and the load cell are recorded at full precision here and quantised to their
+    codes afterwards (:mod:`bowden.sim.sensor_readings`; the controller only checks them for faults).
     """
     dt = control_dt / substeps
     lag = 1.0 - math.exp(-dt / p[k.P_CURRENT_TAU])
@@ -357,9 +366,9 @@ def run_trial(
         history_thd[slot] = thd
         late = (i + 1) % (delay + 1)
         elevation = history_th[late] + sensors[S_IMU_EL_BIAS]
-        elevation += sensors[S_IMU_EL_NOISE] * draws_control[i, 0]
+        elevation = float32_reading(elevation + sensors[S_IMU_EL_NOISE] * draws_control[i, 0])
         velocity = history_thd[late] + sensors[S_IMU_VEL_BIAS]
-        velocity += sensors[S_IMU_VEL_NOISE] * draws_control[i, 1]
+        velocity = float32_reading(velocity + sensors[S_IMU_VEL_NOISE] * draws_control[i, 1])
         row = out[i]
         row[O_REFERENCE] = ref
         row[O_ELEVATION] = elevation

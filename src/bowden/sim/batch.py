@@ -39,6 +39,7 @@ from bowden.sim.results import (
     CohortSimulation,
     TrialSimulation,
 )
+from bowden.sim.sensor_readings import MOTOR_REPLY_LIMITS, ak60_torque, ak60_velocity, load_cell_reading
 
 _OUTPUT_NAMES = {
     bk.O_REFERENCE: c.TRIAL_REFERENCE_ELEVATION,
@@ -217,6 +218,10 @@ def simulate_trial(
         x, p, h, controller_vector, sensors, wears_suit, settings.control_period_s, settings.substeps,
         draws_control, draws_human, out,
     )
+    # The motor's reply and the load cell at their real resolution (the IMU's is set in the kernel).
+    out[:, bk.O_MOTOR_TORQUE] = ak60_torque(out[:, bk.O_MOTOR_TORQUE], MOTOR_REPLY_LIMITS)
+    out[:, bk.O_MOTOR_VELOCITY] = ak60_velocity(out[:, bk.O_MOTOR_VELOCITY], MOTOR_REPLY_LIMITS)
+    out[:, bk.O_TENSION] = load_cell_reading(out[:, bk.O_TENSION], cell)
     signals = {name: np.ascontiguousarray(out[:, index]) for index, name in _OUTPUT_NAMES.items()}
     signals[c.TRIAL_STATE] = np.full(n_control, float(c.LOOP_STATE_RUNNING))  # no watchdog in a batch trial
     ordered = {name: signals[name] for name in (*c.TRIAL_COLUMNS[1:], LIMIT_FLAGS, *TRUTH_SIGNALS)}

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field, fields
 
 from bowden.errors import ParameterError
+from bowden.hardware.ads1115 import FULL_SCALE_V
 from bowden.model import CuffGeometry
 
 MAX_SEED = 2**32 - 1  # numpy seeds are unsigned; one 32-bit word keeps them portable
@@ -243,16 +244,33 @@ class LoadCellParameters:
         White noise, 1 σ. Range [0, 5].
     offset_n
         Zero offset left after taring. Range [−10, 10].
+    adc_full_scale_v
+        The ADS1115's full scale (V), one of its PGA settings (±6.144 … ±0.256 V); the driver's
+        default ±4.096 V. The reading is a 16-bit code of it (0.125 mV, 0.0125 N at 100 N/V).
+    adc_offset_v, gain_n_per_v
+        The amplifier's output at no load (V) and the calibration (N/V): tension = (volts − offset) ·
+        gain, as the driver computes; the simulated wire path's 0.05 V and 100 N/V. Offset range
+        [−1, 1] V, gain (0, 1e4].
     """
 
     sample_rate_hz: float = 860.0
     noise_n: float = 0.15
     offset_n: float = 0.0
+    adc_full_scale_v: float = 4.096
+    adc_offset_v: float = 0.05
+    gain_n_per_v: float = 100.0
 
     def __post_init__(self) -> None:
         _check_range(self, "sample_rate_hz", 8.0, 2000.0)
         _check_range(self, "noise_n", 0.0, 5.0)
         _check_range(self, "offset_n", -10.0, 10.0)
+        _check_range(self, "adc_offset_v", -1.0, 1.0)
+        _check_range(self, "gain_n_per_v", 0.0, 1e4, low_open=True)
+        if self.adc_full_scale_v not in FULL_SCALE_V:
+            raise ParameterError(
+                "LoadCellParameters.adc_full_scale_v must be an ADS1115 full scale "
+                f"{sorted(set(FULL_SCALE_V))}, got {self.adc_full_scale_v!r}"
+            )
 
 
 @dataclass(frozen=True, kw_only=True)
