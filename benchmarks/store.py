@@ -1,9 +1,11 @@
 """Size of the default study's store against the issue's 250 MB target, before and after chunking.
 
 Run: python benchmarks/store.py [--participants N] [--store study.db] [--legacy-copy old.db]
-Runs the study (or takes a store), prints its size and each table's share, then writes the same
-trials in the schema-3 layout (one row per control cycle, raw 16-bit EMG; what bowden wrote before
-the chunks) and prints that size too: before/after from one run.
+Runs the study (or takes a store), prints its size, each table's share, each sample column's share
+with the codec filter that stored it, and the codec's speed on the store's own chunks (ms per MB of
+decoded values: the encoder runs in the recording process and in `bowden study`'s trials stage);
+then writes the same trials in the schema-3 layout (one row per control cycle, raw 16-bit EMG; what
+bowden wrote before the chunks) and prints that size too: before/after from one run.
 """
 
 from __future__ import annotations
@@ -11,11 +13,15 @@ from __future__ import annotations
 import argparse
 import sqlite3
 import tempfile
+import time
+from collections import Counter
 from pathlib import Path
 
 import numpy as np
 
 from bowden.contracts import TRIAL_COLUMNS
+from bowden.runtime.column_codec import column_sizes, decode_columns, encode_columns
+from bowden.runtime.sensor_grids import KNOWN_GRIDS
 from bowden.study.store import StudyStore
 
 TARGET_MB = 250.0
@@ -88,6 +94,39 @@ def table_sizes(path: Path) -> dict[str, float]:
     return {str(name): size / 1e6 for name, size in rows if size >= 1e5}
 
 
+def column_shares(path: Path) -> list[tuple[str, str, float, float]]:
+    """Per sample column: its filters, stored MB and stored/decoded ratio, largest first."""
+    stored: Counter[str] = Counter()
+    raw: Counter[str] = Counter()
+    kinds: dict[str, set[str]] = {}
+    with sqlite3.connect(path) as db:
+        for rows, blob in db.execute("SELECT row_count, data FROM sample_chunks"):
+            for name, (kind, size) in column_sizes(blob).items():
+                stored[name] += size
+                raw[name] += rows * (8 if name in TRIAL_COLUMNS else 0)
+                kinds.setdefault(name, set()).add(kind)
+    return [(name, "+".join(sorted(kinds[name])), size / 1e6, size / max(raw[name], 1))
+            for name, size in stored.most_common()]
+
+
+def codec_speed(path: Path, table: str, *, grids: bool, limit: int = 400) -> tuple[float, float, float]:
+    """Encode and decode time (ms per MB of decoded values) and the stored/decoded ratio, on up to
+    ``limit`` chunks of ``table`` spread over the store."""
+    with sqlite3.connect(path) as db:
+        count = db.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0]
+        step = max(1, count // limit)
+        blobs = [b for (b,) in db.execute(f"SELECT data FROM {table} WHERE rowid % ? = 0", (step,))]
+    start = time.perf_counter()
+    decoded = [decode_columns(blob) for blob in blobs]
+    decode_s = time.perf_counter() - start
+    start = time.perf_counter()
+    encoded = [encode_columns(columns, grids=KNOWN_GRIDS if grids else None) for columns in decoded]
+    encode_s = time.perf_counter() - start
+    megabytes = sum(a.nbytes for columns in decoded for a in columns.values()) / 1e6
+    ratio = sum(len(b) for b in encoded) / (megabytes * 1e6)
+    return 1e3 * encode_s / megabytes, 1e3 * decode_s / megabytes, ratio
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--participants", type=int, default=17)
@@ -110,6 +149,13 @@ def main() -> None:
               f"{after / TARGET_MB:.2f}")
         for name, size in table_sizes(store).items():
             print(f"  {name:<28} {size:7.1f} MB")
+        print("sample columns (filter, stored MB, ratio to float64)")
+        for name, kinds, size, ratio in column_shares(store):
+            print(f"  {name:<28} {kinds:<8} {size:7.1f} MB  {ratio:5.2f}")
+        for table, grids in (("sample_chunks", True), ("emg_chunks", False)):
+            encode_ms, decode_ms, ratio = codec_speed(store, table, grids=grids)
+            print(f"codec on {table:<14} encode {encode_ms:6.1f} ms/MB, decode {decode_ms:6.1f} ms/MB, "
+                  f"stored/decoded {ratio:.3f}")
         if not args.no_before:
             legacy = args.legacy_copy or Path(tmp) / "legacy.db"
             write_legacy_copy(store, legacy)
