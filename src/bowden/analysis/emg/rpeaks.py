@@ -29,7 +29,7 @@ from scipy import signal as sps
 
 from bowden.analysis.emg._rpeak_kernels import adaptive_threshold, integrated_energy
 from bowden.analysis.emg.signal import EmgSignal
-from bowden.analysis.emg.zero_phase import zero_phase_bandpass
+from bowden.analysis.emg.zero_phase import zero_phase_bandpass, zero_phase_bandpass_columns
 from bowden.errors import ParameterError
 
 _INTEGRATION_WINDOW_S = 0.150  # Pan & Tompkins: about the widest QRS
@@ -46,12 +46,17 @@ def ecg_detection_copy(
 
     ``samples`` is one channel (1-D) or several as columns (samples x channels), filtered at once.
     """
-    low_hz, high_hz = band_hz
-    if not (0.0 < low_hz < high_hz < rate_hz / 2.0):
-        raise ParameterError(f"band_hz must satisfy 0 < low < high < Nyquist, got {band_hz} at {rate_hz} Hz")
+    low_hz, high_hz = _checked_band(band_hz, rate_hz)
     columns = samples[:, np.newaxis] if samples.ndim == 1 else samples
     copy, _ = zero_phase_bandpass(columns, rate_hz, low_hz, high_hz, 2)
     return copy[:, 0] if samples.ndim == 1 else copy
+
+
+def _checked_band(band_hz: tuple[float, float], rate_hz: float) -> tuple[float, float]:
+    low_hz, high_hz = band_hz
+    if not (0.0 < low_hz < high_hz < rate_hz / 2.0):
+        raise ParameterError(f"band_hz must satisfy 0 < low < high < Nyquist, got {band_hz} at {rate_hz} Hz")
+    return low_hz, high_hz
 
 
 def emg_detect_r_peaks(
@@ -111,12 +116,14 @@ def r_peaks_of_channels(
     rate = emg.rate_hz
     for name in channels:
         emg.channel(name)  # a RecordingError naming a missing channel
+    low_hz, high_hz = _checked_band(band_hz, rate)
     columns = [emg.channels.index(name) for name in channels]
-    copies = ecg_detection_copy(np.ascontiguousarray(emg.values[:, columns]), rate, band_hz=band_hz)
+    # The detection copies (as ecg_detection_copy's), one contiguous row per channel.
+    copies = zero_phase_bandpass_columns(emg.values, columns, rate, low_hz, high_hz, 2)
     refractory = max(1, round(min_rr_s * rate))
     found: dict[str, NDArray[np.int64]] = {}
     for k, name in enumerate(channels):
-        copy = np.ascontiguousarray(copies[:, k])
+        copy = copies[k]
         feature = integrated_energy(copy, max(1, round(_INTEGRATION_WINDOW_S * rate)), rate)
         candidates, _ = sps.find_peaks(feature, distance=refractory)
         if candidates.size == 0:
