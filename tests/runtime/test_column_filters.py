@@ -20,6 +20,7 @@ from bowden.runtime import lpc
 from bowden.runtime.column_codec import decode_columns, encode_columns
 from bowden.runtime.sensor_grids import ADS1115, AK60, KNOWN_GRIDS, Grid
 
+COEFFICIENT = st.integers(-(1 << 24) + 1, (1 << 24) - 1)  # what lpc.fit may store
 TORQUE = Grid(AK60, (-15.0, 15.0, 12.0, 1.0))  # the AK60-6's torque field (manual V1.0.8)
 LOAD_CELL = Grid(ADS1115, (4.096, 0.05, 100.0))  # the simulated suit's ADS1115 and calibration
 
@@ -227,12 +228,37 @@ def test_any_16_bit_codes_come_back_bit_for_bit(codes: np.ndarray) -> None:
 @settings(max_examples=40, deadline=None)
 @given(
     hnp.arrays(np.int16, st.integers(1, 200)),
-    hnp.arrays(np.int64, st.integers(1, 12), elements=st.integers(-(1 << 24) + 1, (1 << 24) - 1)),
+    hnp.arrays(np.int64, st.integers(1, 12), elements=COEFFICIENT),
     st.integers(0, 20),
 )
 def test_lpc_inverts_exactly_whatever_the_coefficients(codes: np.ndarray, coefficients: np.ndarray,
                                                        shift: int) -> None:
     assert same_bits(lpc.restore(lpc.residual(codes, coefficients, shift), coefficients, shift), codes)
+
+
+def reference_residual(codes: np.ndarray, coefficients: np.ndarray, shift: int) -> np.ndarray:
+    """The residual by its definition, with Python integers (an independent implementation)."""
+    x = [int(v) for v in codes]
+    out = []
+    for i, value in enumerate(x):
+        if i < len(coefficients):
+            r = value if i == 0 else value - x[i - 1]
+        else:
+            r = value - (sum(int(c) * x[i - 1 - j] for j, c in enumerate(coefficients)) >> shift)
+        out.append((r + 32768) % 65536 - 32768)
+    return np.array(out, dtype=np.int16)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    hnp.arrays(np.int16, st.integers(1, 120)),
+    hnp.arrays(np.int64, st.sampled_from([lpc.ORDER, 3]), elements=COEFFICIENT),
+)
+def test_lpc_residual_is_its_definition(codes: np.ndarray, coefficients: np.ndarray) -> None:
+    # Order 8 runs the unrolled loops, order 3 the general ones.
+    expected = reference_residual(codes, coefficients, lpc.SHIFT)
+    assert same_bits(lpc.residual(codes, coefficients), expected)
+    assert same_bits(lpc.restore(expected, coefficients), codes)
 
 
 # --- damaged headers -------------------------------------------------------------------------------
