@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
+from scipy.interpolate import PchipInterpolator
 
 from bowden.analysis.emg._fit_kernels import qrs_variant_sums
 from bowden.analysis.emg.ecg import _beat_bounds
@@ -176,3 +177,14 @@ def test_qrs_variant_sums_are_the_sparse_products_to_the_last_bit() -> None:
     x = y[grid.offsets[:, np.newaxis] + peaks]
     want = np.stack([grid.segment_sum @ v for v in (t, t * t, x, t * x, x * x)])
     np.testing.assert_array_equal(got, want)
+
+
+def test_pchip_coefficients_are_scipys_to_the_last_bit() -> None:
+    rng = np.random.default_rng(4)
+    y = rng.standard_normal((41, 30)).cumsum(axis=0)
+    y[10:14, 3] = 1.5  # flat runs, sign changes and repeated values exercise every branch
+    y[:, 4] = np.round(y[:, 4])
+    y[:3, 5] = [0.0, 1.0, 0.0]
+    want = PchipInterpolator(np.arange(y.shape[0]), y, axis=0).c
+    np.testing.assert_array_equal(pchip_coefficients(y), want)
+    np.testing.assert_array_equal(pchip_coefficients(np.ascontiguousarray(y[:, ::-1].T).T), want[:, :, ::-1])

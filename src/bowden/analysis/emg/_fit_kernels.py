@@ -107,6 +107,56 @@ def qrs_variant_sums(
 
 
 @jit
+def _sign(value: float) -> float:
+    """``np.sign`` of a float (NaN stays NaN)."""
+    return 1.0 if value > 0.0 else (-1.0 if value < 0.0 else (0.0 if value == 0.0 else value))
+
+
+@jit
+def _pchip_end(m0: float, m1: float) -> float:
+    """SciPy's one-sided, shape-preserving end derivative of PCHIP (Moler, pchiptx.m), unit grid."""
+    d = (3.0 * m0 - m1) / 2.0
+    if _sign(d) != _sign(m0):
+        return 0.0
+    if _sign(m0) != _sign(m1) and abs(d) > 3.0 * abs(m0):
+        return 3.0 * m0
+    return d
+
+
+@jit
+def pchip_coefficients(y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """PPoly coefficients (4 x intervals x columns) of the PCHIP interpolant of each column of ``y``.
+
+    On the unit grid x = 0, 1, 2, … (at least three points), with the operations of SciPy's
+    ``PchipInterpolator`` (Fritsch–Carlson slopes, harmonic-mean derivatives, Moler's end
+    derivatives; its divisions by the spacing are by 1, exact), so ``.c`` to the last bit.
+    """
+    points, columns = y.shape
+    m = points - 1
+    out = np.empty((4, m, columns))
+    slope = np.empty(m)
+    derivative = np.empty(points)
+    for col in range(columns):
+        for i in range(m):
+            slope[i] = y[i + 1, col] - y[i, col]
+        for i in range(1, m):
+            s0, s1 = slope[i - 1], slope[i]
+            if _sign(s1) != _sign(s0) or s1 == 0.0 or s0 == 0.0:
+                derivative[i] = 0.0
+            else:
+                derivative[i] = 1.0 / ((3.0 / s0 + 3.0 / s1) / 6.0)  # weights 2h+h = 3 on a unit grid
+        derivative[0] = _pchip_end(slope[0], slope[1])
+        derivative[m] = _pchip_end(slope[m - 1], slope[m - 2])
+        for i in range(m):
+            t = derivative[i] + derivative[i + 1] - 2.0 * slope[i]
+            out[0, i, col] = t
+            out[1, i, col] = slope[i] - derivative[i] - t
+            out[2, i, col] = derivative[i]
+            out[3, i, col] = y[i, col]
+    return out
+
+
+@jit
 def _cell_sums(
     y: NDArray[np.float64],
     row: NDArray[np.float64],

@@ -32,6 +32,7 @@ from bowden.analysis.emg._fit_kernels import (
     apply_fit,
     best_shifts,
     choose_variants,
+    pchip_coefficients,
     qrs_variant_sums,
 )
 
@@ -128,36 +129,6 @@ def _qrs_variant_grid(qrs: int, stretch: int) -> _QrsVariantGrid:
         (np.ones(offsets.size), (variant, np.arange(offsets.size))), shape=(widths.size, offsets.size)
     )
     return _QrsVariantGrid(offsets=offsets, starts=starts, evaluate=matrix, segment_sum=indicator)
-
-
-def pchip_coefficients(y: NDArray[np.float64]) -> NDArray[np.float64]:
-    """PPoly coefficients (4 x intervals x columns) of the PCHIP interpolant of ``y`` on x = 0, 1, 2, …
-
-    ``PchipInterpolator(np.arange(len(y)), y, axis=0).c`` to the last bit (the same operations on
-    a unit grid, where SciPy's divisions by the spacing are exact), without its input checks and
-    axis moves, which cost more than the arithmetic for a few hundred short templates.
-    """
-    slope = y[1:] - y[:-1]  # Fritsch–Carlson slopes; SciPy divides by the spacing, 1
-    sign = np.sign(slope)
-    flat = (sign[1:] != sign[:-1]) | (slope[1:] == 0) | (slope[:-1] == 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        harmonic = (3.0 / slope[:-1] + 3.0 / slope[1:]) / 6.0  # weights 2h+h = 3 on a unit grid
-    derivative = np.zeros_like(y)
-    derivative[1:-1][~flat] = 1.0 / harmonic[~flat]
-    derivative[0] = _pchip_end(slope[0], slope[1])
-    derivative[-1] = _pchip_end(slope[-1], slope[-2])
-    t = derivative[:-1] + derivative[1:] - 2 * slope
-    return np.stack((t, slope - derivative[:-1] - t, derivative[:-1], y[:-1]))
-
-
-def _pchip_end(m0: NDArray[np.float64], m1: NDArray[np.float64]) -> NDArray[np.float64]:
-    """SciPy's one-sided, shape-preserving end derivative of PCHIP (Moler, pchiptx.m), unit grid."""
-    d = (3.0 * m0 - m1) / 2.0
-    wrong_sign = np.sign(d) != np.sign(m0)
-    overshoot = (np.sign(m0) != np.sign(m1)) & (np.abs(d) > 3.0 * np.abs(m0))
-    d[wrong_sign] = 0.0
-    d[~wrong_sign & overshoot] = 3.0 * m0[~wrong_sign & overshoot]
-    return d
 
 
 def alignment_shifts(
