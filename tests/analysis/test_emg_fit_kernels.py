@@ -145,7 +145,7 @@ def test_fit_equals_the_numpy_formulation(seed: int, qrs: int, stretch: int, shi
         got, expected = getattr(fit, key), want[key]
         np.testing.assert_allclose(got, expected, rtol=_TOLERANCE, atol=_TOLERANCE * np.abs(expected).max())
 
-    # Applied: subtracted (some sections kept), placed in a record, correlated with a record.
+    # Applied: subtracted (some sections kept), added to a record, correlated with a record.
     rng = np.random.default_rng(seed + 100)
     keep = rng.random((3, peaks.size)) < 0.6
     index, inside, section, artefact = want["index"], want["inside"], want["section"], want["artefact"]
@@ -154,10 +154,10 @@ def test_fit_equals_the_numpy_formulation(seed: int, qrs: int, stretch: int, shi
     kept = inside & np.take_along_axis(keep.T, np.minimum(section, 2), axis=1)
     subtracted[index[kept]] -= artefact[kept]
     np.testing.assert_allclose(fit.subtracted_from(y, keep), subtracted, rtol=_TOLERANCE, atol=_TOLERANCE)
+    e = rng.standard_normal(y.size)
     placed = np.zeros(y.size)
     placed[index[inside]] = artefact[inside]
-    np.testing.assert_allclose(fit.placed(y.size), placed, rtol=_TOLERANCE, atol=_TOLERANCE)
-    e = rng.standard_normal(y.size)
+    np.testing.assert_allclose(fit.added_to(e), placed + e, rtol=_TOLERANCE, atol=_TOLERANCE)
     products = np.where(inside, artefact * e[index], 0.0)
     expected = np.stack([np.sum(np.where(section == s, products, 0.0), axis=1) for s in range(3)])
     scale = np.abs(products).sum(axis=1).max()

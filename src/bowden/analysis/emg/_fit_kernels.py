@@ -2,7 +2,7 @@
 
 The fit is chosen beat by beat from running sums over the beat's own samples, without the
 beats x offsets grids (index, mask, masked copies, prefix-sum stacks) the NumPy formulation builds;
-a fit is then applied (subtracted, placed in a record, correlated with the bootstrap's EMG) by
+a fit is then applied (subtracted from a record, added to one, correlated with the bootstrap's EMG) by
 recomputing each cell's artefact ``scale·template + offset`` on the fly. Sums run in record order,
 where NumPy's reductions sum pairwise: the results equal the NumPy formulation's to rounding
 (tests/analysis/test_emg_fit_kernels.py keeps it as the reference, at 1e-12), and the pipeline's
@@ -314,7 +314,7 @@ def choose_variants(
     return best, scale, offset, sse, energy, qrs_values
 
 
-SUBTRACT, PLACE, CORRELATE = 0, 1, 2  # what :func:`apply_fit` does with each sample's artefact
+SUBTRACT, ADD, CORRELATE = 0, 1, 2  # what :func:`apply_fit` does with each sample's artefact
 
 
 @jit
@@ -337,7 +337,7 @@ def apply_fit(
     The section of template column ``col`` of beat b is P (0) before offset −width[b], T (2) after
     +width[b], QRS (1) between, where the chosen variant's samples ``qrs_values`` replace the
     template's. ``mode`` SUBTRACT: ``out`` (a copy of the record) loses the artefact of the
-    sections kept (``keep``: 3 x beats); PLACE: the artefact is written into ``out``; CORRELATE:
+    sections kept (``keep``: 3 x beats); ADD: ``out`` (a copy of the record) gains it; CORRELATE:
     returns Σ artefact·e per section of each beat (3 x beats; zeros otherwise).
     """
     columns = template.shape[1]
@@ -362,8 +362,8 @@ def apply_fit(
             if mode == SUBTRACT:
                 if keep[section, b]:
                     out[origin + col] -= artefact
-            elif mode == PLACE:
-                out[origin + col] = artefact
+            elif mode == ADD:
+                out[origin + col] += artefact
             else:
                 products[section, b] += artefact * e[origin + col]
     return products

@@ -238,12 +238,11 @@ def _search_penalty(
     rows = np.unique(
         np.linspace(0, start.size - 1, min(start.size, _BOOTSTRAP_BEATS)).round().astype(np.int64)
     )
-    mean_artefact = fit.placed(n)
     scale = np.maximum(noise.beat_scale, np.finfo(float).tiny)
     pooled = np.zeros(3)
     for white in _bootstrap_white_spectra(n):
         emg = shaped_emg(noise, n, start, end, white)
-        refit = fit_to(mean_artefact + emg, rows)
+        refit = fit_to(fit.added_to(emg), rows)  # the fitted artefact plus synthetic EMG
         pooled += np.mean(refit.products(emg) / scale[rows], axis=1)
     return np.asarray(pooled[:, np.newaxis] / _BOOTSTRAP_DRAWS * scale[np.newaxis, :], dtype=np.float64)
 

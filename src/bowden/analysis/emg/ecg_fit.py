@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 from scipy import sparse
 
 from bowden.analysis.emg._fit_kernels import (
+    ADD,
     CORRELATE,
-    PLACE,
     SUBTRACT,
     apply_fit,
     best_shifts,
@@ -82,10 +82,10 @@ class BeatFit:
         self._apply(SUBTRACT, y, keep, cleaned)
         return cleaned
 
-    def placed(self, n: int) -> NDArray[np.float64]:
-        """A record of ``n`` zeros holding every beat's fitted artefact (all sections)."""
-        record = np.zeros(n)
-        self._apply(PLACE, record, _NO_SECTIONS, record)
+    def added_to(self, e: NDArray[np.float64]) -> NDArray[np.float64]:
+        """A copy of the record ``e`` with every beat's fitted artefact added (all sections)."""
+        record = e.copy()
+        self._apply(ADD, e, _NO_SECTIONS, record)
         return record
 
     def products(self, e: NDArray[np.float64]) -> NDArray[np.float64]:
