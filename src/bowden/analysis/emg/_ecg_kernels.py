@@ -20,38 +20,46 @@ def moving_templates(
     start: NDArray[np.int64],
     end: NDArray[np.int64],
     first_offset: int,
-    width: int,
     n_beats: int,
-) -> NDArray[np.float64]:
-    """Each beat's template: mean of its ``n_beats`` neighbours (n//2 before, the rest after), not itself.
+    out: NDArray[np.float64],
+) -> None:
+    """Each beat's template into ``out``: mean of its ``n_beats`` neighbours (n//2 before), not itself.
 
-    Grid: beats x offsets ``first_offset … first_offset + width − 1`` from the R-peaks; a cell
-    counts where its sample lies inside its beat [start, end). Sums over the beat axis come from
-    running sums accumulated beat by beat (as ``np.cumsum(axis=0)``); a cell with no neighbour is 0.
+    Grid: beats x offsets ``first_offset … first_offset + width − 1`` from the R-peaks (width:
+    ``out``'s columns); a cell counts where its sample lies inside its beat [start, end). Sums over
+    the beat axis come from running sums accumulated beat by beat (as ``np.cumsum(axis=0)``); a cell
+    with no neighbour is 0. A beat's own cells are one run of columns, so the loops split at its
+    ends instead of testing every cell.
     """
-    count_beats = peaks.size
-    sums = np.zeros((count_beats + 1, width))
-    counts = np.zeros((count_beats + 1, width), dtype=np.int64)
-    beats = np.zeros((count_beats, width))
-    inside = np.zeros((count_beats, width), dtype=np.int64)
+    count_beats, width = out.shape
+    sums = np.empty((count_beats + 1, width))
+    counts = np.empty((count_beats + 1, width), dtype=np.int64)
+    sums[0, :] = 0.0
+    counts[0, :] = 0
     for k in range(count_beats):
-        for j in range(width):
-            index = peaks[k] + first_offset + j
-            if start[k] <= index < end[k]:
-                beats[k, j] = y[min(max(index, 0), y.size - 1)]
-                inside[k, j] = 1
-            sums[k + 1, j] = sums[k, j] + beats[k, j]
-            counts[k + 1, j] = counts[k, j] + inside[k, j]
-    out = np.zeros((count_beats, width))
+        origin = peaks[k] + first_offset  # sample of column 0
+        lo = min(max(start[k] - origin, 0), width)
+        hi = min(max(end[k] - origin, lo), width)
+        for j in range(lo):
+            sums[k + 1, j] = sums[k, j] + 0.0
+            counts[k + 1, j] = counts[k, j]
+        for j in range(lo, hi):
+            sums[k + 1, j] = sums[k, j] + y[origin + j]
+            counts[k + 1, j] = counts[k, j] + 1
+        for j in range(hi, width):
+            sums[k + 1, j] = sums[k, j] + 0.0
+            counts[k + 1, j] = counts[k, j]
     for k in range(count_beats):
-        lo = min(max(k - n_beats // 2, 0), count_beats)
-        hi = min(max(k + (n_beats - n_beats // 2) + 1, 0), count_beats)
+        first = min(max(k - n_beats // 2, 0), count_beats)
+        last = min(max(k + (n_beats - n_beats // 2) + 1, 0), count_beats)
+        origin = peaks[k] + first_offset
+        lo = min(max(start[k] - origin, 0), width)
+        hi = min(max(end[k] - origin, lo), width)
         for j in range(width):
-            total = sums[hi, j] - sums[lo, j] - beats[k, j]
-            count = counts[hi, j] - counts[lo, j] - inside[k, j]
-            if count > 0:
-                out[k, j] = total / count
-    return out
+            own = y[origin + j] if lo <= j < hi else 0.0
+            total = sums[last, j] - sums[first, j] - own
+            count = counts[last, j] - counts[first, j] - (1 if lo <= j < hi else 0)
+            out[k, j] = total / count if count > 0 else 0.0
 
 
 @jit

@@ -305,4 +305,6 @@ def _moving_templates(
     """
     # Moving sums over the beat axis through running sums (one compiled pass, record order as
     # np.cumsum); window [k - n//2, k + n - n//2], minus the beat itself.
-    return moving_templates(y, peaks, start, end, int(offsets[0]), offsets.size, n_beats)
+    out = np.empty((peaks.size, offsets.size))  # NumPy's allocation (huge pages), filled by the kernel
+    moving_templates(y, peaks, start, end, int(offsets[0]), n_beats, out)
+    return out
