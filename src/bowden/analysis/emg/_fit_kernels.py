@@ -89,13 +89,21 @@ def qrs_variant_sums(
         s0, s1, s2, s3, s4 = sums[0, v], sums[1, v], sums[2, v], sums[3, v], sums[4, v]
         stop = starts[v + 1] if v + 1 < variants else offsets.size
         for p in range(starts[v], stop):
-            t[:] = 0.0
-            for jj in range(indptr[p], indptr[p + 1]):
-                a = data[jj]
-                row = coefficients[indices[jj]]
-                for b in range(beats):
-                    t[b] += a * row[b]
+            jj = indptr[p]
             x_row = window[offsets[p] + outer]
+            if indptr[p + 1] - jj == 4:  # a cubic's four coefficients (every point): one pass
+                a0, a1, a2, a3 = data[jj], data[jj + 1], data[jj + 2], data[jj + 3]
+                r0, r1 = coefficients[indices[jj]], coefficients[indices[jj + 1]]
+                r2, r3 = coefficients[indices[jj + 2]], coefficients[indices[jj + 3]]
+                for b in range(beats):
+                    t[b] = (((0.0 + a0 * r0[b]) + a1 * r1[b]) + a2 * r2[b]) + a3 * r3[b]
+            else:
+                t[:] = 0.0
+                for jj in range(indptr[p], indptr[p + 1]):
+                    a = data[jj]
+                    row = coefficients[indices[jj]]
+                    for b in range(beats):
+                        t[b] += a * row[b]
             for b in range(beats):
                 x = x_row[b]
                 s0[b] += t[b]
@@ -346,24 +354,26 @@ def apply_fit(
     products = np.zeros((3, aligned.size))
     for b in range(aligned.size):
         origin = aligned[b] - half
+        first = max(start[b], origin) - origin
+        stop = min(end[b], origin + columns) - origin
         w = width[b]
-        for col in range(max(start[b], origin) - origin, min(end[b], origin + columns) - origin):
-            shift = col - half
-            if shift < -w:
-                section = 0
-                value = template[b, col]
-            elif shift > w:
-                section = 2
-                value = template[b, col]
-            else:
-                section = 1
-                value = qrs_values[b, outer + shift]
-            artefact = scale[section, b] * value + offset[section, b]
+        # The beat's columns in three runs (P, QRS, T), each a plain loop over its samples.
+        for section in range(3):
+            lo = first if section == 0 else max(first, half - w if section == 1 else half + w + 1)
+            hi = stop if section == 2 else min(stop, half - w if section == 0 else half + w + 1)
+            row = qrs_values[b] if section == 1 else template[b]
+            shift = outer - half if section == 1 else 0  # column -> index into row
+            a, c = scale[section, b], offset[section, b]
             if mode == SUBTRACT:
                 if keep[section, b]:
-                    out[origin + col] -= artefact
+                    for col in range(lo, hi):
+                        out[origin + col] -= a * row[col + shift] + c
             elif mode == ADD:
-                out[origin + col] += artefact
+                for col in range(lo, hi):
+                    out[origin + col] += a * row[col + shift] + c
             else:
-                products[section, b] += artefact * e[origin + col]
+                total = 0.0
+                for col in range(lo, hi):
+                    total += (a * row[col + shift] + c) * e[origin + col]
+                products[section, b] = total
     return products
