@@ -41,20 +41,22 @@ def beat_energies(
     a beat's energy is its value at ``end`` minus its value at ``start`` (not a sum of the beat
     alone), so the result is that expression's to the last bit.
     """
-    n = x.size
-    marks = np.zeros(n + 1, dtype=np.bool_)  # where the running sum is read
-    for b in range(start.size):
-        marks[start[b]] = True
-        marks[end[b]] = True
-    at = np.zeros(n + 1)
+    bounds = np.concatenate((start, end))
+    order = np.argsort(bounds)  # the running sum is read at the bounds in record order
+    at = np.empty(bounds.size)  # its value at each bound
+    k = 0
+    while k < bounds.size and bounds[order[k]] == 0:
+        at[order[k]] = 0.0
+        k += 1
     running = 0.0
-    for i in range(n):
+    for i in range(x.size):
         running += x[i] * x[i]
-        if marks[i + 1]:
-            at[i + 1] = running
+        while k < bounds.size and bounds[order[k]] == i + 1:
+            at[order[k]] = running
+            k += 1
     energies = np.empty(start.size)
     for b in range(start.size):
-        energies[b] = at[end[b]] - at[start[b]]
+        energies[b] = at[start.size + b] - at[b]
     return energies
 
 
