@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pickle
 import sqlite3
 from pathlib import Path
 
@@ -17,6 +18,7 @@ from bowden.runtime.store_schema import SCHEMA_VERSION
 from bowden.study.emg_chunks import EMG_CHUNK_SAMPLES
 from bowden.study.emg_store import trial_syncs
 from bowden.study.store import StudyStore
+from bowden.study.trial_encoding import encode_trial
 
 INFO = TrialInfo(participant="P01", condition="support_50", speed="V2", support=0.5)
 
@@ -153,3 +155,19 @@ def test_a_schema_3_store_opens_reads_exports_and_takes_new_trials(tmp_path: Pat
     with StudyStore(path) as store:
         assert store.trials_with_samples() == [1, third, recorder.trial_id]
         assert store.read_sql("PRAGMA user_version").iloc[0, 0] == SCHEMA_VERSION
+
+
+def test_a_trial_encoded_elsewhere_is_stored_as_write_trial_stores_it(tmp_path: Path) -> None:
+    # The study's workers encode their trials and send the chunks (pickled) to the one writer.
+    frame, raw = samples(CHUNK_ROWS + 50, seed=3), emg(EMG_CHUNK_SAMPLES + 9, seed=3)
+    encoded = pickle.loads(pickle.dumps(encode_trial(frame, raw)))
+    with StudyStore(tmp_path / "direct.db") as direct, StudyStore(tmp_path / "encoded.db") as elsewhere:
+        first = direct.write_trial(INFO, frame, emg=raw)
+        second = elsewhere.write_encoded_trial(INFO, encoded)
+        for table in ("sample_chunks", "emg_chunks"):
+            query = f"SELECT * FROM {table} ORDER BY 1, 2, 3"
+            pd.testing.assert_frame_equal(direct.read_sql(query), elsewhere.read_sql(query))
+        pd.testing.assert_frame_equal(direct.trial_samples(first), elsewhere.trial_samples(second))
+    assert encode_trial(frame).emg == []  # no sEMG: no chunks
+    with pytest.raises(StoreError, match="evenly spaced"):
+        encode_trial(frame, raw.assign(time_s=raw["time_s"] ** 2))

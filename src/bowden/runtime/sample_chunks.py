@@ -108,9 +108,25 @@ def concat_columns(blocks: Sequence[ColumnsView]) -> Columns:
     return {name: np.concatenate([block[name] for block in blocks]) for name in TRIAL_COLUMNS}
 
 
+# A chunk's row without its trial: start and end time, rows, BLOB.
+EncodedChunk = tuple[float, float, int, bytes]
+
+
+def encode_samples(columns: ColumnsView) -> list[EncodedChunk]:
+    """A trial's samples as full chunks, encoded (anywhere: a worker can do it for the writer)."""
+    return [chunk_row(0, block)[1:] for block in split_columns(columns)]
+
+
+def insert_encoded_samples(
+    connection: sqlite3.Connection, trial_id: int, chunks: Sequence[EncodedChunk]
+) -> None:
+    """Insert chunks of :func:`encode_samples` as the trial's (inside the caller's transaction)."""
+    connection.executemany(INSERT_CHUNK_SQL, ((trial_id, *chunk) for chunk in chunks))
+
+
 def insert_samples(connection: sqlite3.Connection, trial_id: int, columns: ColumnsView) -> None:
     """Insert a trial's samples as full chunks (inside the caller's transaction)."""
-    connection.executemany(INSERT_CHUNK_SQL, (chunk_row(trial_id, block) for block in split_columns(columns)))
+    insert_encoded_samples(connection, trial_id, encode_samples(columns))
 
 
 def iter_trial_samples(connection: sqlite3.Connection, trial_id: int) -> Iterator[pd.DataFrame]:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 import sqlite3
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from typing import Any, Final
 
 import numpy as np
@@ -47,9 +47,17 @@ CREATE TABLE IF NOT EXISTS emg_chunks (
 """
 
 
-def insert_trial_emg(connection: sqlite3.Connection, trial_id: int, emg: pd.DataFrame) -> None:
-    """Store a trial's EMG (``time_s`` + one column per muscle, evenly spaced), in the caller's
-    transaction.
+# A chunk's row without its trial: muscle, first sample, samples, rate, start time, gain, BLOB.
+EncodedEmgChunk = tuple[str, int, int, float, float, float, bytes]
+_INSERT_SQL = (
+    "INSERT INTO emg_chunks (trial_id, muscle, first_sample, sample_count, rate_hz, start_time_s, gain, "
+    "data) VALUES (?, ?, ?, ?, ?, ?, ?, ?)"
+)
+
+
+def encode_trial_emg(emg: pd.DataFrame) -> list[EncodedEmgChunk]:
+    """A trial's EMG (``time_s`` + one column per muscle, evenly spaced) as encoded chunks (anywhere:
+    a worker can do it for the writer).
 
     Raises
     ------
@@ -64,7 +72,7 @@ def insert_trial_emg(connection: sqlite3.Connection, trial_id: int, emg: pd.Data
     rate = 1.0 / float(np.median(steps))
     if not np.allclose(steps, 1.0 / rate, rtol=1e-3, atol=0.0):
         raise StoreError("EMG samples must be evenly spaced to be stored")
-    rows = []
+    chunks: list[EncodedEmgChunk] = []
     for muscle in emg.columns:
         if muscle == TRIAL_TIME:
             continue
@@ -77,12 +85,20 @@ def insert_trial_emg(connection: sqlite3.Connection, trial_id: int, emg: pd.Data
         for first in range(0, codes.size, EMG_CHUNK_SAMPLES):
             block = codes[first : first + EMG_CHUNK_SAMPLES]
             blob = encode_columns({_CODES: block})
-            rows.append((trial_id, str(muscle), first, block.size, rate, float(time[0]), gain, blob))
-    connection.executemany(
-        "INSERT INTO emg_chunks (trial_id, muscle, first_sample, sample_count, rate_hz, start_time_s, gain, "
-        "data) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-        rows,
-    )
+            chunks.append((str(muscle), first, block.size, rate, float(time[0]), gain, blob))
+    return chunks
+
+
+def insert_encoded_emg(
+    connection: sqlite3.Connection, trial_id: int, chunks: Sequence[EncodedEmgChunk]
+) -> None:
+    """Insert chunks of :func:`encode_trial_emg` as the trial's (in the caller's transaction)."""
+    connection.executemany(_INSERT_SQL, ((trial_id, *chunk) for chunk in chunks))
+
+
+def insert_trial_emg(connection: sqlite3.Connection, trial_id: int, emg: pd.DataFrame) -> None:
+    """Store a trial's EMG, in the caller's transaction (see :func:`encode_trial_emg`)."""
+    insert_encoded_emg(connection, trial_id, encode_trial_emg(emg))
 
 
 def delete_trial_emg(connection: sqlite3.Connection, trial_id: int) -> None:

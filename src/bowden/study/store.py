@@ -61,6 +61,7 @@ from bowden.runtime.store_schema import configure_connection, create_schema
 from bowden.study import emg_chunks
 from bowden.study.export import export_store
 from bowden.study.ownership import made_by_study_pipeline, metadata_object
+from bowden.study.trial_encoding import EncodedTrial, encode_trial
 
 # One definition of the questionnaire, registry and session tables, shared with the server.
 from bowden.web.questionnaire_store import migrate_questionnaires
@@ -235,8 +236,14 @@ class StudyStore:
         ``samples`` has the ``contracts.TRIAL_COLUMNS``; ``emg`` has ``time_s`` (controller time base)
         and one column per muscle at a constant rate. Either all of it is committed or none.
         """
+        return self.write_encoded_trial(info, encode_trial(samples, emg), stop_reason=stop_reason)
+
+    def write_encoded_trial(
+        self, info: TrialInfo, trial: EncodedTrial, *, stop_reason: str = "completed"
+    ) -> int:
+        """Store a trial encoded by :func:`~bowden.study.trial_encoding.encode_trial` (in a worker,
+        perhaps) in one transaction; return its id."""
         check_participant_id(info.participant)
-        columns = sample_chunks.columns_from_frame(samples)
         try:
             with self._db:
                 cursor = self._db.execute(
@@ -252,9 +259,8 @@ class StudyStore:
                     ),
                 )
                 trial_id = int(cursor.lastrowid or 0)
-                sample_chunks.insert_samples(self._db, trial_id, columns)
-                if emg is not None:
-                    emg_chunks.insert_trial_emg(self._db, trial_id, emg)
+                sample_chunks.insert_encoded_samples(self._db, trial_id, trial.samples)
+                emg_chunks.insert_encoded_emg(self._db, trial_id, trial.emg)
                 self._db.execute(
                     "UPDATE trials SET ended_utc = ?, stop_reason = ? WHERE id = ?",
                     (utc_now_iso(), stop_reason, trial_id),

@@ -3,8 +3,10 @@
 A :class:`TrialTask` is everything one trial needs (participant, condition, speed, the identified
 model, the protocol and the trial's own seed, :func:`bowden.sim.batch.trial_seed`), so any worker —
 a local process or a Dask worker elsewhere — computes the same trial. It sends back a
-:class:`TrialRecord`: the samples and raw sEMG as the store takes them, and the few numbers the
-questionnaires need (:class:`bowden.sim.questionnaires.TrialLoad`), never the whole simulation.
+:class:`TrialRecord`: the samples and raw sEMG already encoded as the store keeps them
+(:mod:`bowden.study.trial_encoding`: the compression runs on the workers, not in the one writer), and
+the few numbers the questionnaires need (:class:`bowden.sim.questionnaires.TrialLoad`), never the
+whole simulation.
 
 :func:`run_trials` maps the tasks on an engine and writes the records into the store in task order
 from this one process (SQLite has one writer; the order makes the trial ids independent of which
@@ -17,8 +19,6 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-import pandas as pd
-
 from bowden import __version__
 from bowden import contracts as c
 from bowden.model import CompensationModel
@@ -29,6 +29,7 @@ from bowden.sim.questionnaires import TrialLoad, answers_from_loads, trial_load
 from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE
 from bowden.study.parallel import Engine
 from bowden.study.store import StudyStore
+from bowden.study.trial_encoding import EncodedTrial, encode_trial
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -48,11 +49,10 @@ class TrialTask:
 
 @dataclass(frozen=True, kw_only=True)
 class TrialRecord:
-    """A simulated trial as the store takes it (``samples`` and ``emg`` None when it is not to be stored)."""
+    """A simulated trial as the store takes it (``encoded`` None when it is not to be stored)."""
 
     info: TrialInfo
-    samples: pd.DataFrame | None
-    emg: pd.DataFrame | None
+    encoded: EncodedTrial | None
     load: TrialLoad
 
 
@@ -77,11 +77,11 @@ def simulate_task(task: TrialTask) -> TrialRecord:
             "movement_start_s": trial.movement_start_s,
         },
     )
-    samples = emg = None
+    encoded = None
     if task.store:
         samples = trial.to_pandas().loc[:, list(c.TRIAL_COLUMNS)]
-        emg = trial.emg() if task.store_emg else None
-    return TrialRecord(info=info, samples=samples, emg=emg, load=trial_load(trial))
+        encoded = encode_trial(samples, trial.emg() if task.store_emg else None)
+    return TrialRecord(info=info, encoded=encoded, load=trial_load(trial))
 
 
 def warm_up() -> None:
@@ -157,8 +157,8 @@ def run_trials(
     loads: dict[str, list[TrialLoad]] = {}
     for record in engine.map(simulate_task, tasks):
         trial_id = None
-        if record.samples is not None:
-            trial_id = store.write_trial(record.info, record.samples, emg=record.emg)
+        if record.encoded is not None:
+            trial_id = store.write_encoded_trial(record.info, record.encoded)
             written += 1
         pid = record.info.participant
         if pid in expected:
