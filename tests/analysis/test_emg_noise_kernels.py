@@ -5,8 +5,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
-from bowden.analysis.emg._noise_kernels import beat_energies, mean_power, scale_beats
+from bowden.analysis.emg._noise_kernels import mean_power, noise_statistics, scale_beats
 
 
 def _beats(rng: np.random.Generator, n: int) -> tuple[np.ndarray, np.ndarray]:
@@ -21,15 +22,25 @@ def test_mean_power_is_the_mean_squared_magnitude_over_the_rows() -> None:
     np.testing.assert_allclose(mean_power(spectra), want, rtol=1e-12, atol=0.0)
 
 
-def test_beat_energies_are_differences_of_the_cumulative_sum_of_squares() -> None:
-    rng = np.random.default_rng(1)
-    x = rng.standard_normal(5000)
-    start, end = _beats(rng, x.size)
+@pytest.mark.parametrize("n", [5000, 4100, 1000, 7, 129, 8195])
+def test_noise_statistics_are_the_numpy_expressions(n: int) -> None:
+    rng = np.random.default_rng(n)
+    x = rng.standard_normal(n)
+    start, end = _beats(rng, x.size) if n > 100 else (np.array([0, 2]), np.array([2, n]))
+    nfft = 2048
+    segment = min(nfft // 2, n)
+    rows = max(1, n // (nfft // 2))
+    segments = np.full((rows, nfft), np.nan)
+    energies, total = noise_statistics(x, start, end, segments)
     squares = np.concatenate([[0.0], np.cumsum(x * x)])
-    np.testing.assert_array_equal(beat_energies(x, start, end), squares[end] - squares[start])
-    start[0] = end[0] = 0  # an empty beat at the record's start, and one ending at its end
-    end[-1] = x.size
-    np.testing.assert_array_equal(beat_energies(x, start, end), squares[end] - squares[start])
+    np.testing.assert_array_equal(energies, squares[end] - squares[start])
+    assert total == np.sum(x * x)  # NumPy's pairwise order, to the last bit
+    want = np.zeros((rows, nfft))
+    want[:, :segment] = x[: rows * segment].reshape(rows, segment)
+    np.testing.assert_array_equal(segments, want)
+    start[0] = end[0] = 0  # an empty beat at the record's start
+    energies, _ = noise_statistics(x, start, end, segments)
+    np.testing.assert_array_equal(energies, squares[end] - squares[start])
 
 
 def test_scale_beats_multiplies_each_beat_by_the_root_of_its_scale() -> None:

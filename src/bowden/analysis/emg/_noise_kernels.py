@@ -2,8 +2,9 @@
 
 Each replaces a NumPy expression whose temporaries are as large as its input (a record, or a
 stack of spectra) by one pass with the same arithmetic: the mean power of a stack of spectra
-(as ``np.mean(X.real**2 + X.imag**2, axis=0)``, rows summed in order), the energy of each beat
-from a running sum of squares (as differences of ``np.cumsum``), and a per-beat gain.
+(as ``np.mean(X.real**2 + X.imag**2, axis=0)``, rows summed in order), the noise model's segments,
+beat energies (as differences of ``np.cumsum``) and total energy (``np.sum``, pairwise) in one pass,
+and a per-beat gain.
 tests/analysis/test_emg_noise_kernels.py checks them against those expressions.
 """
 
@@ -32,15 +33,58 @@ def mean_power(spectra: NDArray[np.complex128]) -> NDArray[np.float64]:
 
 
 @jit
-def beat_energies(
-    x: NDArray[np.float64], start: NDArray[np.int64], end: NDArray[np.int64]
-) -> NDArray[np.float64]:
-    """Σ x² over each beat [start, end), as the difference of a running sum over the record.
+def _pairwise_squares(x: NDArray[np.float64], first: int, count: int) -> float:
+    """Σ x² over ``x[first : first + count]`` summed as NumPy's pairwise sum does (``np.sum(x * x)``).
 
-    The running sum accumulates in record order from 0, as ``np.cumsum(x * x)`` with a leading 0;
-    a beat's energy is its value at ``end`` minus its value at ``start`` (not a sum of the beat
-    alone), so the result is that expression's to the last bit.
+    Blocks of at most 128 terms in eight interleaved partial sums, larger ones split in halves
+    (rounded down to a multiple of 8), below 8 terms one by one: the same additions in the same
+    order, so the same result to the last bit.
     """
+    if count < 8:
+        total = 0.0
+        for i in range(first, first + count):
+            total += x[i] * x[i]
+        return total
+    if count <= 128:
+        partial = np.empty(8)
+        for j in range(8):
+            partial[j] = x[first + j] * x[first + j]
+        i = 8
+        while i < count - count % 8:
+            for j in range(8):
+                partial[j] += x[first + i + j] * x[first + i + j]
+            i += 8
+        total = ((partial[0] + partial[1]) + (partial[2] + partial[3])) + (
+            (partial[4] + partial[5]) + (partial[6] + partial[7])
+        )
+        for k in range(first + i, first + count):
+            total += x[k] * x[k]
+        return total
+    half = count // 2
+    half -= half % 8
+    return _pairwise_squares(x, first, half) + _pairwise_squares(x, first + half, count - half)
+
+
+@jit
+def noise_statistics(
+    x: NDArray[np.float64], start: NDArray[np.int64], end: NDArray[np.int64], segments: NDArray[np.float64]
+) -> tuple[NDArray[np.float64], float]:
+    """What the noise model needs of a residual ``x``, from one pass over it (and a pairwise sum).
+
+    Fills ``segments`` (rows x nfft) with consecutive non-overlapping pieces of ``x`` of nfft/2
+    samples (fewer when ``x`` is shorter), zero-padded to nfft; returns Σ x² over each beat
+    [start, end) and over the record. A beat's energy is the difference of the running sum of
+    squares (accumulated in record order from 0, as ``np.cumsum(x * x)``) at its ends, and the
+    record's is ``np.sum(x * x)``: both those expressions' to the last bit.
+    """
+    rows, nfft = segments.shape
+    segment = min(nfft // 2, x.size)
+    for r in range(rows):
+        row = segments[r]
+        for j in range(segment):
+            row[j] = x[r * segment + j]
+        for j in range(segment, nfft):
+            row[j] = 0.0
     bounds = np.concatenate((start, end))
     order = np.argsort(bounds)  # the running sum is read at the bounds in record order
     at = np.empty(bounds.size)  # its value at each bound
@@ -57,7 +101,7 @@ def beat_energies(
     energies = np.empty(start.size)
     for b in range(start.size):
         energies[b] = at[start.size + b] - at[b]
-    return energies
+    return energies, _pairwise_squares(x, 0, x.size)
 
 
 @jit

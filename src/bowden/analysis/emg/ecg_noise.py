@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import fft as sp_fft
 
-from bowden.analysis.emg._noise_kernels import beat_energies, mean_power, scale_beats
+from bowden.analysis.emg._noise_kernels import mean_power, noise_statistics, scale_beats
 
 
 @dataclass(frozen=True)
@@ -45,12 +45,13 @@ class NoiseModel:
         nfft = 1 << math.ceil(math.log2(2 * width))  # rows of ``width`` never wrap onto themselves
         segment = nfft // 2
         count = max(1, residual.size // segment)
-        used = min(count * segment, residual.size)  # whole segments; a short record in one
-        spectra = sp_fft.rfft(_zero_padded(residual[:used].reshape(-1, min(segment, used)), nfft), axis=1)
+        # The segments (zero-padded, in a work buffer) and the energies in one pass over the residual.
+        segments = _work_rows(count, nfft)
+        energies, total = noise_statistics(residual, start, end, segments)
+        spectra = sp_fft.rfft(segments, axis=1)
         power = mean_power(spectra) / min(segment, residual.size)
-        squares = residual * residual
-        channel_variance = float(np.mean(squares))
-        beat_variance = beat_energies(residual, start, end) / np.maximum(end - start, 1)
+        channel_variance = total / residual.size if residual.size else 0.0  # np.mean(residual**2)
+        beat_variance = energies / np.maximum(end - start, 1)
         scale = beat_variance / channel_variance if channel_variance > 0.0 else np.zeros(start.size)
         return cls(nfft=nfft, power=np.asarray(power, dtype=np.float64), beat_scale=scale)
 
@@ -122,12 +123,17 @@ def _zero_padded(rows: NDArray[np.float64], nfft: int) -> NDArray[np.float64]:
     the padding is done here instead, in a buffer kept between calls (valid until the next call).
     """
     count, width = rows.shape
+    padded = _work_rows(count, nfft)
+    padded[:, :width] = rows
+    padded[:, width:] = 0.0
+    return padded
+
+
+def _work_rows(count: int, nfft: int) -> NDArray[np.float64]:
+    """A count x nfft view of this thread's work buffer (contents undefined; valid until the next call)."""
     buffer: NDArray[np.float64] | None = getattr(_PADDED, "buffer", None)
     if buffer is None or buffer.size < count * nfft:
         buffer = np.empty(count * nfft)
         if buffer.size <= _PADDED_KEPT:
             _PADDED.buffer = buffer
-    padded = buffer[: count * nfft].reshape(count, nfft)
-    padded[:, :width] = rows
-    padded[:, width:] = 0.0
-    return padded
+    return buffer[: count * nfft].reshape(count, nfft)
