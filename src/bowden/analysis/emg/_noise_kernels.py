@@ -33,36 +33,66 @@ def mean_power(spectra: NDArray[np.complex128]) -> NDArray[np.float64]:
 
 
 @jit
-def _pairwise_squares(x: NDArray[np.float64], first: int, count: int) -> float:
-    """Σ x² over ``x[first : first + count]`` summed as NumPy's pairwise sum does (``np.sum(x * x)``).
-
-    Blocks of at most 128 terms in eight interleaved partial sums, larger ones split in halves
-    (rounded down to a multiple of 8), below 8 terms one by one: the same additions in the same
-    order, so the same result to the last bit.
-    """
+def _block_squares(x: NDArray[np.float64], first: int, count: int) -> float:
+    """Σ x² over at most 128 terms as NumPy's pairwise sum does: below 8 one by one, else in eight
+    interleaved partial sums combined pairwise, then the remainder."""
     if count < 8:
         total = 0.0
         for i in range(first, first + count):
             total += x[i] * x[i]
         return total
-    if count <= 128:
-        partial = np.empty(8)
+    partial = np.empty(8)
+    for j in range(8):
+        partial[j] = x[first + j] * x[first + j]
+    i = 8
+    while i < count - count % 8:
         for j in range(8):
-            partial[j] = x[first + j] * x[first + j]
-        i = 8
-        while i < count - count % 8:
-            for j in range(8):
-                partial[j] += x[first + i + j] * x[first + i + j]
-            i += 8
-        total = ((partial[0] + partial[1]) + (partial[2] + partial[3])) + (
-            (partial[4] + partial[5]) + (partial[6] + partial[7])
-        )
-        for k in range(first + i, first + count):
-            total += x[k] * x[k]
-        return total
-    half = count // 2
-    half -= half % 8
-    return _pairwise_squares(x, first, half) + _pairwise_squares(x, first + half, count - half)
+            partial[j] += x[first + i + j] * x[first + i + j]
+        i += 8
+    total = float(
+        ((partial[0] + partial[1]) + (partial[2] + partial[3]))
+        + ((partial[4] + partial[5]) + (partial[6] + partial[7]))
+    )
+    for k in range(first + i, first + count):
+        total += x[k] * x[k]
+    return total
+
+
+@jit
+def _pairwise_squares(x: NDArray[np.float64]) -> float:
+    """Σ x² summed as NumPy's pairwise sum does (``np.sum(x * x)``), to the last bit.
+
+    NumPy splits a sum of more than 128 terms in halves (rounded down to a multiple of 8) and adds
+    the halves' sums; the same tree is walked here with an explicit stack (a recursive compiled
+    function cannot be loaded back from numba's cache).
+    """
+    first = np.empty(64, dtype=np.int64)
+    count = np.empty(64, dtype=np.int64)
+    stage = np.empty(64, dtype=np.int64)  # 0: not split yet, 1: left half summed, 2: both
+    left = np.empty(64)
+    top = 0
+    first[0], count[0], stage[0] = 0, x.size, 0
+    result = 0.0  # the sum of the node finished last
+    while top >= 0:
+        if count[top] <= 128:
+            result = _block_squares(x, first[top], count[top])
+            top -= 1
+            continue
+        half = count[top] // 2
+        half -= half % 8
+        if stage[top] == 0:
+            stage[top] = 1
+            first[top + 1], count[top + 1], stage[top + 1] = first[top], half, 0
+            top += 1
+        elif stage[top] == 1:
+            left[top] = result
+            stage[top] = 2
+            first[top + 1], count[top + 1], stage[top + 1] = first[top] + half, count[top] - half, 0
+            top += 1
+        else:
+            result = left[top] + result
+            top -= 1
+    return result
 
 
 @jit
@@ -101,7 +131,7 @@ def noise_statistics(
     energies = np.empty(start.size)
     for b in range(start.size):
         energies[b] = at[start.size + b] - at[b]
-    return energies, _pairwise_squares(x, 0, x.size)
+    return energies, _pairwise_squares(x)
 
 
 @jit
