@@ -35,23 +35,27 @@ def _sos_pass(
     z0: NDArray[np.float64],
     z1: NDArray[np.float64],
     reverse: bool,
-) -> None:
+) -> int:
     """One direct-form-II-transposed pass of ``sos`` over the rows of ``source`` (SciPy's ``sosfilt``).
 
     Output row r goes to ``target[r - offset]`` when that row exists (so the padding can be dropped
     without a copy; ``target`` may be ``source``). ``z0``/``z1`` (sections x channels) hold the
     initial states and are updated; with ``reverse`` the rows run from the last to the first. Each
     section's states are separate 1-D arrays so that the channel loop compiles to vector
-    instructions (measured: 2.4x faster than one 3-D state array).
+    instructions (measured: 2.4x faster than one 3-D state array). Returns how many source values
+    were not finite (counted on the way: an integer sum keeps the loop vectorised).
     """
     n, channels = source.shape
     sections = sos.shape[0]
     current = np.empty(channels)
+    nonfinite = 0
     for step in range(n):
         r = n - 1 - step if reverse else step
         row = source[r]
         for c in range(channels):
-            current[c] = row[c]
+            value = row[c]
+            nonfinite += (value - value) != 0.0  # NaN for ±inf and NaN, 0 otherwise
+            current[c] = value
         for s in range(sections):
             b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
             state0, state1 = z0[s], z1[s]
@@ -65,6 +69,7 @@ def _sos_pass(
             out = target[r - offset]
             for c in range(channels):
                 out[c] = current[c]
+    return nonfinite
 
 
 @jit
@@ -84,28 +89,27 @@ def sosfiltfilt_rows(
     """
     n, channels = x.shape
     sections = sos.shape[0]
-    # The padded record and the forward pass live in the caller's scratch (at least that long).
+    # The forward pass lives in the caller's scratch (at least n + 2·edge rows); it reads the record
+    # itself and only the odd extensions at its ends from small arrays, so the record is not
+    # copied first: 2·x[0] − x[edge − j] before it, 2·x[n−1] − x[n−2−k] after it.
     padded = scratch[: (n + 2 * edge) * channels].reshape((n + 2 * edge, channels))
-    for j in range(edge):  # odd extension: 2·x[0] − x[edge − j], then the record, then the tail
+    head = np.empty((edge, channels))
+    tail = np.empty((edge, channels))
+    for j in range(edge):
         for c in range(channels):
-            padded[j, c] = 2.0 * x[0, c] - x[edge - j, c]
-    nonfinite = 0  # an integer count, so that the check does not keep the copy from vectorising
-    for i in range(n):
-        for c in range(channels):
-            value = x[i, c]
-            nonfinite += (value - value) != 0.0  # NaN for ±inf and NaN, 0 otherwise
-            padded[edge + i, c] = value
-    for k in range(edge):
-        for c in range(channels):
-            padded[edge + n + k, c] = 2.0 * x[n - 1, c] - x[n - 2 - k, c]
+            head[j, c] = 2.0 * x[0, c] - x[edge - j, c]
+            tail[j, c] = 2.0 * x[n - 1, c] - x[n - 2 - j, c]
     z0 = np.empty((sections, channels))
     z1 = np.empty((sections, channels))
     last = n + 2 * edge - 1
+    first_row = head[0] if edge > 0 else x[0]
     for s in range(sections):  # forwards, from the steady state of the first padded row
         for c in range(channels):
-            z0[s, c] = zi[s, 0] * padded[0, c]
-            z1[s, c] = zi[s, 1] * padded[0, c]
-    _sos_pass(padded, padded, 0, sos, z0, z1, False)
+            z0[s, c] = zi[s, 0] * first_row[c]
+            z1[s, c] = zi[s, 1] * first_row[c]
+    _sos_pass(head, padded[:edge], 0, sos, z0, z1, False)
+    nonfinite = _sos_pass(x, padded[edge : edge + n], 0, sos, z0, z1, False)
+    _sos_pass(tail, padded[edge + n :], 0, sos, z0, z1, False)
     for s in range(sections):  # backwards from the last row, keeping the record's rows only
         for c in range(channels):
             z0[s, c] = zi[s, 0] * padded[last, c]
