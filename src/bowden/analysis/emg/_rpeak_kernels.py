@@ -14,6 +14,20 @@ from bowden.analysis.emg._kernels import jit
 
 
 @jit
+def _squared_slope(copy: NDArray[np.float64], i: int, rate_hz: float) -> float:
+    """``(np.gradient(copy)[i] · rate)²``: one-sided at the ends, central inside."""
+    n = copy.size
+    if i == 0:
+        slope = (copy[1] - copy[0]) / 1.0
+    elif i == n - 1:
+        slope = (copy[n - 1] - copy[n - 2]) / 1.0
+    else:
+        slope = (copy[i + 1] - copy[i - 1]) / 2.0
+    slope = slope * rate_hz
+    return slope * slope
+
+
+@jit
 def integrated_energy(copy: NDArray[np.float64], width: int, rate_hz: float) -> NDArray[np.float64]:
     """Pan–Tompkins feature: ``np.gradient(copy)·rate`` squared, centred moving mean over ``width``.
 
@@ -22,23 +36,22 @@ def integrated_energy(copy: NDArray[np.float64], width: int, rate_hz: float) -> 
     ``width`` at the ends too (what ``np.convolve(..., mode="same")`` computes). Needs 2 samples.
     """
     n = copy.size
-    running = np.empty(n + 1)
-    running[0] = 0.0
-    for i in range(n):
-        if i == 0:
-            slope = (copy[1] - copy[0]) / 1.0
-        elif i == n - 1:
-            slope = (copy[n - 1] - copy[n - 2]) / 1.0
-        else:
-            slope = (copy[i + 1] - copy[i - 1]) / 2.0
-        slope = slope * rate_hz
-        running[i + 1] = running[i] + slope * slope
     out = np.empty(n)
     back = (width - 1) // 2
+    # The running sums at the window's two ends, each accumulated in record order (the values of
+    # np.cumsum at those indices) without storing the whole running sum.
+    ahead = 0.0
+    behind = 0.0
+    hi = 0
+    lo = 0
     for i in range(n):
-        lo = min(max(i - back, 0), n)
-        hi = min(max(i - back + width, 0), n)
-        out[i] = (running[hi] - running[lo]) / width
+        while hi < min(max(i - back + width, 0), n):
+            ahead += _squared_slope(copy, hi, rate_hz)
+            hi += 1
+        while lo < min(max(i - back, 0), n):
+            behind += _squared_slope(copy, lo, rate_hz)
+            lo += 1
+        out[i] = (ahead - behind) / width
     return out
 
 
