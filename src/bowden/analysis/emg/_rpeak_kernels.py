@@ -24,7 +24,7 @@ def _squared_slope(copy: NDArray[np.float64], i: int, rate_hz: float) -> float:
     else:
         slope = (copy[i + 1] - copy[i - 1]) / 2.0
     slope = slope * rate_hz
-    return slope * slope
+    return float(slope * slope)
 
 
 @jit
