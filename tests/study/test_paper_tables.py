@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import re
+
 import pandas as pd
 
 from bowden.analysis.outcomes import IEMG_PREFIX, SPARC
 from bowden.study.figures import condition_boxplots
-from bowden.study.paper_tables import paper_effects_table, paper_means, paper_pairwise_table
+from bowden.study.paper_tables import (
+    paper_effects_table,
+    paper_means,
+    paper_pairwise_table,
+    paper_significance_html,
+)
 from bowden.study.report import _beside
 
 
@@ -39,3 +46,18 @@ def test_box_plots_mark_the_papers_means() -> None:
     figure = condition_boxplots(pd.DataFrame(rows), "v", "t", paper_means=paper_means(SPARC))
     marks = [c for ax in figure.axes for c in ax.collections if c.get_label() == "paper mean"]
     assert len(marks) == 3 and [tuple(o) for o in marks[0].get_offsets()] == [(1.38, 2.76), (2.38, 2.832)]
+
+
+def test_the_papers_colour_table_has_its_colours_codes_and_changes() -> None:
+    fragment = paper_significance_html("lowering", "caption")
+    # Table 3: the posterior deltoid at 50 % against no suit, +31.7 % (Table S12), red with **.
+    cell = re.search(r"Post\. delt\.</th>(.*?)</tr>", fragment, re.S)
+    assert cell is not None
+    td = r'<td style="background:(rgb\([^)]*\));[^"]*" title="([^"]*)">([^<]*)</td>'
+    cells = re.findall(td, cell.group(1))
+    headers = re.findall(r'<th style="padding:2px 8px">([^<]*)</th>', fragment)
+    colour, title, code = cells[headers.index("50%-no")]
+    red, green, blue = (int(v) for v in re.findall(r"\d+", colour))
+    assert red == 255 and green == blue < 255  # an increase: red
+    assert code == "**" and title.startswith("+31.7 %")
+    assert len(headers) == 6 and len(re.findall(r'<tr><th style="text-align:left">', fragment)) == 8

@@ -132,3 +132,12 @@ def test_no_table_of_the_report_is_wider_than_its_box(study, tmp_path):
     broken.write_text(text.replace("</body>", wide + "</body>"), encoding="utf-8")
     bad, overflow = overflowing_tables(broken, sync_api)
     assert bad == ["unboxed"] and overflow > 0
+
+
+def test_each_iemg_colour_table_has_the_papers_beside_it(study):
+    text = study.report.read_text(encoding="utf-8")
+    for label in ("tab:iEMG_deltas_visual", "Table 2", "Table 3"):
+        caption = f"The same in the paper ({label}), beside the simulated table above"
+        assert caption in text
+        ours = text.rindex("iEMG change between conditions", 0, text.index(caption))
+        assert text.index(caption) - ours < 20_000  # right after the study's own table

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import html
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -199,22 +199,42 @@ def significance_html(
     The percent change is in each cell's ``title`` (shown on hover) so the table stays compact.
     """
     contrasts, outcomes = _cells(table)
-    out = ['<table class="bowden-significance" style="border-collapse:collapse">']
-    if caption:
-        out.append(f"<caption>{html.escape(caption)}</caption>")
-    head = "".join(f'<th style="padding:2px 8px">{html.escape(c)}</th>' for c in contrasts)
-    out.append(f"<thead><tr><th>{html.escape(str(table.index.name or ''))}</th>{head}</tr></thead><tbody>")
+    cells = {}
     for outcome in outcomes:
-        cells = []
         for contrast in contrasts:
             pct = _num(table.loc[outcome, (contrast, "percent")])
             p = _num(table.loc[outcome, (contrast, "p")])
             colour = change_colour(pct, full_scale_percent=full_scale_percent)
-            cells.append(
+            cells[(outcome, contrast)] = (colour, significance_code(p), f"{pct:+.1f} %, p = {format_p(p)}")
+    return coloured_cells_html(
+        outcomes, contrasts, cells, caption=caption, index_name=str(table.index.name or "")
+    )
+
+
+def coloured_cells_html(
+    outcomes: Sequence[str],
+    contrasts: Sequence[str],
+    cells: Mapping[tuple[str, str], tuple[str, str, str]],
+    *,
+    caption: str | None = None,
+    index_name: str = "",
+) -> str:
+    """A colour table as HTML: one row per outcome, one column per contrast, each cell ``(CSS colour,
+    text, hover title)`` (a missing cell is blank)."""
+    out = ['<table class="bowden-significance" style="border-collapse:collapse">']
+    if caption:
+        out.append(f"<caption>{html.escape(caption)}</caption>")
+    head = "".join(f'<th style="padding:2px 8px">{html.escape(c)}</th>' for c in contrasts)
+    out.append(f"<thead><tr><th>{html.escape(index_name)}</th>{head}</tr></thead><tbody>")
+    for outcome in outcomes:
+        row = []
+        for contrast in contrasts:
+            colour, text, title = cells.get((outcome, contrast), ("#ffffff", "", ""))
+            row.append(
                 f'<td style="background:{colour};text-align:center;padding:2px 8px;font-weight:bold" '
-                f'title="{pct:+.1f} %, p = {format_p(p)}">{significance_code(p)}</td>'
+                f'title="{html.escape(title)}">{html.escape(text)}</td>'
             )
-        out.append(f'<tr><th style="text-align:left">{html.escape(outcome)}</th>{"".join(cells)}</tr>')
+        out.append(f'<tr><th style="text-align:left">{html.escape(outcome)}</th>{"".join(row)}</tr>')
     out.append("</tbody></table>")
     return "\n".join(out)
 

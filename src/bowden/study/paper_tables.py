@@ -2,7 +2,9 @@
 
 :func:`paper_effects_table` mirrors :func:`bowden.stats.effects_table` (Tables S4, S7-S9),
 :func:`paper_pairwise_table` mirrors :func:`bowden.stats.pairwise_table` (Tables S5, S6, S10-S12) and
-:func:`paper_means` gives the per-condition and speed means the box plots mark (S4, S7).
+:func:`paper_means` gives the per-condition and speed means the box plots mark (S4, S7) and
+:func:`paper_significance_html` draws the paper's iEMG colour tables (Tables 2, 3) as the report
+draws its own.
 """
 
 from __future__ import annotations
@@ -11,6 +13,8 @@ import pandas as pd
 
 from bowden.analysis.outcomes import ELEVATION_RMSE, IEMG_PREFIX, SPARC
 from bowden.contracts import CONDITION_LABELS, CONDITIONS, SPEEDS
+from bowden.stats.tables import coloured_cells_html
+from bowden.study.paper_values.iemg import iemg_colours
 from bowden.study.paper_values.iemg_data import IEMG, IEMG_P, IEMG_PAIRS
 from bowden.study.paper_values.kinematics_data import (
     KINEMATICS,
@@ -88,3 +92,20 @@ def paper_means(measure: str) -> dict[tuple[str, str], float]:
         return {(c, s): mean for (k, s, c), (mean, _) in KINEMATICS.items() if k == key}
     muscle = measure.removeprefix(IEMG_PREFIX)
     return {(c, s): mean for (ph, m, s, c), (mean, _) in IEMG.items() if ph == "entire" and m == muscle}
+
+
+def paper_significance_html(phase: str, caption: str) -> str:
+    """The paper's colour table of iEMG changes between conditions (Tables 2 and 3, and the
+    supplement's for the entire cycle) as the report draws its own: each cell in the paper's colour
+    with its printed significance code, and on hover its percent change and p (Tables S10-S12)."""
+    frame = iemg_colours(phase)
+    muscles = [MUSCLE_LABELS[m] for m in dict.fromkeys(frame["muscle"])]
+    cells: dict[tuple[str, str], tuple[str, str, str]] = {}
+    contrasts: dict[str, None] = {}
+    for muscle, first, second, rgb, code in frame.itertuples(index=False, name=None):
+        contrast = f"{_label(first)}-{_label(second)}"
+        contrasts[contrast] = None
+        pair = IEMG_PAIRS.get((phase, muscle, first, second))
+        title = f"{pair[1]:+.1f} %, p = {pair[2]}" if pair is not None else ""
+        cells[(MUSCLE_LABELS[muscle], contrast)] = ("rgb({}, {}, {})".format(*rgb), code, title)
+    return coloured_cells_html(muscles, list(contrasts), cells, caption=caption, index_name="outcome")

@@ -42,7 +42,13 @@ from bowden.study import figures, paper_values, questionnaire_figures
 from bowden.study.calibration import CALIBRATED, calibration_table
 from bowden.study.departures import all_departures, departure_summary, family_summary
 from bowden.study.html import HtmlDocument
-from bowden.study.paper_tables import paper_effects_table, paper_means, paper_pairwise_table
+from bowden.study.paper_tables import (
+    paper_effects_table,
+    paper_means,
+    paper_pairwise_table,
+    paper_significance_html,
+)
+from bowden.study.paper_values.iemg import TABLE_LABELS as IEMG_TABLE_LABELS
 from bowden.study.statistics import KINEMATIC_LABELS, MUSCLE_LABELS, StudyStatistics, outcome_data
 
 
@@ -330,6 +336,13 @@ def build_report(inputs: ReportInputs) -> HtmlDocument:
                 significance_table(fits, factor="condition"),
                 caption=f"iEMG change between conditions {during} ({kind}): green decrease, red "
                 "increase; ** p < 0.001, * p < 0.05 (Holm), shown where the condition effect has p < 0.05",
+            )
+        )
+        doc.raw_table(
+            paper_significance_html(
+                phase,
+                f"The same in the paper ({IEMG_TABLE_LABELS['colours'][phase]}), beside the {kind} table "
+                "above: its colours and significance codes as printed",
             )
         )
 
