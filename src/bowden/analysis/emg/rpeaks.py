@@ -29,7 +29,7 @@ from scipy import signal as sps
 
 from bowden.analysis.emg._rpeak_kernels import adaptive_threshold, integrated_energy
 from bowden.analysis.emg.signal import EmgSignal
-from bowden.analysis.emg.zero_phase import zero_phase_bandpass, zero_phase_bandpass_columns
+from bowden.analysis.emg.zero_phase import zero_phase_bandpass_columns
 from bowden.errors import ParameterError
 
 _INTEGRATION_WINDOW_S = 0.150  # Pan & Tompkins: about the widest QRS
@@ -37,19 +37,6 @@ _LEARNING_S = 2.0  # initial signal/noise levels from the first two seconds
 _SEARCH_BACK_RR_FACTOR = 1.66  # Pan & Tompkins' RR-missed limit
 _REFINE_HALF_WIDTH_S = 0.075  # R wave search around the integrated peak
 _SHAPE_HALF_WIDTH_S = 0.100  # the QRS complex and its neighbourhood, for the shape comparison
-
-
-def ecg_detection_copy(
-    samples: NDArray[np.float64], rate_hz: float, *, band_hz: tuple[float, float] = (5.0, 30.0)
-) -> NDArray[np.float64]:
-    """The band-passed copy of a channel on which R-peaks are detected (2nd-order, zero-phase).
-
-    ``samples`` is one channel (1-D) or several as columns (samples x channels), filtered at once.
-    """
-    low_hz, high_hz = _checked_band(band_hz, rate_hz)
-    columns = samples[:, np.newaxis] if samples.ndim == 1 else samples
-    copy, _ = zero_phase_bandpass(columns, rate_hz, low_hz, high_hz, 2)
-    return copy[:, 0] if samples.ndim == 1 else copy
 
 
 def _checked_band(band_hz: tuple[float, float], rate_hz: float) -> tuple[float, float]:
@@ -118,7 +105,8 @@ def r_peaks_of_channels(
         emg.channel(name)  # a RecordingError naming a missing channel
     low_hz, high_hz = _checked_band(band_hz, rate)
     columns = [emg.channels.index(name) for name in channels]
-    # The detection copies (as ecg_detection_copy's), one contiguous row per channel.
+    # The detection copies (each channel band-passed at band_hz, 2nd order, zero-phase), one contiguous
+    # row per channel.
     copies = zero_phase_bandpass_columns(emg.values, columns, rate, low_hz, high_hz, 2)
     refractory = max(1, round(min_rr_s * rate))
     found: dict[str, NDArray[np.int64]] = {}
