@@ -131,13 +131,9 @@ def decode_columns(blob: bytes) -> dict[str, np.ndarray[Any, Any]]:
         The BLOB is not of this format, is truncated or names an unknown dtype, filter or grid.
     """
     view = memoryview(blob)
-    if bytes(view[:4]) != MAGIC or len(view) < 8:
-        raise StoreError("a stored chunk is not in bowden's column format (BWC1)")
-    (length,) = _LENGTH.unpack(view[4:8])
+    header, offset = _header(view)
     try:
-        header = json.loads(bytes(view[8 : 8 + length]))
         rows = int(header["rows"])
-        offset = 8 + length
         columns: dict[str, np.ndarray[Any, Any]] = {}
         for column in header["columns"]:
             if column["dtype"] not in _DTYPES:
@@ -173,16 +169,26 @@ def column_sizes(blob: bytes) -> dict[str, tuple[str, int]]:
     StoreError
         The BLOB is not of this format.
     """
-    view = memoryview(blob)
+    header, _ = _header(memoryview(blob))
+    try:
+        return {str(c["name"]): (str(c["filter"]), sum(int(size) for _codec, size in c["planes"]))
+                for c in header["columns"]}
+    except (KeyError, TypeError, ValueError) as error:
+        raise StoreError(f"a stored chunk's header cannot be read ({error})") from None
+
+
+def _header(view: memoryview) -> tuple[dict[str, Any], int]:
+    """A BLOB's JSON header and the offset of its first plane."""
     if bytes(view[:4]) != MAGIC or len(view) < 8:
         raise StoreError("a stored chunk is not in bowden's column format (BWC1)")
     (length,) = _LENGTH.unpack(view[4:8])
     try:
         header = json.loads(bytes(view[8 : 8 + length]))
-        return {str(c["name"]): (str(c["filter"]), sum(int(size) for _codec, size in c["planes"]))
-                for c in header["columns"]}
-    except (KeyError, TypeError, ValueError) as error:
+    except ValueError as error:
         raise StoreError(f"a stored chunk's header cannot be read ({error})") from None
+    if not isinstance(header, dict):
+        raise StoreError("a stored chunk's header is not an object")
+    return header, 8 + length
 
 
 def _stored_dtype(column: Mapping[str, Any], dtype: np.dtype[Any]) -> np.dtype[Any]:
