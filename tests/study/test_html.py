@@ -49,8 +49,8 @@ def _line_figure(points: int, colour: str):
 def test_later_figures_are_drawn_in_their_places_alike_in_a_pool_or_here() -> None:
     from concurrent.futures import ProcessPoolExecutor
 
-    def build() -> HtmlDocument:
-        document = HtmlDocument(title="t", caption_label="simulated")
+    def build(submit=None) -> HtmlDocument:
+        document = HtmlDocument(title="t", caption_label="simulated", figure_submit=submit)
         document.paragraph("before")
         document.figure_later(_line_figure, 3, "red", caption="three points")
         document.paragraph("between")
@@ -68,6 +68,12 @@ def test_later_figures_are_drawn_in_their_places_alike_in_a_pool_or_here() -> No
         pooled.draw_figures(pool.map)
     html_pooled = pooled.render()
     assert html_pooled.replace(banner.parts[0] + "\n", "") == html_serial
+    # Started on the workers as they are added (while the rest is built), then collected.
+    with ProcessPoolExecutor(2) as pool:
+        started = build(pool.submit)
+        assert started._started and not started._pending
+        started.draw_figures()
+    assert started.render() == html_serial
     body = html_serial.split("<body>")[1]
     order = [body.index(text) for text in ("before", "three points (simulated)", "between", "five points",
                                           "drawn at once")]

@@ -208,14 +208,14 @@ def analyze_store(
                 questionnaires=answers,
             )
             with progress.spinner("writing the report"):
-                document = build_report(inputs)
+                document = build_report(inputs, figure_submit=engine.submit)  # drawn while it is built
                 if kind == "mixed":
                     _label_mixed(document, kept)
                 custom_section(document, beyond)
                 _session_sections(document, facts)
                 if appendix is not None:
                     appendix(document)
-                document.draw_figures(_figure_mapper(engine))  # the figures in parallel
+                document.draw_figures(_figure_mapper(engine))  # collect them
                 report = document.write(report_path)
     return AnalysisReport(
         report=report,

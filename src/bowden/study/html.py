@@ -11,7 +11,7 @@ import io
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
@@ -61,6 +61,16 @@ def figure_png(job: FigureJob) -> bytes:
 FigureMapper = Callable[[Callable[[FigureJob], bytes], Iterable[FigureJob]], Iterator[bytes]]
 
 
+class PendingFigure(Protocol):
+    """What a submitted figure task gives: its PNG, once drawn."""
+
+    def result(self) -> bytes: ...
+
+
+# Starts ``function(job)`` (on a worker) and returns its pending result, e.g. an engine's ``submit``.
+FigureSubmit = Callable[[Callable[[FigureJob], bytes], FigureJob], PendingFigure]
+
+
 def _serial(function: Callable[[FigureJob], bytes], jobs: Iterable[FigureJob]) -> Iterator[bytes]:
     return map(function, jobs)
 
@@ -76,8 +86,12 @@ class HtmlDocument:
     title: str
     parts: list[str] = field(default_factory=list)
     caption_label: str = ""
-    # Figures whose drawing waits for draw_figures(), each behind a placeholder in ``parts``.
+    # Given, each figure is handed to it as soon as it is added, so that workers draw while the rest
+    # of the document is built; otherwise figures wait for draw_figures().
+    figure_submit: FigureSubmit | None = field(default=None, repr=False)
+    # Figures not drawn yet, each behind a placeholder in ``parts``: waiting, or started.
     _pending: dict[str, tuple[FigureJob, str]] = field(default_factory=dict, repr=False)
+    _started: dict[str, tuple[PendingFigure, str]] = field(default_factory=dict, repr=False)
 
     def _caption(self, caption: str) -> str:
         label = self.caption_label
@@ -136,18 +150,26 @@ class HtmlDocument:
     def figure_later(self, make: Callable[..., Any], *args: Any, caption: str, dpi: int = 110) -> None:
         """A figure ``make(*args)`` drawn by :meth:`draw_figures` (in worker processes, if it is given
         a parallel map), in this place of the document."""
-        placeholder = f"<!--figure {len(self._pending)} of {id(self)}-->"
-        self._pending[placeholder] = (FigureJob(make=make, args=args, dpi=dpi), caption)
+        placeholder = f"<!--figure {len(self._pending) + len(self._started)} of {id(self)}-->"
+        job = FigureJob(make=make, args=args, dpi=dpi)
+        if self.figure_submit is not None:
+            self._started[placeholder] = (self.figure_submit(figure_png, job), caption)
+        else:
+            self._pending[placeholder] = (job, caption)
         self.parts.append(placeholder)
 
     def draw_figures(self, mapper: FigureMapper = _serial) -> None:
-        """Draw every figure added by :meth:`figure_later`; ``mapper(function, jobs)`` returns the results
-        in the jobs' order (``map``, or a process pool's)."""
+        """Draw every figure added by :meth:`figure_later` that was not started, ``mapper(function,
+        jobs)`` returning the results in the jobs' order (``map``, or a process pool's), and take those
+        that were."""
         pending = list(self._pending.items())
+        started = list(self._started.items())
         self._pending.clear()
+        self._started.clear()
         drawn = dict(zip((placeholder for placeholder, _ in pending),
                          mapper(figure_png, [job for _, (job, _) in pending]), strict=True))
-        captions = {placeholder: caption for placeholder, (_, caption) in pending}
+        drawn.update((placeholder, figure.result()) for placeholder, (figure, _) in started)
+        captions = {placeholder: caption for placeholder, (_, caption) in pending + started}
         self.parts = [
             self._figure_html(drawn[part], captions[part]) if part in drawn else part for part in self.parts
         ]
@@ -161,7 +183,7 @@ class HtmlDocument:
         )
 
     def render(self) -> str:
-        if self._pending:
+        if self._pending or self._started:
             self.draw_figures()
         body = "\n".join(self.parts)
         return (

@@ -41,7 +41,7 @@ from bowden.stats.analysis import OutcomeAnalysis
 from bowden.study import figures, paper_values, questionnaire_figures
 from bowden.study.calibration import CALIBRATED, calibration_table
 from bowden.study.departures import all_departures, departure_summary, family_summary
-from bowden.study.html import HtmlDocument
+from bowden.study.html import FigureSubmit, HtmlDocument
 from bowden.study.paper_tables import (
     paper_effects_table,
     paper_means,
@@ -208,11 +208,12 @@ def _departures_section(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> N
             )
 
 
-def build_report(inputs: ReportInputs) -> HtmlDocument:
-    """Assemble the report document."""
+def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = None) -> HtmlDocument:
+    """Assemble the report document; ``figure_submit`` starts each figure on a worker as it is added
+    (:class:`~bowden.study.html.HtmlDocument`)."""
     kind = "simulated" if inputs.simulated else "measured"
     title = "bowden study report" + (" — SIMULATED cohort" if inputs.simulated else "")
-    doc = HtmlDocument(title, caption_label=kind if inputs.simulated else "")
+    doc = HtmlDocument(title, caption_label=kind if inputs.simulated else "", figure_submit=figure_submit)
     if inputs.simulated:
         doc.banner(
             "Simulated data: virtual participants on a simulated suit (bowden.sim). These results "
