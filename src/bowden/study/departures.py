@@ -88,9 +88,10 @@ def iemg_departures(outcomes: pd.DataFrame, statistics: StudyStatistics) -> pd.D
             fitted = _fitted_pairs(fit)
             for first, second in PAIRS:
                 _, paper_pct, paper_p = IEMG_PAIRS[(phase, muscle, first, second)]
-                study_pct, study_p = fitted.get(
-                    (first, second), (_mean_change(outcomes, phase, muscle, first, second), math.nan)
-                )
+                if (first, second) in fitted:
+                    study_pct, study_p = fitted[(first, second)]
+                else:  # no model: the raw change of the means, without a p
+                    study_pct, study_p = _mean_change(outcomes, phase, muscle, first, second), math.nan
                 rows.append(comparison_row(
                     family="iEMG", outcome=outcome, comparison=pair_label(first, second), unit="%",
                     study=study_pct, paper=paper_pct, tolerance=IEMG_TOLERANCE,
