@@ -148,8 +148,9 @@ class HtmlDocument:
         self.parts.append(self._figure_html(buffer.getvalue(), caption))
 
     def figure_later(self, make: Callable[..., Any], *args: Any, caption: str, dpi: int = 110) -> None:
-        """A figure ``make(*args)`` drawn by :meth:`draw_figures` (in worker processes, if it is given
-        a parallel map), in this place of the document."""
+        """A figure ``make(*args)`` in this place of the document: started at once with
+        :attr:`figure_submit` if given, else drawn by :meth:`draw_figures` (in worker processes, if it
+        is given a parallel map)."""
         placeholder = f"<!--figure {len(self._pending) + len(self._started)} of {id(self)}-->"
         job = FigureJob(make=make, args=args, dpi=dpi)
         if self.figure_submit is not None:
