@@ -37,6 +37,8 @@ _LEGACY_TABLE: Final = "samples"
 
 Columns = dict[str, np.ndarray[Any, Any]]
 ColumnsView = Mapping[str, np.ndarray[Any, Any]]
+# A chunk's row without its trial: start and end time, rows, BLOB.
+EncodedChunk = tuple[float, float, int, bytes]
 
 
 def has_table(connection: sqlite3.Connection, name: str) -> bool:
@@ -86,15 +88,20 @@ def _typed(columns: Columns) -> Columns:
     return columns
 
 
-def chunk_row(
-    trial_id: int, columns: ColumnsView, *, compress: bool = True
-) -> tuple[int, float, float, int, bytes]:
-    """The ``sample_chunks`` row of a block of columns (at least one row); ``compress`` as in
+def encode_chunk(columns: ColumnsView, *, compress: bool = True) -> EncodedChunk:
+    """A block of columns (at least one row) as a chunk without its trial; ``compress`` as in
     :func:`bowden.runtime.column_codec.encode_columns`. The motor's and the load cell's readings are
     kept as codes where they lie on a known sensor grid (:data:`~bowden.runtime.sensor_grids.KNOWN_GRIDS`)."""
     time = columns[TRIAL_TIME]
     blob = encode_columns(columns, compress=compress, grids=KNOWN_GRIDS)
-    return trial_id, float(time[0]), float(time[-1]), int(time.size), blob
+    return float(time[0]), float(time[-1]), int(time.size), blob
+
+
+def chunk_row(
+    trial_id: int, columns: ColumnsView, *, compress: bool = True
+) -> tuple[int, float, float, int, bytes]:
+    """The ``sample_chunks`` row of a block of columns (see :func:`encode_chunk`)."""
+    return (trial_id, *encode_chunk(columns, compress=compress))
 
 
 def split_columns(columns: ColumnsView, size: int = CHUNK_ROWS) -> Iterator[Columns]:
@@ -108,13 +115,9 @@ def concat_columns(blocks: Sequence[ColumnsView]) -> Columns:
     return {name: np.concatenate([block[name] for block in blocks]) for name in TRIAL_COLUMNS}
 
 
-# A chunk's row without its trial: start and end time, rows, BLOB.
-EncodedChunk = tuple[float, float, int, bytes]
-
-
 def encode_samples(columns: ColumnsView) -> list[EncodedChunk]:
     """A trial's samples as full chunks, encoded (anywhere: a worker can do it for the writer)."""
-    return [chunk_row(0, block)[1:] for block in split_columns(columns)]
+    return [encode_chunk(block) for block in split_columns(columns)]
 
 
 def insert_encoded_samples(
