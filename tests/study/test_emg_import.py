@@ -231,6 +231,13 @@ def test_a_residual_beyond_2_ms_is_refused(session, store, tmp_path, capsys):
     assert "ms off the fit, beyond 2 ms" in err
 
 
+def test_an_edge_off_the_line_of_all_others_names_the_file_and_the_trial(session, store, tmp_path, capsys):
+    # 6 ms late: inside the matching window, but no line through the edges fits within 2 × 2 ms.
+    path = _edf(session, tmp_path / "late6.edf", late_s=[0.0, 0.006])
+    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    assert err.startswith("bowden: error: late6.edf: ") and "trial 2's end edge" in err
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [

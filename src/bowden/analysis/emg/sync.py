@@ -198,6 +198,8 @@ def match_pulses(
             f"the {n} trigger pulses fit more than one run of trials ({options}): cannot tell which"
         )
     matched, k = best[0], -best[1]
+    if matched == n:  # every edge within the window, but no line through them within the budget
+        raise SyncError(_off_the_line(pulses, trials[k : k + n], ids[k : k + n], residual_tolerance_s))
     if matched == 0:
         raise SyncError(
             f"the recording's {n} trigger pulses match no run of the store's {m} trials with sync events "
@@ -217,6 +219,27 @@ def _line_residual(x: NDArray[np.float64], y: NDArray[np.float64]) -> float:
         return 0.0
     slope, intercept = np.polyfit(xs - xs[0], ys - ys[0], 1)
     return float(np.max(np.abs(intercept + slope * (xs - xs[0]) - (ys - ys[0]))))
+
+
+def _off_the_line(
+    pulses: NDArray[np.float64], trials: NDArray[np.float64], ids: list[int], residual_tolerance_s: float
+) -> str:
+    """Why pulses that each fall near a trial's edges still fit no run: the edges off their common line."""
+    xs, ys = pulses.ravel() - pulses[0, 0], trials.ravel() - trials[0, 0]
+    slope, intercept = np.polyfit(xs, ys, 1)
+    residuals = (ys - (intercept + slope * xs)).reshape(-1, 2)
+    worst = np.abs(residuals).max(axis=1)
+    off = [i for i in range(len(ids)) if worst[i] > 2.0 * residual_tolerance_s] or [int(np.argmax(worst))]
+    edges = ", ".join(
+        f"trial {ids[i]}'s {'start' if abs(residuals[i, 0]) >= abs(residuals[i, 1]) else 'end'} edge "
+        f"{1e3 * residuals[i, np.argmax(np.abs(residuals[i]))]:+.1f} ms"
+        for i in off
+    )
+    return (
+        f"the recording's {len(ids)} trigger pulses fall near trials {_ids(ids)}, but their edges fit no "
+        f"one clock: {edges} off the line through all edges, beyond twice --max-residual-ms "
+        f"({2e3 * residual_tolerance_s:g} ms): a shifted edge, or a trigger too uncertain"
+    )
 
 
 def _ids(ids: list[int]) -> str:
