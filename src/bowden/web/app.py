@@ -36,7 +36,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from bowden.contracts import REPETITIONS_PER_TRIAL
 from bowden.errors import RequestError
-from bowden.web.http import Handler, form_encoded, payload, refusals
+from bowden.web.http import Handler, form_encoded, json_value, payload, refusals
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, _Client, encode, send
 from bowden.web.questionnaire_store import COLUMNS, QuestionnaireStore
 from bowden.web.questionnaires import EXCEPTION_FIELD, form_scores, parse_response, questionnaire_schema
@@ -51,6 +51,8 @@ _log = logging.getLogger(__name__)
 STATIC_DIR: Final = Path(__file__).parent / "static"
 AUTH_TIMEOUT_S: Final = 5.0
 WS_POLICY_VIOLATION: Final = 1008
+# A close frame's reason is at most 123 bytes of UTF-8 (RFC 6455 §5.5: 125 with the code); ours are ASCII.
+_CLOSE_REASON_CHARS: Final = 123
 
 
 def create_app(
@@ -183,15 +185,19 @@ def create_app(
             return
         await websocket.accept()
         try:
-            first = await asyncio.wait_for(websocket.receive_text(), AUTH_TIMEOUT_S)
-            offered = json.loads(first).get(TOKEN_FIELD) if first.startswith("{") else None
-        except (TimeoutError, WebSocketDisconnect, json.JSONDecodeError, AttributeError):
-            offered = None
-        if not token.matches(offered):
+            offered = await asyncio.wait_for(_offered_token(websocket), AUTH_TIMEOUT_S)
+            problem = None if token.matches(offered) else "wrong or missing session token"
+        except TimeoutError:
+            problem = f"no session token within {AUTH_TIMEOUT_S:g} s"
+        except WebSocketDisconnect:
+            return
+        except RequestError as error:  # a first message no parser should be asked to read
+            problem = str(error)
+        if problem is not None:
+            # Said twice: as a message the console shows, and as the close frame's reason.
             with contextlib.suppress(Exception):
-                refusal = {"type": "error", "error": "wrong or missing session token"}
-                await websocket.send_text(encode(refusal))
-                await websocket.close(code=WS_POLICY_VIOLATION)
+                await websocket.send_text(encode({"type": "error", "error": problem}))
+                await websocket.close(code=WS_POLICY_VIOLATION, reason=problem[:_CLOSE_REASON_CHARS])
             return
         client = hub.connect(ROLE_CONSOLE)
         status = manager.status(console=True)
@@ -235,6 +241,27 @@ def create_app(
         Middleware(SecurityHeaders),
     ]
     return Starlette(routes=routes, middleware=middleware, lifespan=lifespan)
+
+
+async def _offered_token(websocket: WebSocket) -> object:
+    """The ``token`` field of the socket's first message (a JSON object), or None.
+
+    Raises
+    ------
+    RequestError
+        If the first message is binary, not JSON, nested too deeply or holds a number of too many
+        digits (the refusal's reason names which).
+    WebSocketDisconnect
+        If the browser left before saying anything.
+    """
+    message = await websocket.receive()
+    if message["type"] == "websocket.disconnect":
+        raise WebSocketDisconnect(message.get("code", 1000))
+    text = message.get("text")
+    if text is None:
+        raise RequestError("the first message must be text: a JSON object with the session token")
+    offered = json_value(text, "the first message") if text.lstrip().startswith("{") else None
+    return offered.get(TOKEN_FIELD) if isinstance(offered, dict) else None
 
 
 async def _serve(websocket: WebSocket, client: _Client, hub: LiveHub) -> None:

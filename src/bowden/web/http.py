@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import logging
+import sys
 from collections.abc import Awaitable, Callable
 from typing import Final
 from urllib.parse import parse_qsl
@@ -53,8 +54,8 @@ async def payload(request: Request) -> dict[str, object]:
         If the browser says the request comes from a page of another origin: the token alone would
         not stop a page that learnt it, and plain HTTP has no other guard (checked before the body).
     PayloadError, RequestError
-        For a body that is too large, of another type, not UTF-8, not JSON, nested too deeply, or
-        repeats a form field.
+        For a body that is too large, of another type, not UTF-8, not JSON, nested too deeply, holds
+        a number of too many digits, or repeats a form field.
     """
     if not same_origin(dict(request.headers)):
         raise AccessDeniedError("request from a page of another origin refused: nothing was changed")
@@ -71,12 +72,7 @@ async def payload(request: Request) -> dict[str, object]:
     except UnicodeDecodeError:
         raise RequestError("the request body is not UTF-8") from None
     if kind == "application/json":
-        try:
-            data = json.loads(text) if text.strip() else {}
-        except json.JSONDecodeError as error:
-            raise RequestError(f"the request body is not valid JSON: {error.msg} at {error.pos}") from None
-        except RecursionError:  # thousands of nested brackets: Python's parser gives up
-            raise RequestError("the request body is not valid JSON: nested too deeply") from None
+        data = json_value(text, "the request body") if text.strip() else {}
         if not isinstance(data, dict):
             raise RequestError("the request body must be a JSON object")
         return data
@@ -86,6 +82,24 @@ async def payload(request: Request) -> dict[str, object]:
             raise RequestError(f"{key[:30]}: given more than once")
         fields[key] = value
     return fields
+
+
+def json_value(text: str, what: str) -> object:
+    """``text`` parsed as JSON; a text Python's parser refuses is a :class:`RequestError` naming ``what``.
+
+    Besides malformed JSON, the parser gives up on thousands of nested brackets (RecursionError) and
+    on an integer of more digits than Python converts (ValueError, ``sys.get_int_max_str_digits``,
+    4300 by default: the guard against quadratic-time conversion).
+    """
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as error:
+        raise RequestError(f"{what} is not valid JSON: {error.msg} at {error.pos}") from None
+    except RecursionError:
+        raise RequestError(f"{what} is not valid JSON: nested too deeply") from None
+    except ValueError:  # JSONDecodeError is one too, caught above: this is the integer-digit limit
+        limit = sys.get_int_max_str_digits()
+        raise RequestError(f"{what} holds a number of more than {limit} digits") from None
 
 
 def error_response(status: int, message: str) -> JSONResponse:
