@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
     spec = build_spec(args)
     out = args.out if args.out is not None else Path(f"bowden-sweep-{spec.name}")
     # Dask is imported only now: the rest of bowden works without the cluster extra.
-    from bowden.sweep.cluster import dask_client
+    from bowden.engine.cluster import dask_client
     from bowden.sweep.runner import run_sweep
 
     progress = StageProgress(enabled=not args.quiet)

@@ -100,3 +100,8 @@ class BenchStroke:
     @property
     def raising(self) -> bool:
         return self.spool_velocity_rad_s > 0.0
+
+
+# A protocol a tenth the size of the paper's (2 loads × 4 speeds × 2 repetitions), for quick runs of
+# the study and the sweep.
+QUICK_BENCH = BenchProtocol(spool_speeds_rad_s=(0.5, 1.0, 3.0, 6.0), loads_nm=(1.0, 3.0), repetitions=2)

@@ -46,6 +46,7 @@ from bowden.analysis import (
 )
 from bowden.analysis.outcomes import TrialMetadata, combine_trial_outcomes
 from bowden.contracts import REPETITIONS_PER_TRIAL, SIMULATED_BACKENDS
+from bowden.engine.pool import Engine, Pending, study_engine
 from bowden.errors import ModelFileError, ParameterError, RecordingError, StoreError
 from bowden.identify import TransmissionIdentifier, plot_identification
 from bowden.model import CompensationModel
@@ -60,7 +61,6 @@ from bowden.study.custom_protocols import (
 )
 from bowden.study.emg_store import emg_imports, trials_with_emg
 from bowden.study.html import FigureJob, FigureMapper, HtmlDocument
-from bowden.study.parallel import Engine, Pending, study_engine
 from bowden.study.progress import StageProgress
 from bowden.study.report import ReportInputs, build_report
 from bowden.study.sessions import SessionFacts, left_open_notes, session_facts

@@ -25,10 +25,12 @@ from typing import Any, Literal
 
 from bowden import contracts as c
 from bowden._atomic_file import write_text_atomically
+from bowden.engine.pool import Engine, check_workers, study_engine
 from bowden.errors import OutputFileError, ParameterError, StoreError
 from bowden.identify import TransmissionIdentifier
 from bowden.model import CompensationModel
 from bowden.model.model_file import load_model, save_model
+from bowden.protocol.bench import QUICK_BENCH
 from bowden.sim.batch import ProtocolSettings
 from bowden.sim.bench import BenchProtocol, run_bench
 from bowden.sim.parameters import SuitParameters, check_seed
@@ -38,14 +40,10 @@ from bowden.study.compensation_comparison import ComparisonSettings
 from bowden.study.compensation_report import compensation_section
 from bowden.study.html import HtmlDocument
 from bowden.study.ownership import read_trial_origins
-from bowden.study.parallel import Engine, check_workers, study_engine
 from bowden.study.progress import StageProgress
 from bowden.study.stage_clock import StageClock
 from bowden.study.store import StudyStore
 from bowden.study.trial_runner import TrialRecord, run_trials, study_tasks, warm_up
-
-# A bench protocol a tenth the size of the paper's (2 loads × 4 speeds × 2 repetitions) for quick runs.
-QUICK_BENCH = BenchProtocol(spool_speeds_rad_s=(0.5, 1.0, 3.0, 6.0), loads_nm=(1.0, 3.0), repetitions=2)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -120,7 +118,7 @@ def run_study(
 
     The trials and their analysis run on ``workers`` local processes (None: one per core; 1: this
     process alone) or on the Dask cluster at ``scheduler`` (``tcp://host:8786``); the results are the
-    same whichever (:mod:`bowden.study.parallel`). This process stays the store's only writer.
+    same whichever (:mod:`bowden.engine.pool`). This process stays the store's only writer.
 
     Raises
     ------

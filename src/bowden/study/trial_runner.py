@@ -21,13 +21,13 @@ from dataclasses import dataclass
 
 from bowden import __version__
 from bowden import contracts as c
+from bowden.engine.pool import Engine
 from bowden.model import CompensationModel
 from bowden.runtime.recorder import TrialInfo
 from bowden.sim.batch import ProtocolSettings, condition_order, session_trial, simulate_trial, trial_seed
 from bowden.sim.participants import VirtualParticipant
 from bowden.sim.questionnaires import TrialLoad, answers_from_loads, trial_load
 from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE
-from bowden.study.parallel import Engine
 from bowden.study.store import StudyStore
 from bowden.study.trial_encoding import EncodedTrial, encode_trial
 

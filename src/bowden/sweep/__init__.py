@@ -10,9 +10,10 @@
 ``docs/sweep.md`` explains the design and gives the shipped blend-velocity sweep's answer.
 """
 
+from bowden.engine.cluster import dask_client
+from bowden.sim.digest import simulator_digest
 from bowden.sweep.axes import AXES, Axis
-from bowden.sweep.cluster import dask_client
-from bowden.sweep.output import SweepDirectory, simulator_digest
+from bowden.sweep.output import SweepDirectory
 from bowden.sweep.presets import PRESETS, preset
 from bowden.sweep.runner import SweepRun, cohort, protocol_settings, run_sweep
 from bowden.sweep.spec import SweepPoint, SweepSpec

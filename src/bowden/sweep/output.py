@@ -17,7 +17,6 @@ refused (``--force`` clears it).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import os
@@ -30,10 +29,10 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-import bowden.sim
 from bowden.errors import OutputFileError, ParameterError
 from bowden.model import CompensationModel
 from bowden.model.model_file import load_model, save_model
+from bowden.sim.digest import simulator_digest
 from bowden.sweep.spec import SweepSpec
 from bowden.sweep.task import RESULT_COLUMNS
 
@@ -42,16 +41,6 @@ _log = logging.getLogger(__name__)
 SPEC_FILE = "spec.json"
 RESULTS_FILE = "results.parquet"
 POINTS_FILE = "points.parquet"
-
-
-def simulator_digest() -> str:
-    """SHA-256 (16 hex digits) of the simulator's Python sources: results depend on its physics."""
-    digest = hashlib.sha256()
-    root = Path(bowden.sim.__file__).parent
-    for path in sorted(root.rglob("*.py")):
-        digest.update(path.relative_to(root).as_posix().encode())
-        digest.update(path.read_bytes())
-    return digest.hexdigest()[:16]
 
 
 class SweepDirectory:

@@ -31,11 +31,11 @@ from bowden.analysis.outcomes import (
 from bowden.contracts import PHASES
 from bowden.identify import TransmissionIdentifier
 from bowden.model import CompensationModel
+from bowden.protocol.bench import QUICK_BENCH
 from bowden.sim.batch import ProtocolSettings, simulate_trial, trial_seed
 from bowden.sim.bench import BenchProtocol, run_bench
 from bowden.sim.parameters import SuitParameters
 from bowden.sim.participants import VirtualParticipant
-from bowden.study.pipeline import QUICK_BENCH
 from bowden.sweep import axes as ax
 from bowden.sweep.spec import SweepPoint
 

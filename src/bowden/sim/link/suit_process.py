@@ -421,7 +421,7 @@ class _ChildDevices:
 
         from bowden.hardware.ak60_codec import limits_for_motor
         from bowden.sim.arm import ArmDriver, MannequinArm, PrescribedArm
-        from bowden.sim.backend import ArmFollowingTheLoop
+        from bowden.sim.arm_follower import ArmFollowingTheLoop
         from bowden.sim.link.i2c import I2CServer
         from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
         from bowden.sim.peers.mannequin import MannequinJoint

@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from typing import Any
 
 from bowden.errors import ClusterError, MissingExtraError, ParameterError
-from bowden.sweep.output import simulator_digest
+from bowden.sim.digest import simulator_digest
 
 INSTALL_HINT = "pip install 'bowden[cluster]'"
 _CONNECT_TIMEOUT_S = 10.0

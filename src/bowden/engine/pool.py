@@ -168,8 +168,8 @@ def study_engine(workers: int | None = None, scheduler: str | None = None) -> It
             raise ParameterError(
                 "--workers sets the size of the local pool; it cannot be used with --scheduler"
             )
-        from bowden.sweep.cluster import check_workers as check_cluster
-        from bowden.sweep.cluster import dask_client
+        from bowden.engine.cluster import check_workers as check_cluster
+        from bowden.engine.cluster import dask_client
 
         with dask_client(scheduler, purpose="bowden study --scheduler") as client:
             yield DaskEngine(client, check_cluster(client))
