@@ -15,15 +15,12 @@ import math
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from bowden.contracts import SPEED_PEAK_DEG_S
 from bowden.hardware.backend import Backend
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim.arm_follower import ArmFollowingTheLoop, FollowedReference
-
-if TYPE_CHECKING:
-    pass
 
 _channels = itertools.count()
 
