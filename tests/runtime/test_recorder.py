@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from bowden.errors import ParameterError, StoreError
+from bowden.runtime import recorder as recorder_module
 from bowden.runtime import sample_chunks
 from bowden.runtime.recorder import Recorder, TrialInfo
 from bowden.runtime.store_schema import SCHEMA_VERSION
@@ -158,6 +159,68 @@ def test_bad_row_fails_loudly(tmp_path: Path) -> None:
     recorder.record((1.0, 2.0))
     with pytest.raises(StoreError, match="expected 12"):
         recorder.close()
+
+
+def test_one_bad_row_is_dropped_alone_and_counted(tmp_path: Path) -> None:
+    """A NaN time, a state that is not a whole number and a value that is not a number each lose
+    their own row, never the batch or the queue behind it (issue 27: 2000 rows with one NaN gave 100)."""
+    path = tmp_path / "study.db"
+    bad = {500: 0, 1200: 10, 1700: 5}  # row index -> the column spoilt
+    with Recorder(path, TRIAL, commit_interval_s=0.05) as recorder:
+        for i in range(2000):
+            row = list(record_child.row(i))
+            if i in bad:
+                row[bad[i]] = {0: math.nan, 10: 1.5, 5: "0.05 m"}[bad[i]]
+            recorder.record(tuple(row))
+            if i % 200 == 0:
+                time.sleep(0.01)  # several commits
+    assert recorder.failure is None
+    assert (recorder.stats.committed_rows, recorder.stats.rejected_rows, recorder.stats.dropped_rows) == (
+        1997, 3, 0)
+    rows = read_samples(path)
+    assert [r[1] for r in rows] == [record_child.row(i)[0] for i in range(2000) if i not in bad]
+    with sqlite3.connect(path) as connection:
+        query = "SELECT time_s, message FROM events WHERE kind = 'rows_dropped'"
+        events = connection.execute(query).fetchall()
+    assert sum(int(message.split()[0]) for _time, message in events) == 3
+    messages = " ".join(message for _time, message in events)
+    assert "time_s is nan" in messages
+
+
+@pytest.mark.parametrize("error", [sqlite3.OperationalError, RuntimeError])
+def test_a_dead_writer_counts_every_row_it_will_not_write(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, error: type[Exception]
+) -> None:
+    """Rows batched or queued when the writer dies, and those handed over after, are counted: what the
+    store holds plus what was dropped is what the loop handed over, and the recording has failed
+    (a full disk, or a bug: whatever stops the writer)."""
+    path = tmp_path / "study.db"
+    commits = 0
+    commit = recorder_module._TrialChunks.commit
+
+    def failing_commit(self: object, *args: object, **kwargs: object) -> None:
+        nonlocal commits
+        commits += 1
+        if commits == 3:
+            time.sleep(0.05)  # rows pile up in the queue behind the failing batch
+            raise error("injected: the writer breaks")
+        commit(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(recorder_module._TrialChunks, "commit", failing_commit)
+    recorder = Recorder(path, TRIAL, commit_interval_s=0.02).start()
+    handed = 0
+    while recorder.failure is None or handed < 3000:
+        recorder.record(record_child.row(handed))
+        handed += 1
+        if handed % 50 == 0:
+            time.sleep(0.002)
+        assert handed < 10**6, "the writer's failure never reached the loop"
+    assert "injected: the writer breaks" in recorder.failure
+    with pytest.raises(StoreError, match="injected"):
+        recorder.close(stop_reason="recording failed")
+    stored = len(read_samples(path))
+    assert stored == recorder.stats.committed_rows > 0
+    assert stored + recorder.stats.dropped_rows == handed
 
 
 def test_unwritable_store(tmp_path: Path) -> None:

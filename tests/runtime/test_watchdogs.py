@@ -29,6 +29,7 @@ import can
 import pytest
 
 from bowden.control import Controller, Fault
+from bowden.errors import StoreError
 from bowden.hardware.ak60_codec import (
     DEFAULT_FIRMWARE,
     ENTER_MOTOR_MODE,
@@ -48,6 +49,7 @@ from bowden.runtime import (
     TrialInfo,
     stop_on_signals,
 )
+from bowden.runtime import recorder as recorder_module
 from bowden.runtime.clock import MonotonicClock
 from bowden.runtime.sample_chunks import sample_count
 
@@ -293,6 +295,43 @@ def test_recorder_backlog_stops(rig: Rig, controller: Controller, caplog: pytest
         reason = check.execute("SELECT stop_reason FROM trials").fetchone()[0]
     assert rows == len(tap.rows)  # nothing the loop handed over was lost
     assert "recording failed" in reason
+
+
+def test_a_writer_that_dies_stops_the_loop_and_counts_its_rows(
+    rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture, tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A writer killed by an error nobody foresaw (here a bug in its commit) still reaches the loop,
+    which stops safely; every row the loop handed over is either in the store or counted as dropped."""
+    caplog.set_level(logging.INFO)
+    broken = False
+    commit = recorder_module._TrialChunks.commit
+
+    def commit_until_broken(self: object, *args: object, **kwargs: object) -> None:
+        if broken:
+            raise ValueError("injected: a bug in the writer")
+        commit(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    def breaks() -> None:
+        nonlocal broken
+        broken = True
+
+    monkeypatch.setattr(recorder_module._TrialChunks, "commit", commit_until_broken)
+    store = tmp_path / "study.db"
+    recorder = Recorder(store, TrialInfo(participant="P01", condition="support_50", speed="V1")).start()
+    tap = Tap(breaks)
+    sinks = [tap, recorder.record]
+    loop = make_loop(rig, controller, tap, recorder_failure=lambda: recorder.failure, on_event=recorder.event)
+    loop.record = lambda row: [sink(row) for sink in sinks]  # type: ignore[func-returns-value]
+    report = loop.run()
+    check_safe_stop(rig, report, tap, Fault.RECORDER_FAILED, "injected: a bug in the writer", caplog,
+                    cause_wall_s=recorder.failed_at_utc_s)
+    with pytest.raises(StoreError, match="injected"):
+        recorder.close(stop_reason=report.reason)
+    with sqlite3.connect(store) as check:
+        stored = sample_count(check)
+    assert stored == recorder.stats.committed_rows
+    assert stored + recorder.stats.dropped_rows == len(tap.rows)
 
 
 class FlakyBus(can.BusABC):  # type: ignore[misc]

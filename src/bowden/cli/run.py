@@ -423,6 +423,11 @@ def run(args: argparse.Namespace) -> int:
             f"recorded {recorder.stats.committed_rows} cycles into {args.record} "
             f"(trial {recorder.trial_id}, longest gap between commits {gap_ms:.0f} ms)"
         )
+        if recorder.stats.rejected_rows:
+            print(f"recording: {recorder.stats.rejected_rows} cycle(s) could not be stored and were dropped "
+                  "(the trial's rows_dropped events say why)")
+        if recorder.stats.dropped_rows:
+            print(f"recording: {recorder.stats.dropped_rows} cycle(s) were not written: the recording failed")
         if recording_error:
             print(f"recording: {recording_error}")
     return 0 if report.clean else 3

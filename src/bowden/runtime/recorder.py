@@ -50,9 +50,10 @@ from bowden.runtime.sample_chunks import (
     CHUNK_ROWS,
     INSERT_CHUNK_SQL,
     Columns,
+    ScreenedRows,
     chunk_row,
-    columns_from_rows,
     concat_columns,
+    screen_rows,
     split_columns,
 )
 from bowden.runtime.store_schema import configure_connection, create_schema
@@ -120,7 +121,10 @@ class RecorderStats:
     commits: int = 0
     max_commit_gap_s: float = 0.0  # longest time between two commits while recording
     max_backlog: int = 0
-    dropped_rows: int = 0  # rows handed over after the writer had failed (written by the loop side)
+    # Rows handed over that the store will never hold because the writer failed: those it had not
+    # committed, those still queued, and those handed over after (counted under _dropped_lock).
+    dropped_rows: int = 0
+    rejected_rows: int = 0  # rows that could not be stored (NaN time, non-whole state...): dropped alone
     last_committed_time_s: float = math.nan  # loop time of the newest committed row
 
 
@@ -179,6 +183,7 @@ class Recorder:
         self.failed_at_utc_s = math.nan  # when it failed (time.time(), like the bus's frame stamps)
         self.trial_closed = False
         self._writer_dead = False
+        self._dropped_lock = threading.Lock()  # the loop side and the dying writer both count
         self._queue: queue.SimpleQueue[object] = queue.SimpleQueue()
         self._ready = threading.Event()
         self._thread: threading.Thread | None = None
@@ -188,7 +193,7 @@ class Recorder:
     def record(self, row: tuple[float | int, ...]) -> None:
         """Queue one trial-recording row (``contracts.TRIAL_COLUMNS`` order). Never blocks."""
         if self._writer_dead:
-            self.stats.dropped_rows += 1
+            self._count_dropped(1)
             return
         queue_ = self._queue
         queue_.put(row)
@@ -239,6 +244,7 @@ class Recorder:
         self._thread.join()
         self._thread = None
         if self.error is not None:
+            self._count_dropped(self._drain_queue())  # rows queued after the dying writer emptied it
             self._close_trial_after_failure(stop_reason)
             kept = (f"{self.stats.committed_rows} rows committed before it are kept; the trial was "
                     + ("closed with its stop reason" if self.trial_closed else "left open (no end time)"))
@@ -299,23 +305,43 @@ class Recorder:
             self._ready.set()
             return
         self._ready.set()
+        batch: list[tuple[float | int, ...]] = []
         try:
-            self._drain(connection)
-        except (sqlite3.Error, OSError, StoreError) as error:
+            self._drain(connection, batch)
+        except Exception as error:  # whatever kills the writer must reach the loop
             self.error = error
             self._writer_dead = True
             self.failed_at_utc_s = time.time()
             self.failure = f"writing {self.path} failed: {error}"
-            _log.error("recorder: %s", self.failure)
+            if not isinstance(error, sqlite3.Error | OSError | StoreError):
+                _log.exception("recorder: the writer failed")
+            # The uncommitted batch and the queue behind it will never be written: counted, not lost
+            # silently (what was committed before stays in the store).
+            self._count_dropped(len(batch) + self._drain_queue())
+            _log.error("recorder: %s; %d rows not written", self.failure, self.stats.dropped_rows)
         finally:
             connection.close()
 
-    def _drain(self, connection: sqlite3.Connection) -> None:
+    def _drain_queue(self) -> int:
+        """Empty the queue; the number of rows it held."""
+        rows = 0
+        while True:
+            try:
+                item = self._queue.get(block=False)
+            except queue.Empty:
+                return rows
+            rows += isinstance(item, tuple)
+
+    def _count_dropped(self, rows: int) -> None:
+        with self._dropped_lock:
+            self.stats.dropped_rows += rows
+
+    def _drain(self, connection: sqlite3.Connection, samples: list[tuple[float | int, ...]]) -> None:
+        """Commit what arrives until the stop; ``samples`` is the batch not yet committed."""
         assert self.trial_id is not None
         chunks = _TrialChunks(self.trial_id, self.chunk_rows)
         columns = len(TRIAL_COLUMNS)
-        samples: list[tuple[float | int, ...]] = []
-        events: list[tuple[int | None, float, str, str]] = []
+        events: list[tuple[int | None, float | None, str, str]] = []
         get = self._queue.get
         last_commit = time.monotonic()
         stopping = False
@@ -344,7 +370,10 @@ class Recorder:
             now = time.monotonic()
             if now - last_commit >= self.commit_interval_s or stopping:
                 backlog = self._queue.qsize()
-                batch = columns_from_rows(samples) if samples else None
+                screened = screen_rows(samples) if samples else None
+                batch = screened.columns if screened is not None else None
+                if screened is not None and screened.rejected:
+                    events.append(self._rejected_event(screened))
                 with connection:
                     chunks.commit(connection, batch, final=stopping)
                     if events:
@@ -357,7 +386,9 @@ class Recorder:
                             (utc_now_iso(), self._stop_reason, self.trial_id),
                         )
                 stats = self.stats
-                stats.committed_rows += len(samples)
+                rejected = screened.rejected if screened is not None else 0
+                stats.committed_rows += len(samples) - rejected
+                stats.rejected_rows += rejected
                 if batch is not None:
                     stats.last_committed_time_s = float(batch[TRIAL_TIME][-1])
                 stats.commits += 1
@@ -368,6 +399,14 @@ class Recorder:
                 last_commit = time.monotonic()
                 if self.on_commit is not None:
                     self.on_commit(stats.committed_rows)
+
+    def _rejected_event(self, screened: ScreenedRows) -> tuple[int | None, float | None, str, str]:
+        """The event that says in the trial that rows of a batch could not be stored."""
+        message = (f"{screened.rejected} row(s) could not be stored and were dropped; the first: "
+                   f"{screened.first_problem}")
+        _log.warning("recorder: %s", message)
+        time_s = screened.first_time_s if math.isfinite(screened.first_time_s) else None
+        return (self.trial_id, time_s, "rows_dropped", message)
 
 
 class _TrialChunks:

@@ -9,8 +9,10 @@ an old store opens as it is and a new trial in it goes to the chunks.
 
 from __future__ import annotations
 
+import math
 import sqlite3
 from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, Final
 
 import numpy as np
@@ -46,10 +48,70 @@ def has_table(connection: sqlite3.Connection, name: str) -> bool:
     return row.fetchone() is not None
 
 
-def columns_from_rows(rows: Sequence[Sequence[float | int]]) -> Columns:
-    """The columns of recorder rows (``TRIAL_COLUMNS`` order; NaN for a missing value)."""
-    array = np.array(rows, dtype=np.float64).reshape(len(rows), len(TRIAL_COLUMNS))
-    return _typed({name: array[:, i] for i, name in enumerate(TRIAL_COLUMNS)})
+@dataclass(frozen=True)
+class ScreenedRows:
+    """Recorder rows split into what can be stored and what cannot (:func:`screen_rows`)."""
+
+    columns: Columns | None  # the storable rows' columns (None: none was)
+    rejected: int  # rows that cannot be stored
+    first_problem: str  # why the first of them cannot ("" if none)
+    first_time_s: float  # its time (NaN if that is the problem)
+
+
+def screen_rows(rows: Sequence[Sequence[float | int]]) -> ScreenedRows:
+    """The recorder's rows (``TRIAL_COLUMNS`` order, each of that length) with the unstorable ones
+    set aside: a value that is not a number, a time that is not finite, a state or fault code that is
+    not a whole number. One such row is dropped, never the rows around it (the writer counts it).
+    """
+    try:
+        array = np.array(rows, dtype=np.float64).reshape(len(rows), len(TRIAL_COLUMNS))
+        numeric = np.ones(len(rows), dtype=bool)
+    except (TypeError, ValueError):  # a value that is not a number: find its rows one by one
+        array, numeric = _numeric_rows(rows)
+    time = array[:, 0]
+    good = numeric & np.isfinite(time)
+    for name in INTEGER_COLUMNS:
+        codes = array[:, TRIAL_COLUMNS.index(name)]
+        with np.errstate(invalid="ignore"):
+            good &= np.isfinite(codes) & (codes == np.round(codes)) & (np.abs(codes) < 2.0**63)
+    if good.all():
+        return ScreenedRows(_typed(_split(array)), 0, "", math.nan)
+    first = int(np.flatnonzero(~good)[0])
+    kept = array[good]
+    return ScreenedRows(
+        _typed(_split(kept)) if kept.size else None,
+        int((~good).sum()),
+        _row_problem(rows[first], array[first], bool(numeric[first])),
+        float(time[first]),
+    )
+
+
+def _numeric_rows(rows: Sequence[Sequence[float | int]]) -> tuple[np.ndarray[Any, Any], np.ndarray[Any, Any]]:
+    array = np.full((len(rows), len(TRIAL_COLUMNS)), np.nan)
+    numeric = np.zeros(len(rows), dtype=bool)
+    for i, row in enumerate(rows):
+        try:
+            array[i] = np.asarray(row, dtype=np.float64)
+        except (TypeError, ValueError):
+            continue
+        numeric[i] = True
+    return array, numeric
+
+
+def _row_problem(row: Sequence[object], values: np.ndarray[Any, Any], numeric: bool) -> str:
+    if not numeric:
+        return f"a value is not a number ({row!r})"
+    if not math.isfinite(values[0]):
+        return f"{TRIAL_TIME} is {float(values[0])!r}, not a finite time"
+    for name in INTEGER_COLUMNS:
+        value = float(values[TRIAL_COLUMNS.index(name)])
+        if not (math.isfinite(value) and value == round(value)):
+            return f"{name} is {value!r}, not a whole-number code"
+    return f"{TRIAL_STATE}/{TRIAL_FAULT} out of range"
+
+
+def _split(array: np.ndarray[Any, Any]) -> Columns:
+    return {name: array[:, i] for i, name in enumerate(TRIAL_COLUMNS)}
 
 
 def columns_from_frame(frame: pd.DataFrame) -> Columns:
