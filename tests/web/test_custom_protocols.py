@@ -38,7 +38,7 @@ def test_a_plan_with_a_custom_condition_and_speed_runs_from_the_console(tmp_path
         conditions = options["conditions"]
         assert {"id": "support_70", "label": "support_70", "support": 0.7, "custom": True} in conditions
         assert {"id": "V4", "peak_deg_s": 240.0, "custom": True} in options["speeds"]
-        assert {"id": "support_25", "label": "25%", "support": 0.25, "custom": False} in conditions
+        assert {"id": "support_25", "label": "25% support", "support": 0.25, "custom": False} in conditions
         schema = client.get("/api/questionnaires/schema").json()
         assert {"id": "support_70", "label": "support_70"} in schema["conditions"]
 
@@ -46,7 +46,7 @@ def test_a_plan_with_a_custom_condition_and_speed_runs_from_the_console(tmp_path
         plan = client.post("/api/sessions", headers=AUTH, json={"participant": "P11", "seed": 3}).json()
         assert plan["protocol"]["catalogue"] == {"conditions": {"support_70": 0.7}, "speeds": {"V4": 240.0}}
         assert [s["speed"] for s in plan["steps"]] == ["V4"] * 3
-        assert {s["label"] for s in plan["steps"]} == {"no", "50%", "support_70"}
+        assert {s["label"] for s in plan["steps"]} == {"no suit", "50% support", "support_70"}
         position = next(s["position"] for s in plan["steps"] if s["condition"] == "support_70")
         early = client.post("/api/questionnaires", headers=AUTH, json=answers("P11", "support_70"))
         assert early.status_code == 409 and "has not run support_70" in early.json()["error"]

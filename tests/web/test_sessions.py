@@ -11,7 +11,16 @@ from starlette.testclient import TestClient
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.protocol.session_plan import condition_order, williams_square
 
-from .conftest import AUTH, BASE, SHORT_PROTOCOL, TOKEN, make_server, registration, store_snapshot
+from .conftest import (
+    AUTH,
+    BASE,
+    SHORT_PROTOCOL,
+    TOKEN,
+    make_server,
+    registration,
+    store_snapshot,
+    trial_request,
+)
 
 WS = "ws://127.0.0.1"
 
@@ -76,6 +85,17 @@ def test_the_plan_is_drawn_from_a_recorded_seed_and_stored_before_the_first_tria
     # Asking again resumes the same session rather than drawing another.
     again = client.post("/api/sessions", headers=AUTH, json={"participant": "P08", "seed": 99})
     assert again.status_code == 200 and again.json()["session_id"] == plan["session_id"]
+
+
+def test_the_pages_call_the_paper_conditions_in_words(client):
+    # The paper's table heads ("no", "pre") read as words in the console's sentences.
+    client.post("/api/participants", headers=AUTH, json=registration("P13"))
+    plan = client.post("/api/sessions", headers=AUTH, json={"participant": "P13"}).json()
+    words = {"no_suit": "no suit", "pretension": "pretension", "support_25": "25% support",
+             "support_50": "50% support"}
+    assert {s["condition"]: s["label"] for s in plan["steps"]} == words
+    for listed in (client.get("/api/options").json(), client.get("/api/questionnaires/schema").json()):
+        assert {c["id"]: c["label"] for c in listed["conditions"]} == words
 
 
 def test_latin_square_sessions_take_the_rows_in_turn(tmp_path):
@@ -143,6 +163,37 @@ def test_a_session_runs_its_plan_with_questionnaires_in_their_place(client, web)
     assert metadata["session_id"] == session and metadata["plan_position"] == 1 and metadata["plan_seed"] == 5
     assert notes == [("questionnaire_exception", order[3], "participant leaves early"),
                      ("skip", order[1], "motor too warm")]
+
+
+def test_a_training_trial_outside_the_plan_does_not_count_as_the_planned_condition(client, web):
+    client.post("/api/participants", headers=AUTH, json=registration("P11"))
+    plan = client.post("/api/sessions", headers=AUTH, json={"participant": "P11", "seed": 3}).json()
+    planned = plan["condition_order"][1]
+    training = trial_request(participant="P11", condition=planned)
+    with client.websocket_connect(f"{WS}/ws/console") as console:
+        console.send_text(json.dumps({"token": TOKEN}))
+        until(console, "session")
+        assert client.post("/api/trial/start", headers=AUTH, json=training).status_code == 201
+        assert until(console, "stopped")[-1]["completed"] is True
+    before = store_snapshot(web.config.store_path)
+    refused = client.post("/api/questionnaires", headers=AUTH, json=answers("P11", planned))
+    assert refused.status_code == 409, refused.text
+    assert refused.json()["error"].startswith(f"P11 has not run {planned} in the session plan (")
+    assert store_snapshot(web.config.store_path) == before
+    status = client.get(f"/api/sessions/{plan['session_id']}", headers=AUTH).json()
+    assert status["questionnaire_due"] is None and status["progress"]["done"] == 0
+
+
+def test_without_a_session_plan_a_trial_run_elsewhere_lets_its_questionnaire_in(client, web):
+    # bowden run --record (or a console trial) with no plan for the participant: the trial counts.
+    trial = trial_request(participant="P12", condition="support_25")
+    with client.websocket_connect(f"{WS}/ws/console") as console:
+        console.send_text(json.dumps({"token": TOKEN}))
+        assert client.post("/api/trial/start", headers=AUTH, json=trial).status_code == 201
+        until(console, "stopped")
+    assert client.post("/api/questionnaires", headers=AUTH, json=answers("P12", "support_25")).status_code == 201
+    refused = client.post("/api/questionnaires", headers=AUTH, json=answers("P12", "support_50"))
+    assert refused.status_code == 409 and "P12 has not run support_50:" in refused.json()["error"]
 
 
 def test_a_restarted_server_resumes_the_session_and_marks_the_interrupted_trial(tmp_path):

@@ -37,6 +37,7 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from bowden.contracts import REPETITIONS_PER_TRIAL
 from bowden.errors import RequestError
 from bowden.web.http import Handler, form_encoded, json_value, payload, refusals
+from bowden.web.labels import condition_label
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, _Client, encode, send
 from bowden.web.questionnaire_store import COLUMNS, QuestionnaireStore
 from bowden.web.questionnaires import EXCEPTION_FIELD, form_scores, parse_response, questionnaire_schema
@@ -97,7 +98,7 @@ def create_app(
     async def options(request: Request) -> Response:
         return JSONResponse({
             "conditions": [
-                {"id": c, "label": catalogue.label(c), "support": catalogue.support(c),
+                {"id": c, "label": condition_label(c), "support": catalogue.support(c),
                  "custom": catalogue.is_custom(c)}
                 for c in catalogue.condition_names
             ],

@@ -33,6 +33,7 @@ from bowden.contracts import (
 )
 from bowden.errors import RequestError
 from bowden.protocol.catalogue import PAPER, Catalogue
+from bowden.web.labels import condition_label
 from bowden.web.validation import choice, no_unknown_fields, participant_id, whole_number_in
 
 NORDIC: Final = QUESTIONNAIRE_NORDIC
@@ -218,7 +219,7 @@ def parse_response(
 def questionnaire_schema(catalogue: Catalogue = PAPER) -> dict[str, object]:
     """What the browser form shows: conditions, sites with labels, scales with their verbal anchors."""
     return {
-        "conditions": [{"id": c, "label": catalogue.label(c)} for c in catalogue.condition_names],
+        "conditions": [{"id": c, "label": condition_label(c)} for c in catalogue.condition_names],
         NORDIC: {
             "title": "Discomfort (modified Nordic questionnaire)",
             "low": LIKERT_LOW,

@@ -15,6 +15,7 @@ from typing import Any
 
 from bowden.errors import ConflictError, RequestError
 from bowden.protocol.session_plan import StudyProtocol
+from bowden.web.labels import condition_label
 from bowden.web.live import ROLE_CONSOLE, LiveHub
 from bowden.web.registry import Participant, Registry
 from bowden.web.session_store import Session, SessionStore
@@ -168,9 +169,11 @@ class SessionDesk:
                 raise RequestError("exception: only for a condition not run (this one was run)")
             return None
         if exception in (None, ""):
+            where = (" in the session plan (a trial outside the plan does not count)"
+                     if self.store.has_plan(participant) else "")
             raise ConflictError(
-                f"{participant} has not run {condition}: questionnaires come after the condition's trials "
-                "(mark an exception with a reason to store them anyway)"
+                f"{participant} has not run {condition}{where}: questionnaires come after the condition's "
+                "trials (mark an exception with a reason to store them anyway)"
             )
         return reason_text(exception, "exception")
 
@@ -187,7 +190,7 @@ class SessionDesk:
         steps = [
             {
                 "position": s.step.position, "condition": s.step.condition,
-                "label": session.protocol.catalogue.label(s.step.condition), "speed": s.step.speed,
+                "label": condition_label(s.step.condition), "speed": s.step.speed,
                 "repetitions": s.step.repetitions, "state": s.state, "trial_id": s.trial_id,
                 "skip_reason": s.skip_reason,
                 "attempts": [{"trial_id": t, "status": st, "reason": r} for t, st, r in s.attempts],

@@ -278,15 +278,34 @@ class SessionStore:
         return self.get(session_id)
 
     # --- questionnaires in their place -------------------------------------------------------------
-    def has_run(self, participant: str, condition: str) -> bool:
-        """Whether ``participant`` has a trial of ``condition`` that ended and was not set aside."""
+    def has_plan(self, participant: str) -> bool:
+        """Whether ``participant`` has a session plan (then only its trials count as run)."""
         with connect(self.path) as connection:
-            row = connection.execute(
-                "SELECT count(*) FROM trials t LEFT JOIN session_trials s ON s.trial_id = t.id "
-                "WHERE t.participant = ? AND t.condition = ? AND t.ended_utc IS NOT NULL "
-                "AND (s.status IS NULL OR s.status = 'completed')",
-                (participant, condition),
-            ).fetchone()
+            row = connection.execute("SELECT count(*) FROM sessions WHERE participant = ?", (participant,))
+            return bool(row.fetchone()[0])
+
+    def has_run(self, participant: str, condition: str) -> bool:
+        """Whether ``participant`` has run ``condition``: its questionnaires may be taken.
+
+        With a session plan, only a completed trial of a step of ``condition`` counts: a training
+        trial outside the plan is not the planned condition. Without one (trials of ``bowden run``
+        or outside any plan), any trial of ``condition`` that ended counts.
+        """
+        planned = self.has_plan(participant)
+        with connect(self.path) as connection:
+            if planned:
+                row = connection.execute(
+                    "SELECT count(*) FROM session_trials s JOIN sessions x ON x.id = s.session_id "
+                    "JOIN plan_steps p ON p.session_id = s.session_id AND p.position = s.position "
+                    "WHERE x.participant = ? AND p.condition = ? AND s.status = 'completed'",
+                    (participant, condition),
+                ).fetchone()
+            else:
+                row = connection.execute(
+                    "SELECT count(*) FROM trials WHERE participant = ? AND condition = ? "
+                    "AND ended_utc IS NOT NULL",
+                    (participant, condition),
+                ).fetchone()
         return bool(row[0])
 
     def answered(self, participant: str) -> set[str]:

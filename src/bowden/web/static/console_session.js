@@ -149,7 +149,7 @@ const BowdenSession = (() => {
     due.hidden = !data.questionnaire_due;
     if (data.questionnaire_due) {
       const link = `/questionnaire#participant=${p.participant}&condition=${data.questionnaire_due}`;
-      due.replaceChildren(`Questionnaires due after ${label(data.questionnaire_due)}: `);
+      due.replaceChildren(`Questionnaires due after “${label(data.questionnaire_due)}”: `);
       const a = document.createElement("a");
       a.href = link;
       a.target = "_blank";
@@ -168,7 +168,7 @@ const BowdenSession = (() => {
     const elapsed = breakBase.elapsed_s + (performance.now() - breakBase.at_ms) / 1000;
     const clock = (s) => `${Math.floor(s / 60)}:${String(Math.floor(s % 60)).padStart(2, "0")}`;
     const over = elapsed >= breakBase.length_s;
-    box.textContent = `Break after ${label(breakBase.condition)}: ${clock(elapsed)} of ${clock(breakBase.length_s)}`
+    box.textContent = `Break after “${label(breakBase.condition)}”: ${clock(elapsed)} of ${clock(breakBase.length_s)}`
       + (over ? " — break over" : "");
     box.classList.toggle("over", over);
   }
