@@ -103,7 +103,7 @@ def test_an_operator_runs_a_whole_session_restarts_the_server_and_analyzes_it(tm
             screenshot(console, "session-plan.png", full_page=True)
             # First condition; the questionnaires are prompted after it, and the break timer runs.
             run_next(console, 1)
-            wait_text(console, "questionnaire-due", "Questionnaires due after “no suit”: open the questionnaire")
+            wait_text(console, "questionnaire-due", "Questionnaires due after “no suit”: open the")
             wait_text(console, "break-timer", "Break after “no suit”: ")
             screenshot(console, "session-questionnaire-due.png", full_page=True)
             answer(browser, url, FIRST_TOKEN, "P01", order[0])

@@ -191,7 +191,8 @@ def test_without_a_session_plan_a_trial_run_elsewhere_lets_its_questionnaire_in(
         console.send_text(json.dumps({"token": TOKEN}))
         assert client.post("/api/trial/start", headers=AUTH, json=trial).status_code == 201
         until(console, "stopped")
-    assert client.post("/api/questionnaires", headers=AUTH, json=answers("P12", "support_25")).status_code == 201
+    stored = client.post("/api/questionnaires", headers=AUTH, json=answers("P12", "support_25"))
+    assert stored.status_code == 201
     refused = client.post("/api/questionnaires", headers=AUTH, json=answers("P12", "support_50"))
     assert refused.status_code == 409 and "P12 has not run support_50:" in refused.json()["error"]
 
