@@ -37,10 +37,6 @@ class DeviceTimeoutError(HardwareError, TimeoutError):
     """A device did not answer in time."""
 
 
-class SafetyFault(BowdenError, RuntimeError):
-    """A watchdog moved the suit to its safe state; the message gives the reason."""
-
-
 class StoreError(BowdenError, RuntimeError):
     """The study store cannot be opened, read or written."""
 

@@ -15,9 +15,7 @@ import pytest
 
 from bowden.identify import TransmissionIdentifier
 from bowden.model.transmission import slopes_from_friction
-
-bench = pytest.importorskip("bowden.sim.bench")
-parameters = pytest.importorskip("bowden.sim.parameters")
+from bowden.sim import batch, bench, parameters, participants, results
 
 # A reduced protocol (every speed decade, all load extremes, one repetition) keeps the test fast.
 PROTOCOL = {"spool_speeds_rad_s": (0.5, 2.0, 6.0), "loads_nm": (0.5, 2.0, 4.0), "repetitions": 1}
@@ -64,9 +62,6 @@ def test_identified_model_controls_the_simulated_suit() -> None:
     # It must track far better than ignoring friction (k = 0, the naive R·T law) and better than the
     # right k without the motor-friction intercepts, and stay under the paper's worst tension RMSE
     # (9.07 N, Table of tension RMSE; the paper's 50 % support values are 6.1–8.2 N).
-    batch = pytest.importorskip("bowden.sim.batch")
-    participants = pytest.importorskip("bowden.sim.participants")
-    results = pytest.importorskip("bowden.sim.results")
     from bowden.contracts import TRIAL_DESIRED_TENSION
     from bowden.model import CompensationModel
 

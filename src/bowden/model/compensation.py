@@ -19,8 +19,9 @@ from dataclasses import dataclass, field
 
 from bowden.errors import ParameterError
 from bowden.model.dynamic import DynamicCompensation
-from bowden.model.lines import CompensationLine, LineFitStats, finite_number
+from bowden.model.lines import CompensationLine, LineFitStats
 from bowden.model.transmission import slopes_from_friction
+from bowden.validation import check_number
 
 LN_99 = math.log(99.0)
 
@@ -77,15 +78,15 @@ class CompensationModel:
     blend_steepness_s_rad: float = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        finite_number("blend_velocity_01_rad_s", self.blend_velocity_01_rad_s)
-        finite_number("blend_velocity_99_rad_s", self.blend_velocity_99_rad_s)
+        check_number(self.blend_velocity_01_rad_s, "blend_velocity_01_rad_s")
+        check_number(self.blend_velocity_99_rad_s, "blend_velocity_99_rad_s")
         if not self.blend_velocity_99_rad_s > self.blend_velocity_01_rad_s:
             raise ParameterError(
                 "blend_velocity_99_rad_s must exceed blend_velocity_01_rad_s (the raising line takes "
                 f"over as velocity grows); got {self.blend_velocity_01_rad_s!r} and "
                 f"{self.blend_velocity_99_rad_s!r}"
             )
-        finite_number("pulley_radius_m", self.pulley_radius_m)
+        check_number(self.pulley_radius_m, "pulley_radius_m")
         if not 0.0 < self.pulley_radius_m < 0.5:
             raise ParameterError(f"pulley_radius_m must be in (0, 0.5) m, got {self.pulley_radius_m!r}")
         if self.dynamic is not None and not isinstance(self.dynamic, DynamicCompensation):

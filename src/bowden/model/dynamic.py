@@ -35,14 +35,7 @@ from dataclasses import dataclass
 
 from bowden.errors import ParameterError
 from bowden.model.lines import CompensationLine
-
-
-def _number(owner: str, name: str, value: object, low: float, high: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise ParameterError(f"{owner}.{name} must be a finite number, got {value!r}")
-    if not low <= value <= high:
-        raise ParameterError(f"{owner}.{name} = {value!r} is outside its valid range [{low:g}, {high:g}]")
-    return float(value)
+from bowden.validation import check_field, check_number
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -63,13 +56,13 @@ class DynamicFitStats:
     def __post_init__(self) -> None:
         if not (isinstance(self.n, int) and self.n >= 0):
             raise ParameterError(f"DynamicFitStats.n must be a non-negative integer, got {self.n!r}")
-        _number("DynamicFitStats", "viscous_se_nm_s_rad", self.viscous_se_nm_s_rad, 0.0, math.inf)
-        _number("DynamicFitStats", "inertia_se_kg_m2", self.inertia_se_kg_m2, 0.0, math.inf)
+        check_field(self, "viscous_se_nm_s_rad", 0.0, math.inf)
+        check_field(self, "inertia_se_kg_m2", 0.0, math.inf)
         for table in (self.regime_rms_nm, self.paper_rms_nm):
             for name, value in table:
                 if not isinstance(name, str):
                     raise ParameterError(f"DynamicFitStats regime names must be strings, got {name!r}")
-                _number("DynamicFitStats", f"regime {name!r}", value, 0.0, math.inf)
+                check_number(value, f"DynamicFitStats regime {name!r}", 0.0)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -112,17 +105,16 @@ class DynamicCompensation:
     fit: DynamicFitStats | None = None
 
     def __post_init__(self) -> None:
-        owner = "DynamicCompensation"
-        _number(owner, "viscous_nm_s_rad", self.viscous_nm_s_rad, 0.0, 1.0)
-        _number(owner, "inertia_kg_m2", self.inertia_kg_m2, 0.0, 0.05)
-        _number(owner, "imu_latency_s", self.imu_latency_s, 0.0, 0.2)
-        _number(owner, "reversal_hysteresis_rad_s", self.reversal_hysteresis_rad_s, 0.0, 2.0)
-        _number(owner, "reversal_time_s", self.reversal_time_s, 1e-4, 1.0)
-        _number(owner, "max_dynamic_nm", self.max_dynamic_nm, 0.0, 5.0)
+        check_field(self, "viscous_nm_s_rad", 0.0, 1.0)
+        check_field(self, "inertia_kg_m2", 0.0, 0.05)
+        check_field(self, "imu_latency_s", 0.0, 0.2)
+        check_field(self, "reversal_hysteresis_rad_s", 0.0, 2.0)
+        check_field(self, "reversal_time_s", 1e-4, 1.0)
+        check_field(self, "max_dynamic_nm", 0.0, 5.0)
         if self.raising.slope_m < self.lowering.slope_m:
             raise ParameterError(
-                f"{owner}: the raising slope ({self.raising.slope_m:.5g} m) is below the lowering slope "
-                f"({self.lowering.slope_m:.5g} m); friction cannot explain that"
+                f"DynamicCompensation: the raising slope ({self.raising.slope_m:.5g} m) is below the "
+                f"lowering slope ({self.lowering.slope_m:.5g} m); friction cannot explain that"
             )
 
     def torque_nm(

@@ -6,15 +6,10 @@ The paper's model (:mod:`bowden.model.compensation`) blends two of these; the dy
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 from bowden.errors import ParameterError
-
-
-def finite_number(name: str, value: float) -> None:
-    if not (isinstance(value, int | float) and math.isfinite(value)):
-        raise ParameterError(f"{name} must be a finite number, got {value!r}")
+from bowden.validation import check_number
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -25,8 +20,8 @@ class CompensationLine:
     slope_m: float
 
     def __post_init__(self) -> None:
-        finite_number("intercept_nm", self.intercept_nm)
-        finite_number("slope_m", self.slope_m)
+        check_number(self.intercept_nm, "intercept_nm")
+        check_number(self.slope_m, "slope_m")
         if not (0.0 < self.slope_m < 1.0):
             raise ParameterError(
                 f"slope_m is motor torque per newton of tension (about the pulley radius), "
@@ -57,4 +52,4 @@ class LineFitStats:
         if not (isinstance(self.n, int) and self.n >= 0):
             raise ParameterError(f"n must be a non-negative integer, got {self.n!r}")
         for name in ("r_squared_ols", "r_squared_robust", "robust_scale_nm", "intercept_se_nm", "slope_se_m"):
-            finite_number(name, getattr(self, name))
+            check_number(getattr(self, name), name)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, fields
 from bowden.errors import ParameterError
 from bowden.hardware.ads1115 import FULL_SCALE_V
 from bowden.model import CuffGeometry
+from bowden.validation import check_field
 
 MAX_SEED = 2**32 - 1  # numpy seeds are unsigned; one 32-bit word keeps them portable
 
@@ -23,18 +24,6 @@ def check_seed(seed: object, name: str = "seed") -> None:
     """Refuse a seed numpy would reject (negative, not an integer) with an error that names it."""
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
         raise ParameterError(f"{name} must be an integer in [0, {MAX_SEED}], got {seed!r}")
-
-
-def _check_range(owner: object, name: str, low: float, high: float, *, low_open: bool = False) -> None:
-    value = getattr(owner, name)
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ParameterError(f"{type(owner).__name__}.{name} must be a number, got {value!r}")
-    ok = math.isfinite(value) and (value > low if low_open else value >= low) and value <= high
-    if not ok:
-        bracket = "(" if low_open else "["
-        raise ParameterError(
-            f"{type(owner).__name__}.{name} = {value!r} is outside its valid range {bracket}{low}, {high}]"
-        )
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -85,13 +74,13 @@ class MotorParameters:
     torque_limit_nm: float = 9.0
 
     def __post_init__(self) -> None:
-        _check_range(self, "spool_radius_m", 0.005, 0.2, low_open=True)
-        _check_range(self, "rotor_inertia_kgm2", 1e-5, 0.05, low_open=True)
-        _check_range(self, "coulomb_friction_nm", 0.0, 1.0)
-        _check_range(self, "viscous_friction_nms_rad", 0.0, 0.1)
-        _check_range(self, "current_loop_time_constant_s", 1e-5, 0.05, low_open=True)
-        _check_range(self, "torque_constant_ratio", 0.5, 1.5)
-        _check_range(self, "torque_limit_nm", 0.0, 50.0, low_open=True)
+        check_field(self, "spool_radius_m", 0.005, 0.2, low_open=True)
+        check_field(self, "rotor_inertia_kgm2", 1e-5, 0.05, low_open=True)
+        check_field(self, "coulomb_friction_nm", 0.0, 1.0)
+        check_field(self, "viscous_friction_nms_rad", 0.0, 0.1)
+        check_field(self, "current_loop_time_constant_s", 1e-5, 0.05, low_open=True)
+        check_field(self, "torque_constant_ratio", 0.5, 1.5)
+        check_field(self, "torque_limit_nm", 0.0, 50.0, low_open=True)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -148,11 +137,11 @@ class SheathParameters:
     viscous_coefficient_ns_m: float = 25.0
 
     def __post_init__(self) -> None:
-        _check_range(self, "kinetic_coefficient", 0.0, 0.5)
-        _check_range(self, "viscous_coefficient_ns_m", 0.0, 100.0)
-        _check_range(self, "static_to_kinetic_ratio", 1.0, 3.0)
-        _check_range(self, "stribeck_velocity_m_s", 1e-5, 0.1, low_open=True)
-        _check_range(self, "stick_velocity_m_s", 0.0, 0.01, low_open=True)
+        check_field(self, "kinetic_coefficient", 0.0, 0.5)
+        check_field(self, "viscous_coefficient_ns_m", 0.0, 100.0)
+        check_field(self, "static_to_kinetic_ratio", 1.0, 3.0)
+        check_field(self, "stribeck_velocity_m_s", 1e-5, 0.1, low_open=True)
+        check_field(self, "stick_velocity_m_s", 0.0, 0.01, low_open=True)
         if self.static_coefficient >= 0.6:
             raise ParameterError(
                 "SheathParameters: kinetic_coefficient * static_to_kinetic_ratio = "
@@ -189,9 +178,9 @@ class TransmissionParameters:
     distal_damping_ns_m: float = 600.0
 
     def __post_init__(self) -> None:
-        _check_range(self, "cable_stiffness_n_m", 1e3, 1e6)
-        _check_range(self, "distal_stiffness_n_m", 200.0, 1e5)
-        _check_range(self, "distal_damping_ns_m", 0.0, 5000.0)
+        check_field(self, "cable_stiffness_n_m", 1e3, 1e6)
+        check_field(self, "distal_stiffness_n_m", 200.0, 1e5)
+        check_field(self, "distal_damping_ns_m", 0.0, 5000.0)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -224,12 +213,12 @@ class ImuParameters:
     latency_s: float = 0.05
 
     def __post_init__(self) -> None:
-        _check_range(self, "sample_rate_hz", 10.0, 2000.0)
-        _check_range(self, "latency_s", 0.0, 0.2)
-        _check_range(self, "elevation_noise_rad", 0.0, 0.1)
-        _check_range(self, "elevation_bias_rad", -0.5, 0.5)
-        _check_range(self, "velocity_noise_rad_s", 0.0, 1.0)
-        _check_range(self, "velocity_bias_rad_s", -0.5, 0.5)
+        check_field(self, "sample_rate_hz", 10.0, 2000.0)
+        check_field(self, "latency_s", 0.0, 0.2)
+        check_field(self, "elevation_noise_rad", 0.0, 0.1)
+        check_field(self, "elevation_bias_rad", -0.5, 0.5)
+        check_field(self, "velocity_noise_rad_s", 0.0, 1.0)
+        check_field(self, "velocity_bias_rad_s", -0.5, 0.5)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -261,11 +250,11 @@ class LoadCellParameters:
     gain_n_per_v: float = 100.0
 
     def __post_init__(self) -> None:
-        _check_range(self, "sample_rate_hz", 8.0, 2000.0)
-        _check_range(self, "noise_n", 0.0, 5.0)
-        _check_range(self, "offset_n", -10.0, 10.0)
-        _check_range(self, "adc_offset_v", -1.0, 1.0)
-        _check_range(self, "gain_n_per_v", 0.0, 1e4, low_open=True)
+        check_field(self, "sample_rate_hz", 8.0, 2000.0)
+        check_field(self, "noise_n", 0.0, 5.0)
+        check_field(self, "offset_n", -10.0, 10.0)
+        check_field(self, "adc_offset_v", -1.0, 1.0)
+        check_field(self, "gain_n_per_v", 0.0, 1e4, low_open=True)
         if self.adc_full_scale_v not in FULL_SCALE_V:
             raise ParameterError(
                 "LoadCellParameters.adc_full_scale_v must be an ADS1115 full scale "
@@ -301,11 +290,11 @@ class ArmParameters:
     max_elevation_rad: float = math.radians(140.0)
 
     def __post_init__(self) -> None:
-        _check_range(self, "inertia_kgm2", 1e-3, 5.0, low_open=True)
-        _check_range(self, "gravity_torque_nm", 0.0, 50.0)
-        _check_range(self, "damping_nms_rad", 0.0, 10.0)
-        _check_range(self, "min_elevation_rad", -0.5, math.pi)
-        _check_range(self, "max_elevation_rad", -0.5, math.pi)
+        check_field(self, "inertia_kgm2", 1e-3, 5.0, low_open=True)
+        check_field(self, "gravity_torque_nm", 0.0, 50.0)
+        check_field(self, "damping_nms_rad", 0.0, 10.0)
+        check_field(self, "min_elevation_rad", -0.5, math.pi)
+        check_field(self, "max_elevation_rad", -0.5, math.pi)
         if self.max_elevation_rad <= self.min_elevation_rad:
             raise ParameterError("ArmParameters.max_elevation_rad must exceed min_elevation_rad")
 
@@ -347,4 +336,4 @@ class SuitParameters:
             kind = expected.get(f.name)
             if kind is not None and not isinstance(getattr(self, f.name), kind):
                 raise ParameterError(f"SuitParameters.{f.name} must be a {kind.__name__}")
-        _check_range(self, "substep_s", 1e-5, 5e-4)
+        check_field(self, "substep_s", 1e-5, 5e-4)

@@ -11,7 +11,6 @@ import math
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from functools import partial
-from pathlib import Path
 
 import pandas as pd
 
@@ -408,7 +407,3 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
     if inputs.timings:
         doc.table(pd.DataFrame({"seconds": inputs.timings}).rename_axis("stage"), "Time per stage", "{:.1f}")
     return doc
-
-
-def write_report(inputs: ReportInputs, path: str | Path) -> Path:
-    return build_report(inputs).write(path)

@@ -102,12 +102,6 @@ def warm_up() -> None:
     simulate_task(task)
 
 
-@dataclass(frozen=True)
-class TrialsDone:
-    simulated: int
-    skipped: int
-
-
 def study_tasks(
     cohort: tuple[VirtualParticipant, ...],
     *,

@@ -23,7 +23,6 @@ import os
 import shutil
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 import pyarrow as pa
@@ -176,13 +175,3 @@ class SweepDirectory:
         except OSError as exc:
             tmp.unlink(missing_ok=True)
             raise OutputFileError(f"cannot write {path}: {exc.strerror or exc}") from None
-
-
-def spec_record(path: str | Path) -> dict[str, Any]:
-    """The ``spec.json`` of a sweep directory (spec and simulator digest)."""
-    file = Path(path) / SPEC_FILE
-    try:
-        record: dict[str, Any] = json.loads(file.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise ParameterError(f"{file} is not a sweep's spec: {exc}") from None
-    return record
