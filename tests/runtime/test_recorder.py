@@ -13,8 +13,11 @@ import struct
 import subprocess
 import sys
 import time
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pytest
 
 from bowden.errors import ParameterError, StoreError
@@ -221,6 +224,60 @@ def test_a_dead_writer_counts_every_row_it_will_not_write(
     stored = len(read_samples(path))
     assert stored == recorder.stats.committed_rows > 0
     assert stored + recorder.stats.dropped_rows == handed
+
+
+def inject_codec_fault(monkeypatch: pytest.MonkeyPatch, faulty: Callable[[int, bool], bool]) -> None:
+    """The sample encoder writes one value wrong (+1 N of desired tension) if ``faulty(rows, compress)``."""
+    encode = sample_chunks.encode_columns
+
+    def encode_wrongly(columns: Mapping[str, Any], *, compress: bool = True, grids: Any = None) -> bytes:
+        if faulty(len(columns["time_s"]), compress):
+            columns = dict(columns)
+            wrong = np.array(columns["desired_tension_n"], dtype=np.float64)
+            wrong[len(wrong) // 2] += 1.0
+            columns["desired_tension_n"] = wrong
+        return encode(columns, compress=compress, grids=grids)
+
+    monkeypatch.setattr(sample_chunks, "encode_columns", encode_wrongly)
+
+
+def record_rows(path: Path, n: int) -> Recorder:
+    recorder = Recorder(path, TRIAL, chunk_rows=100, commit_interval_s=0.01).start()
+    for i in range(n):
+        recorder.record(record_child.row(i))
+        if i % 40 == 0:
+            time.sleep(0.012)  # several commits, so small chunks are made and merged
+    return recorder
+
+
+def test_a_merge_whose_chunk_does_not_decode_keeps_every_row(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The compressed full chunk comes back wrong: it is not stored, the rows go in uncompressed."""
+    path = tmp_path / "study.db"
+    inject_codec_fault(monkeypatch, lambda _rows, compress: compress)
+    record_rows(path, 1050).close()
+    assert [r[1:10] for r in read_samples(path)] == [record_child.row(i)[:9] for i in range(1050)]
+    with sqlite3.connect(path) as connection:
+        assert chunk_sizes(connection) == [100] * 10 + [50]
+        faults = connection.execute("SELECT message FROM events WHERE kind = 'codec_fault'").fetchall()
+    assert len(faults) == 11
+    assert "column 'desired_tension_n' differs from row 50" in faults[0][0]
+
+
+def test_a_merge_no_encoding_can_store_keeps_the_small_chunks(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Neither encoding of a full chunk comes back right: the writer fails before deleting anything."""
+    path = tmp_path / "study.db"
+    inject_codec_fault(monkeypatch, lambda rows, _compress: rows == 100)
+    recorder = record_rows(path, 1050)
+    with pytest.raises(StoreError, match="does not decode to its rows"):
+        recorder.close()
+    rows = read_samples(path)
+    assert 0 < len(rows) == recorder.stats.committed_rows < 100
+    assert [r[1:10] for r in rows] == [record_child.row(i)[:9] for i in range(len(rows))]
+    assert len(rows) + recorder.stats.dropped_rows == 1050
 
 
 def test_unwritable_store(tmp_path: Path) -> None:

@@ -11,7 +11,10 @@ Each commit adds the rows since the last one as a small chunk of ``sample_chunks
 the rows of the trial's small chunks in memory (at most :data:`~bowden.runtime.sample_chunks.CHUNK_ROWS`)
 and, once they fill a full chunk and when the trial closes, replaces them by full chunks in the
 same transaction as that commit's rows: a crash leaves either the small chunks or the full ones,
-never both or neither.
+never both or neither. Each full chunk is decoded and compared with the rows bit for bit before the
+small chunks are deleted; one that differs (a fault of the codec) is stored uncompressed instead
+(a ``codec_fault`` event says so), and if even that differs the writer fails with the small chunks
+kept.
 
 Failures reach the loop: :attr:`Recorder.failure` says why the recording cannot go on — the writer
 failed (a full disk, a removed file), or the backlog passed ``max_backlog_rows`` (the disk cannot keep
@@ -50,9 +53,11 @@ from bowden.runtime.sample_chunks import (
     CHUNK_ROWS,
     INSERT_CHUNK_SQL,
     Columns,
+    EncodedChunk,
     ScreenedRows,
     chunk_row,
     concat_columns,
+    faithful_chunk,
     screen_rows,
     split_columns,
 )
@@ -435,15 +440,31 @@ class _TrialChunks:
         # Full chunks, then at most one partial one.
         merged = list(split_columns(concat_columns(blocks), self.chunk_rows))
         keep = merged if final else [block for block in merged if len(block[TRIAL_TIME]) == self.chunk_rows]
+        # Each new chunk is decoded and compared before the small chunks (the rows' other copy in the
+        # store) are deleted.
+        full = [(self.trial_id, *self._verified(connection, block)) for block in keep]
         connection.executemany(
             "DELETE FROM sample_chunks WHERE rowid = ?", ((rowid,) for rowid in self._pending_ids)
         )
-        connection.executemany(INSERT_CHUNK_SQL, (chunk_row(self.trial_id, block) for block in keep))
+        connection.executemany(INSERT_CHUNK_SQL, full)
         self._pending, self._pending_ids, self._pending_rows = [], [], 0
         for rest in merged[len(keep):]:  # a partial chunk stays small until it fills
             cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, rest, compress=False))
             self._pending, self._pending_ids = [rest], [int(cursor.lastrowid or 0)]
             self._pending_rows = len(rest[TRIAL_TIME])
+
+    def _verified(self, connection: sqlite3.Connection, block: Columns) -> EncodedChunk:
+        """A full chunk that decodes to ``block``: compressed, or else raw (said in the trial's
+        events); a :class:`StoreError` if neither does (the writer fails; the small chunks stay)."""
+        chunk, problem = faithful_chunk(block)
+        if problem is not None:
+            message = f"{problem}; these {chunk[2]} rows are stored uncompressed instead"
+            _log.error("recorder: %s", message)
+            connection.execute(
+                "INSERT INTO events (trial_id, time_s, kind, message) VALUES (?, ?, ?, ?)",
+                (self.trial_id, chunk[0], "codec_fault", message),
+            )
+        return chunk
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,6 +9,7 @@ an old store opens as it is and a new trial in it goes to the chunks.
 
 from __future__ import annotations
 
+import logging
 import math
 import sqlite3
 from collections.abc import Iterator, Mapping, Sequence
@@ -20,8 +21,10 @@ import pandas as pd
 
 from bowden.contracts import TRIAL_COLUMNS, TRIAL_FAULT, TRIAL_STATE, TRIAL_TIME
 from bowden.errors import StoreError
-from bowden.runtime.column_codec import decode_columns, encode_columns
+from bowden.runtime.column_codec import decode_columns, encode_columns, round_trip_problem
 from bowden.runtime.sensor_grids import KNOWN_GRIDS
+
+_log = logging.getLogger(__name__)
 
 # Rows of a full chunk: about 33 s at 500 Hz, 1.6 MB decoded. Bigger chunks compress a little
 # better (2 % from 8192 to 32768 rows); this size keeps a reader's memory small.
@@ -159,6 +162,37 @@ def encode_chunk(columns: ColumnsView, *, compress: bool = True) -> EncodedChunk
     return float(time[0]), float(time[-1]), int(time.size), blob
 
 
+def verified_chunk(columns: ColumnsView, *, compress: bool = True) -> EncodedChunk:
+    """:func:`encode_chunk`, decoded again and compared bit for bit with ``columns``: for a chunk that
+    will be the rows' only copy (a merge deletes the small chunks; a trial's frames are dropped).
+
+    Raises
+    ------
+    StoreError
+        The chunk does not give the rows back (names the column and the first row that differs).
+    """
+    chunk = encode_chunk(columns, compress=compress)
+    problem = round_trip_problem(chunk[3], columns)
+    if problem is not None:
+        raise StoreError(f"an encoded chunk of samples does not decode to its rows: {problem}")
+    return chunk
+
+
+def faithful_chunk(columns: ColumnsView) -> tuple[EncodedChunk, str | None]:
+    """A chunk that decodes to ``columns``: compressed, or else raw (the cheapest filters, no zstd),
+    with why the compressed one was not faithful (None when it was).
+
+    Raises
+    ------
+    StoreError
+        Neither decodes to the rows: nothing can store them faithfully.
+    """
+    try:
+        return verified_chunk(columns), None
+    except StoreError as error:
+        return verified_chunk(columns, compress=False), str(error)
+
+
 def chunk_row(
     trial_id: int, columns: ColumnsView, *, compress: bool = True
 ) -> tuple[int, float, float, int, bytes]:
@@ -178,8 +212,21 @@ def concat_columns(blocks: Sequence[ColumnsView]) -> Columns:
 
 
 def encode_samples(columns: ColumnsView) -> list[EncodedChunk]:
-    """A trial's samples as full chunks, encoded (anywhere: a worker can do it for the writer)."""
-    return [encode_chunk(block) for block in split_columns(columns)]
+    """A trial's samples as full chunks, each decoded and compared before the caller lets the
+    samples go (:func:`faithful_chunk`; anywhere: a worker can do it for the writer).
+
+    Raises
+    ------
+    StoreError
+        A chunk cannot be encoded so that it decodes to its rows (nothing is stored).
+    """
+    chunks = []
+    for block in split_columns(columns):
+        chunk, problem = faithful_chunk(block)
+        if problem is not None:
+            _log.error("%s; these %d rows are stored uncompressed instead", problem, chunk[2])
+        chunks.append(chunk)
+    return chunks
 
 
 def insert_encoded_samples(
