@@ -280,3 +280,79 @@ def write_csv(session: Session, path: Path) -> None:
     frame.insert(0, TRIAL_TIME, np.arange(len(emg)) / RATE_HZ)
     frame[TRIGGER] = session.trigger(ramp_samples=2.0)
     frame.to_csv(path, index=False, float_format="%.17g")
+
+
+# A TMSi SAGA's 24-bit range: ±2^23 codes of 1/32 µV (the step the issue quotes for its BDF files).
+SAGA_BDF_RANGE_UV = 262_144.0
+TRIGGER_WORD_IDLE = 0xFFFF  # every bit of the SAGA's TRIGGER port reads 1 while nothing drives it
+
+
+def saga_trigger_word(
+    session: Session, *, bowden_bit: int | None, other_bit: int | None = None, other_pulses: int = 0
+) -> np.ndarray:
+    """The SAGA's TRIGGERS channel: negative logic, so a driven bit reads 0 (TMSi knowledge base,
+    "How can I send triggers to SAGA via USB ports?").
+
+    ``bowden_bit`` is the bit bowden's line drives (None: the channel is that one line, 1 idle, 0
+    during a trial); ``other_bit`` a bit another device (a stimulus PC) pulses ``other_pulses``
+    times, 50 ms each, spread over the recording and some inside trials.
+    """
+    line = session.trigger(ramp_samples=0.0)  # 1 during a trial: the driven state
+    if bowden_bit is None:
+        return 1.0 - line
+    word = np.full(session.n_samples, TRIGGER_WORD_IDLE, dtype=np.int64)
+    word[line > 0.5] &= ~(1 << bowden_bit)
+    if other_bit is not None and other_pulses:
+        starts = np.linspace(0.02, 0.95, other_pulses) * session.n_samples
+        for start in starts.astype(np.int64):
+            word[start : start + int(0.05 * RATE_HZ)] &= ~(1 << other_bit)
+    return word.astype(np.float64)
+
+
+def write_saga_file(
+    session: Session,
+    path: Path,
+    *,
+    bowden_bit: int | None,
+    other_bit: int | None = None,
+    other_pulses: int = 0,
+    artefact_uv: float = 0.0,
+) -> None:
+    """A SAGA recording as its EDF/BDF exports lay it out (by the suffix of ``path``).
+
+    UNI1..UNI8 the muscles, one spare UNI, then the digital channels with an empty physical dimension:
+    TRIGGERS (the trigger word, 0..max as TMSi's Poly5-to-EDF converter scales it), STATUS and
+    COUNTER. A BDF keeps 24-bit codes of 1/32 µV; ``artefact_uv`` adds one spike of that size to
+    UNI1 at 10 % of the recording (a movement artefact that fixes a per-trial int16 range).
+    """
+    bdf = path.suffix.lower() == ".bdf"
+    signal_type = edfio.BdfSignal if bdf else edfio.EdfSignal
+    digital = (-(2**23), 2**23 - 1) if bdf else (-(2**15), 2**15 - 1)
+    physical = (-SAGA_BDF_RANGE_UV, SAGA_BDF_RANGE_UV) if bdf else (-2000.0, 2000.0)
+    emg = session.emg_uv()
+    if artefact_uv:
+        emg[session.n_samples // 10, 0] += artefact_uv
+    labels = (*SAGA_LABELS, f"UNI{len(SAGA_LABELS) + 1}")
+    spare = 5.0 * np.random.default_rng(9).standard_normal(len(emg))
+    signals = [
+        signal_type(
+            emg[:, i] if i < emg.shape[1] else spare,
+            RATE_HZ,
+            label=label,
+            physical_dimension="uV",
+            physical_range=physical,
+            digital_range=digital,
+        )
+        for i, label in enumerate(labels)
+    ]
+    word = saga_trigger_word(session, bowden_bit=bowden_bit, other_bit=other_bit, other_pulses=other_pulses)
+    counter = np.arange(len(emg)) % int(RATE_HZ)
+    for label, values, top in (
+        (TRIGGER, word, float(word.max())),
+        ("STATUS", np.zeros(len(emg)), 100.0),
+        ("COUNTER", counter.astype(np.float64), RATE_HZ),
+    ):
+        signals.append(
+            signal_type(values, RATE_HZ, label=label, physical_range=(0.0, top), digital_range=digital)
+        )
+    (edfio.Bdf if bdf else edfio.Edf)(signals, data_record_duration=1.0).write(path)

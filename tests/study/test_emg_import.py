@@ -99,7 +99,9 @@ def _assert_same_outcomes(imported: Path, direct: Path) -> None:
     assert a.index.equals(b.index)
     emg_measures = a.index.get_level_values("measure").str.contains("emg|iemg", case=False)
     assert emg_measures.any()  # EMG outcomes are among those compared
-    np.testing.assert_allclose(a["value"].to_numpy(), b["value"].to_numpy(), rtol=1e-6, atol=0.0)
+    # The import keeps the file's own samples; the direct path stores float volts as 16-bit codes of
+    # the trial's peak / 32767, whose rounding moves EMG outcomes by up to ~1e-5 of their value.
+    np.testing.assert_allclose(a["value"].to_numpy(), b["value"].to_numpy(), rtol=5e-5, atol=0.0)
 
 
 @pytest.mark.parametrize("ramp_samples", [2.0, 0.0], ids=["band-limited edges", "hard step edges"])

@@ -13,7 +13,7 @@ import argparse
 from pathlib import Path
 
 from bowden.analysis.emg.channels import BUILT_IN_MAPPINGS, load_channel_map
-from bowden.analysis.emg.sync import DRIFT_TOLERANCE_PPM, RESIDUAL_TOLERANCE_S
+from bowden.analysis.emg.sync import DRIFT_TOLERANCE_PPM, POLARITIES, RESIDUAL_TOLERANCE_S
 from bowden.contracts import EMG_RATE_HZ
 from bowden.study.emg_import import ImportOptions, import_emg
 
@@ -33,6 +33,21 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         metavar="NAME",
         help="channel holding bowden's trigger line (EDF/BDF/CSV; e.g. TRIGGERS on a TMSi SAGA); "
         "XDF files use bowden's LSL markers unless this is given",
+    )
+    imp.add_argument(
+        "--trigger-polarity",
+        choices=POLARITIES,
+        default="auto",
+        help="high: the trigger channel idles low and a trial is a high pulse; low: it idles high and a "
+        "trial is a low pulse (negative logic, as the TMSi SAGA's TRIGGER port records); auto (default): "
+        "from its level at the recording's start and end",
+    )
+    imp.add_argument(
+        "--trigger-bit",
+        type=int,
+        metavar="N",
+        help="read bit N (0 = least significant) of the trigger channel's integer value: a trigger word "
+        "whose other bits other devices drive (default: the whole value)",
     )
     imp.add_argument(
         "--channels",
@@ -72,6 +87,8 @@ def run_import(args: argparse.Namespace) -> int:
     store = args.store / "study.db" if args.store.is_dir() else args.store
     options = ImportOptions(
         trigger_channel=args.trigger_channel,
+        trigger_polarity=args.trigger_polarity,
+        trigger_bit=args.trigger_bit,
         channel_map=load_channel_map(args.channels) if args.channels is not None else None,
         replace=args.replace,
         drift_tolerance_ppm=args.max_drift_ppm,

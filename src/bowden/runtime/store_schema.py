@@ -55,7 +55,9 @@ STORE_FILE_NAME: Final = "study.db"
 # 3: custom protocols: conditions and speeds named by contracts.is_protocol_name; the questionnaires
 #    table's CHECK follows that rule (bowden.web.questionnaire_store.migrate_questionnaires).
 # 4: samples and EMG in compressed chunks (sample_chunks, emg_chunks); samples and emg are legacy.
-SCHEMA_VERSION: Final = 4
+# 5: emg_chunks.offset_v: imported EMG keeps its file's codes and scaling (volts = code × gain +
+#    offset_v); an older bowden would ignore the offset, so it must refuse such a store.
+SCHEMA_VERSION: Final = 5
 
 TRIALS_DDL: Final = """
 CREATE TABLE IF NOT EXISTS trials (
@@ -114,6 +116,7 @@ STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
     ),
     "emg_chunks": (
         "trial_id", "muscle", "first_sample", "sample_count", "rate_hz", "start_time_s", "gain", "data",
+        "offset_v",
     ),
     "emg": ("trial_id", "muscle", "rate_hz", "start_time_s", "gain", "data"),
     "questionnaires": ("participant", "condition", "questionnaire", "item", "score", "submitted_utc"),
@@ -133,6 +136,7 @@ LEGACY_TABLES: Final = frozenset({"samples", "emg"})
 # does not make the file unreadable.
 ADDED_COLUMNS: Final[Mapping[str, frozenset[str]]] = {
     "participants": frozenset({"arm_side", "hand_load_kg", "age_years", "registered_utc"}),
+    "emg_chunks": frozenset({"offset_v"}),  # schema 5 (bowden.study.emg_chunks.migrate_emg_chunks)
 }
 
 

@@ -1,11 +1,19 @@
-"""A trial's raw sEMG in the study store: 16-bit codes in compressed chunks, or an old store's rows.
+"""A trial's raw sEMG in the study store: its codes in compressed chunks, or an old store's rows.
 
-The EMG is kept at the resolution of EDF/BDF-16 files: each muscle's samples as 16-bit codes with
-one gain per trial and muscle (volts = code × gain; gain = the trial's peak / 32767). Schema 4 stores
-them in ``emg_chunks``, one row per muscle and block of :data:`EMG_CHUNK_SAMPLES` samples, the codes
-encoded losslessly by :mod:`bowden.runtime.column_codec` (the residual of an exact integer linear
-prediction, byte planes, zstd; chunks written before the predictor existed hold first differences
-and read as before).
+Each chunk holds one muscle's samples as codes with a scaling, ``volts = code × gain + offset_v``:
+
+- imported EMG keeps its file's own samples (:class:`~bowden.analysis.emg.read.SourceChannel`): an
+  EDF's 16-bit and a BDF's 24-bit digital codes (int16, int32) with the header's scaling, an XDF
+  stream's float32 or float64 values, a CSV's numbers, each with its unit's factor: nothing rounded;
+- EMG stored from float volts (the simulated study's) is quantised to 16-bit codes with one gain per
+  trial and muscle (the trial's peak / 32767), the resolution of EDF files.
+
+Schema 4 and later store them in ``emg_chunks``, one row per muscle and block of
+:data:`EMG_CHUNK_SAMPLES` samples, the codes encoded losslessly by :mod:`bowden.runtime.column_codec`
+(16-bit codes: the residual of an exact integer linear prediction; other codes: differences or XOR;
+byte planes, zstd). ``offset_v`` came with schema 5; a schema-4 store gains it as 0 when opened.
+Where imported EMG replaces a trial's stored EMG, every new chunk is decoded and compared with its
+source before the old rows are deleted (:func:`encode_verified_emg`).
 Stores of schema 3 and older hold a trial's codes raw in one ``emg`` row per muscle; every reader
 here reads both.
 """
@@ -14,12 +22,13 @@ from __future__ import annotations
 
 import math
 import sqlite3
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, Final
 
 import numpy as np
 import pandas as pd
 
+from bowden.analysis.emg.read import SourceChannel, decode_source
 from bowden.contracts import MUSCLES, TRIAL_TIME
 from bowden.errors import StoreError
 from bowden.runtime.column_codec import decode_columns, encode_columns
@@ -42,17 +51,34 @@ CREATE TABLE IF NOT EXISTS emg_chunks (
     start_time_s REAL NOT NULL,
     gain REAL NOT NULL,
     data BLOB NOT NULL,
+    offset_v REAL NOT NULL DEFAULT 0.0,
     PRIMARY KEY (trial_id, muscle, first_sample)
 ) STRICT
 """
 
 
-# A chunk's row without its trial: muscle, first sample, samples, rate, start time, gain, BLOB.
-EncodedEmgChunk = tuple[str, int, int, float, float, float, bytes]
+# A chunk's row without its trial: muscle, first sample, samples, rate, start time, gain, BLOB, offset.
+EncodedEmgChunk = tuple[str, int, int, float, float, float, bytes, float]
 _INSERT_SQL = (
     "INSERT INTO emg_chunks (trial_id, muscle, first_sample, sample_count, rate_hz, start_time_s, gain, "
-    "data) VALUES (?, ?, ?, ?, ?, ?, ?, ?)"
+    "data, offset_v) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?)"
 )
+# Codes the column codec has no dtype for, widened without loss.
+_WIDER: Final = {"i1": np.int16, "u1": np.int16, "u2": np.int32, "u4": np.int64}
+
+
+def _storable(codes: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
+    """The codes in a dtype the column codec stores (8-bit and unsigned codes widened, losslessly)."""
+    array = np.ascontiguousarray(codes)
+    key = array.dtype.str[1:]
+    return array.astype(_WIDER[key]) if key in _WIDER else array
+
+
+def migrate_emg_chunks(connection: sqlite3.Connection) -> None:
+    """Give a schema-4 store's ``emg_chunks`` the ``offset_v`` column (0: its codes had none)."""
+    columns = {str(row[1]) for row in connection.execute("PRAGMA table_info(emg_chunks)")}
+    if columns and "offset_v" not in columns:
+        connection.execute("ALTER TABLE emg_chunks ADD COLUMN offset_v REAL NOT NULL DEFAULT 0.0")
 
 
 def encode_trial_emg(emg: pd.DataFrame) -> list[EncodedEmgChunk]:
@@ -85,7 +111,69 @@ def encode_trial_emg(emg: pd.DataFrame) -> list[EncodedEmgChunk]:
         for first in range(0, codes.size, EMG_CHUNK_SAMPLES):
             block = codes[first : first + EMG_CHUNK_SAMPLES]
             blob = encode_columns({_CODES: block})
-            chunks.append((str(muscle), first, block.size, rate, float(time[0]), gain, blob))
+            chunks.append((str(muscle), first, block.size, rate, float(time[0]), gain, blob, 0.0))
+    return chunks
+
+
+def encode_source_emg(
+    sources: Mapping[str, SourceChannel], *, start_time_s: float, rate_hz: float
+) -> list[EncodedEmgChunk]:
+    """A trial's EMG as its file stored it (one :class:`SourceChannel` per muscle, equal lengths):
+    the codes as they are, with their scaling.
+
+    Raises
+    ------
+    StoreError
+        Muscles of different lengths, fewer than two samples, or codes the store cannot hold.
+    """
+    lengths = {muscle: source.codes.size for muscle, source in sources.items()}
+    if len(set(lengths.values())) > 1 or min(lengths.values(), default=0) < 2:
+        raise StoreError(f"EMG needs at least two samples and as many for every muscle, got {lengths}")
+    if not (math.isfinite(rate_hz) and rate_hz > 0.0 and math.isfinite(start_time_s)):
+        raise StoreError(f"EMG needs a finite start and a positive rate, got {start_time_s}, {rate_hz}")
+    chunks: list[EncodedEmgChunk] = []
+    for muscle, source in sources.items():
+        codes = _storable(source.codes)
+        if codes.dtype.kind == "f" and not np.all(np.isfinite(codes)):
+            raise StoreError(f"EMG channel {muscle!r} has non-finite samples")
+        for first in range(0, codes.size, EMG_CHUNK_SAMPLES):
+            block = codes[first : first + EMG_CHUNK_SAMPLES]
+            blob = encode_columns({_CODES: block})
+            chunks.append(
+                (str(muscle), first, block.size, rate_hz, start_time_s, source.gain_v, blob, source.offset_v)
+            )
+    return chunks
+
+
+def encode_verified_emg(
+    sources: Mapping[str, SourceChannel], *, start_time_s: float, rate_hz: float
+) -> list[EncodedEmgChunk]:
+    """:func:`encode_source_emg`, each chunk decoded again and compared with its source bit for bit:
+    the chunks that replace a trial's stored EMG (the old rows are deleted only after this).
+
+    Raises
+    ------
+    StoreError
+        A chunk that does not decode to its source's codes (names the muscle and the first sample).
+    """
+    chunks = encode_source_emg(sources, start_time_s=start_time_s, rate_hz=rate_hz)
+    for muscle, first, count, _rate, _start, gain, blob, offset in chunks:
+        source = sources[muscle]
+        expected = _storable(source.codes[first : first + count])
+        try:
+            decoded = decode_columns(blob)[_CODES]
+        except (StoreError, KeyError) as error:
+            raise StoreError(
+                f"EMG of {muscle!r} from sample {first} does not decode ({error}): nothing written"
+            ) from None
+        same = decoded.dtype == expected.dtype and decoded.shape == expected.shape and np.array_equal(
+            decoded.view(f"u{decoded.itemsize}"), expected.view(f"u{expected.itemsize}")
+        )  # bit for bit
+        if not same or (gain, offset) != (source.gain_v, source.offset_v):
+            raise StoreError(
+                f"EMG of {muscle!r} from sample {first} does not decode to the recording's samples: "
+                "nothing written, the stored EMG kept"
+            )
     return chunks
 
 
@@ -136,14 +224,18 @@ def iter_trial_emg(connection: sqlite3.Connection, trial_id: int) -> Iterator[pd
         "SELECT 1 FROM emg WHERE trial_id = ? LIMIT 1", (trial_id,)
     ).fetchone() is not None
     table = _LEGACY_TABLE if legacy else "emg_chunks"
-    query = f"SELECT muscle, gain FROM {table} WHERE trial_id = ?"
-    gains = {str(muscle): float(gain) for muscle, gain in connection.execute(query, (trial_id,))}
+    offset = "0.0" if legacy else "offset_v"
+    query = f"SELECT muscle, gain, {offset} FROM {table} WHERE trial_id = ?"
+    scales = {
+        str(muscle): (float(gain), float(offset_v))
+        for muscle, gain, offset_v in connection.execute(query, (trial_id,))
+    }
     blocks = _legacy_blocks(connection, trial_id) if legacy else _chunk_blocks(connection, trial_id)
     for start, rate, first, codes in blocks:
         length = min(values.size for values in codes.values())
         frame = pd.DataFrame({TRIAL_TIME: start + np.arange(first, first + length) / rate})
         for muscle in _ordered(codes):
-            frame[muscle] = codes[muscle][:length].astype(np.float64) * gains[muscle]
+            frame[muscle] = decode_source(codes[muscle][:length], *scales[muscle])
         yield frame
 
 

@@ -23,24 +23,25 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from bowden.analysis.emg.channels import emg_map_channels
 from bowden.analysis.emg.check import EmgCheckParameters, emg_check
-from bowden.analysis.emg.read import read_emg_csv, read_emg_edf
+from bowden.analysis.emg.read import SourceChannel, SourceRecording, read_csv_source, read_edf_source
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.analysis.emg.sync import (
     DRIFT_TOLERANCE_PPM,
     RESIDUAL_TOLERANCE_S,
     ClockFit,
+    TriggerPolarity,
     clock_fit,
     match_pulses,
     trigger_pulses,
 )
 from bowden.analysis.emg.xdf import read_emg_xdf
-from bowden.contracts import EMG_RATE_HZ, MUSCLES, TRIAL_TIME
-from bowden.errors import ParameterError, RecordingError, StoreError, SyncError
+from bowden.contracts import EMG_RATE_HZ, MUSCLES
+from bowden.errors import BowdenError, ParameterError, RecordingError, StoreError, SyncError
 from bowden.runtime.sync_events import MARKER_EDGES, parse_marker
+from bowden.study.emg_chunks import EncodedEmgChunk, encode_verified_emg
 from bowden.study.emg_store import TrialSync, emg_imports, trial_syncs, trials_with_emg, write_imported_emg
 from bowden.study.store import StudyStore
 
@@ -52,6 +53,8 @@ class ImportOptions:
     """How ``bowden emg import`` reads and checks a recording (defaults: the paper's 2 kHz sEMG)."""
 
     trigger_channel: str | None = None
+    trigger_polarity: TriggerPolarity = "auto"
+    trigger_bit: int | None = None
     channel_map: Mapping[str, str] | None = None
     replace: bool = False
     drift_tolerance_ppm: float = DRIFT_TOLERANCE_PPM
@@ -61,7 +64,7 @@ class ImportOptions:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.expected_rate_hz) and self.expected_rate_hz > 0.0):
-            raise ParameterError(f"expected_rate_hz must be positive, got {self.expected_rate_hz}")
+            raise ParameterError(f"--rate must be a positive rate in Hz, got {self.expected_rate_hz:g}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -87,9 +90,11 @@ class ImportResult:
 
 @dataclass(frozen=True)
 class _Recording:
-    emg: EmgSignal  # muscles (and the trigger channel), recording clock
+    emg: EmgSignal  # muscles, recording clock, volts
+    sources: Mapping[str, SourceChannel]  # per muscle, its samples as the file stores them
     events_s: np.ndarray  # recording times of the sync events
     controller_s: np.ndarray  # host times of the same events
+    uncertainty_s: np.ndarray  # how long each event's send took on the host (the edge lies within)
     trials: tuple[int, ...]  # the trials the events cover
     via: str
 
@@ -127,13 +132,17 @@ def import_emg(
                 f"no trial in {store_path} has sync events: record trials with bowden run --trigger "
                 "or --lsl so that a recording can be placed on their clock"
             )
-        read = _read(file, options, syncs)
-        fit = clock_fit(
-            read.events_s,
-            read.controller_s,
-            drift_tolerance_ppm=options.drift_tolerance_ppm,
-            residual_tolerance_s=options.residual_tolerance_s,
-        )
+        try:
+            read = _read(file, options, syncs)
+            fit = clock_fit(
+                read.events_s,
+                read.controller_s,
+                drift_tolerance_ppm=options.drift_tolerance_ppm,
+                residual_tolerance_s=options.residual_tolerance_s,
+                uncertainty_s=read.uncertainty_s,
+            )
+        except (RecordingError, SyncError, ParameterError) as error:
+            raise _naming(file, error) from None
         imports, has_emg = emg_imports(store), trials_with_emg(store)
         done = tuple(t for t in read.trials if imports.get(t, {}).get("sha256") == digest)
         todo = [t for t in read.trials if t not in done]
@@ -148,7 +157,7 @@ def import_emg(
             raise RecordingError(
                 f"{file.name}: EMG already stored for {sources}; give --replace to replace it"
             )
-        frames = {t: _trial_frame(read.emg, fit, syncs[t], options, file) for t in todo}
+        chunks = {t: _trial_chunks(read, fit, syncs[t], options, file) for t in todo}
         provenance = {
             t: {
                 "file": file.name,
@@ -158,11 +167,13 @@ def import_emg(
                 "drift_ppm": fit.drift_ppm,
                 "max_residual_s": fit.max_residual_s,
                 "sync_events": fit.n_events,
+                "max_edge_uncertainty_s": fit.max_uncertainty_s,
+                "drift_resolved": fit.drift_resolved,
             }
             for t in todo
         }
-        if frames:
-            write_imported_emg(store, frames, provenance)
+        if chunks:
+            write_imported_emg(store, chunks, provenance)
     return ImportResult(
         file=file, sha256=digest, trials=tuple(todo), already_imported=done, fit=fit, via=read.via
     )
@@ -174,49 +185,82 @@ def _read(file: Path, options: ImportOptions, syncs: Mapping[int, TrialSync]) ->
     mapping = options.channel_map
     if suffix == ".xdf":
         xdf = read_emg_xdf(file)
-        emg = emg_map_channels(xdf.emg, mapping, keep=(trigger,) if trigger else ())
+        source = SourceRecording(signal=xdf.emg, sources=xdf.sources)
         if trigger is None:
-            return _by_markers(file, emg, xdf.markers, syncs)
-        return _by_trigger(file, emg, trigger, options, syncs)
+            emg, sources = _muscles(source, mapping, None)
+            return _by_markers(file, emg, sources, xdf.markers, syncs)
+        if trigger in xdf.sources:  # the trigger word as the stream holds it, not scaled as a voltage
+            raw = xdf.sources[trigger].codes.astype(np.float64)
+            index = xdf.emg.channels.index(trigger)
+            values = np.array(xdf.emg.values)
+            values[:, index] = raw
+            source = SourceRecording(signal=xdf.emg.with_values(values), sources=xdf.sources)
+        return _by_trigger(file, source, mapping, trigger, options, syncs)
     if trigger is None:
-        raise ParameterError(
-            f"{file.name}: give --trigger-channel NAME (the channel recording bowden's trigger)"
-        )
+        raise ParameterError("give --trigger-channel NAME (the channel recording bowden's trigger)")
     if suffix in (".edf", ".bdf"):
         wanted = None if mapping is None else [*mapping, trigger]
-        raw = read_emg_edf(file, channels=wanted, raw_channels=(trigger,))
+        source = read_edf_source(file, channels=wanted, raw_channels=(trigger,))
     else:
-        raw = read_emg_csv(file, volts_per_unit=options.csv_volts_per_unit)
-    return _by_trigger(file, emg_map_channels(raw, mapping, keep=(trigger,)), trigger, options, syncs)
+        source = read_csv_source(file, volts_per_unit=options.csv_volts_per_unit, raw_channels=(trigger,))
+    return _by_trigger(file, source, mapping, trigger, options, syncs)
+
+
+def _muscles(
+    source: SourceRecording, mapping: Mapping[str, str] | None, trigger: str | None
+) -> tuple[EmgSignal, dict[str, SourceChannel]]:
+    """The recording's muscles under their names (and the trigger channel), and each muscle's source."""
+    keep = (trigger,) if trigger else ()
+    emg = emg_map_channels(source.signal, mapping, keep=keep)
+    label_of = {muscle: label for label, muscle in (mapping or {}).items()}
+    sources = {
+        muscle: source.sources[label_of.get(muscle, muscle)] for muscle in emg.channels if muscle not in keep
+    }
+    return emg, sources
 
 
 def _by_trigger(
-    file: Path, emg: EmgSignal, trigger: str, options: ImportOptions, syncs: Mapping[int, TrialSync]
+    file: Path,
+    source: SourceRecording,
+    mapping: Mapping[str, str] | None,
+    trigger: str,
+    options: ImportOptions,
+    syncs: Mapping[int, TrialSync],
 ) -> _Recording:
-    pulses = trigger_pulses(emg, trigger)
+    emg, sources = _muscles(source, mapping, trigger)
+    pulses = trigger_pulses(emg, trigger, polarity=options.trigger_polarity, bit=options.trigger_bit)
     ids = list(syncs)
     hosts = np.array([[syncs[t].start.host_time_s, syncs[t].end.host_time_s] for t in ids])
-    try:
-        first = match_pulses(
-            pulses,
-            hosts,
-            ids,
-            drift_tolerance_ppm=options.drift_tolerance_ppm,
-            residual_tolerance_s=options.residual_tolerance_s,
-        )
-    except SyncError as error:
-        raise SyncError(f"{file.name}: {error}") from None
-    matched = ids[first : first + len(pulses)]
+    spreads = np.array([[syncs[t].start.uncertainty_s, syncs[t].end.uncertainty_s] for t in ids])
+    first = match_pulses(
+        pulses,
+        hosts,
+        ids,
+        drift_tolerance_ppm=options.drift_tolerance_ppm,
+        residual_tolerance_s=options.residual_tolerance_s,
+        uncertainty_s=spreads,
+    )
+    n = len(pulses)
     muscles = emg.select([c for c in emg.channels if c != trigger])
     return _Recording(
-        muscles, pulses.ravel(), hosts[first : first + len(pulses)].ravel(), tuple(matched), "trigger"
+        muscles,
+        sources,
+        pulses.ravel(),
+        hosts[first : first + n].ravel(),
+        spreads[first : first + n].ravel(),
+        tuple(ids[first : first + n]),
+        "trigger",
     )
 
 
 def _by_markers(
-    file: Path, emg: EmgSignal, markers: tuple[tuple[float, str], ...], syncs: Mapping[int, TrialSync]
+    file: Path,
+    emg: EmgSignal,
+    sources: Mapping[str, SourceChannel],
+    markers: tuple[tuple[float, str], ...],
+    syncs: Mapping[int, TrialSync],
 ) -> _Recording:
-    events, hosts, trials = [], [], []
+    events, hosts, spreads, trials = [], [], [], []
     unknown: set[int] = set()
     for time_s, text in markers:
         fields = parse_marker(text)
@@ -230,24 +274,27 @@ def _by_markers(
         edge = sync.start if MARKER_EDGES[fields["event"]] == "start" else sync.end
         events.append(time_s)
         hosts.append(edge.host_time_s)
+        spreads.append(edge.uncertainty_s)
         if trial not in trials:
             trials.append(trial)
     if unknown:
         raise SyncError(
-            f"{file.name}: its markers name trial(s) {_ids(sorted(unknown))} that the store has no sync "
+            f"its markers name trial(s) {_ids(sorted(unknown))} that the store has no sync "
             "events for (another study's store?)"
         )
     if not events:
-        raise SyncError(
-            f"{file.name}: no bowden trial marker in the recording (was the marker stream recorded?)"
-        )
-    return _Recording(emg, np.array(events), np.array(hosts), tuple(trials), "markers")
+        raise SyncError("no bowden trial marker in the recording (was the marker stream recorded?)")
+    return _Recording(
+        emg, sources, np.array(events), np.array(hosts), np.array(spreads), tuple(trials), "markers"
+    )
 
 
-def _trial_frame(
-    emg: EmgSignal, fit: ClockFit, sync: TrialSync, options: ImportOptions, file: Path
-) -> pd.DataFrame:
-    """The trial's span of the recording on its loop clock, checked: ``time_s`` + the muscles."""
+def _trial_chunks(
+    read: _Recording, fit: ClockFit, sync: TrialSync, options: ImportOptions, file: Path
+) -> list[EncodedEmgChunk]:
+    """The trial's span of the recording on its loop clock, checked, as verified store chunks of the
+    file's own samples."""
+    emg = read.emg
     # Loop time of recording sample i: fit(start + i / rate) - zero, a line in i.
     start = fit.offset_s + fit.slope * emg.start_s - sync.zero_host_time_s
     step = fit.slope / emg.rate_hz
@@ -266,9 +313,21 @@ def _trial_frame(
         emg_check(segment, check)
     except RecordingError as error:
         problems = str(error).replace("EMG recording unusable:\n  ", "").replace("\n  ", "; ")
+        problems = problems.replace("expected_rate_hz", "--rate")
         raise RecordingError(f"{file.name}, trial {sync.trial_id}: {problems}") from None
-    frame = segment.select(MUSCLES).to_frame(time_column=TRIAL_TIME)
-    return frame
+    sources = {muscle: read.sources[muscle].select(first, last + 1) for muscle in MUSCLES}
+    try:
+        return encode_verified_emg(sources, start_time_s=segment.start_s, rate_hz=segment.rate_hz)
+    except StoreError as error:
+        raise StoreError(f"{file.name}, trial {sync.trial_id}: {error}") from None
+
+
+def _naming(file: Path, error: BowdenError) -> BowdenError:
+    """The error with the recording's name in front (several files may be imported at once)."""
+    text = str(error)
+    if text.startswith(file.name) or str(file) in text:
+        return error
+    return type(error)(f"{file.name}: {text}")
 
 
 def _ids(ids: list[int] | tuple[int, ...]) -> str:

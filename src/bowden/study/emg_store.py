@@ -8,7 +8,7 @@ which makes a second import of the same file a no-op and lets the report name th
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Final
 
@@ -16,6 +16,7 @@ import pandas as pd
 
 from bowden.errors import RecordingError
 from bowden.runtime.sync_events import SYNC_KIND, SyncEvent
+from bowden.study.emg_chunks import EncodedEmgChunk
 from bowden.study.store import StudyStore
 
 EMG_IMPORT_KIND: Final = "emg_import"
@@ -87,11 +88,14 @@ def trials_with_emg(store: StudyStore) -> set[int]:
 
 
 def write_imported_emg(
-    store: StudyStore, emg: Mapping[int, pd.DataFrame], provenance: Mapping[int, Mapping[str, Any]]
+    store: StudyStore,
+    emg: Mapping[int, Sequence[EncodedEmgChunk]],
+    provenance: Mapping[int, Mapping[str, Any]],
 ) -> None:
     """Store (or replace) the EMG of several trials with its provenance, in one transaction.
 
-    A trial's previous EMG and import events are replaced. Every trial is written, or none.
+    ``emg`` holds each trial's chunks as :func:`~bowden.study.emg_chunks.encode_verified_emg` made and
+    checked them. A trial's previous EMG and import events are replaced. Every trial is written, or none.
     """
     events = {
         trial_id: (EMG_IMPORT_KIND, json.dumps(dict(provenance[trial_id]), allow_nan=False))

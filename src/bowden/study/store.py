@@ -33,7 +33,7 @@ from __future__ import annotations
 import json
 import math
 import sqlite3
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -174,6 +174,7 @@ class StudyStore:
                 migrate_questionnaires(self._db)  # and lose the paper-only CHECK on conditions
                 for ddl in (*_STUDY_DDL, *SESSION_DDL):
                     self._db.execute(ddl)
+                emg_chunks.migrate_emg_chunks(self._db)  # schema 4's EMG chunks gain offset_v
         except sqlite3.Error as error:
             raise StoreError(f"cannot open the study store {self.path}: {error}") from None
         except OSError as error:  # its folder cannot be made (under a file, /proc, no permission)
@@ -269,21 +270,26 @@ class StudyStore:
             raise StoreError(f"cannot write the trial into {self.path}: {error}") from None
         return trial_id
 
-    def replace_emg(self, emg: Mapping[int, pd.DataFrame], events: Mapping[int, tuple[str, str]]) -> None:
-        """Replace the EMG of several trials, each with one event ``(kind, message)`` replacing that
-        trial's events of the same kind, in one transaction: every trial is written, or none.
+    def replace_emg(
+        self,
+        emg: Mapping[int, Sequence[emg_chunks.EncodedEmgChunk]],
+        events: Mapping[int, tuple[str, str]],
+    ) -> None:
+        """Replace the EMG of several trials by chunks already encoded and checked
+        (:func:`bowden.study.emg_chunks.encode_verified_emg`), each trial with one event ``(kind,
+        message)`` replacing its events of the same kind, in one transaction: every trial is written,
+        or none.
 
         Raises
         ------
         StoreError
-            An EMG frame cannot be stored (see :func:`bowden.study.emg_chunks.insert_trial_emg`) or
-            the file cannot be written.
+            The file cannot be written.
         """
         try:
             with self._db:
-                for trial_id, frame in emg.items():
+                for trial_id, chunks in emg.items():
                     emg_chunks.delete_trial_emg(self._db, trial_id)
-                    emg_chunks.insert_trial_emg(self._db, trial_id, frame)
+                    emg_chunks.insert_encoded_emg(self._db, trial_id, chunks)
                     kind, message = events[trial_id]
                     self._db.execute("DELETE FROM events WHERE trial_id = ? AND kind = ?", (trial_id, kind))
                     self._db.execute(

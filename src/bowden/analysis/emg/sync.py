@@ -11,7 +11,8 @@ them and reports the residuals, so a misplaced edge shows instead of silently be
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -23,18 +24,31 @@ from bowden.errors import ParameterError, SyncError
 # residual beyond 2 ms (4 samples at 2 kHz) means an edge that is not where the controller sent it.
 DRIFT_TOLERANCE_PPM = 200.0
 RESIDUAL_TOLERANCE_S = 2e-3
+# The timing floor of an edge whose send took no measurable time (a GPIO write: microseconds; the
+# recording's own sample grid then dominates): keeps the weights finite.
+EDGE_FLOOR_S = 50e-6
 
 
 @dataclass(frozen=True, kw_only=True)
 class ClockFit:
     """``t_controller = offset_s + slope · t_recording``, fitted over ``n_events`` sync events.
 
-    ``residuals_s`` are controller time minus the fit, one per event, in the order given.
+    ``residuals_s`` are controller time minus the fit, one per event, in the order given;
+    ``uncertainty_s`` how long each event's send took on the controller (the edge lies within it);
+    ``drift_bound_ppm`` the largest drift those uncertainties alone could fake. A drift within that
+    bound is not resolved by the events: the fit then keeps slope 1 (``drift_resolved`` False).
     """
 
     offset_s: float
     slope: float
     residuals_s: NDArray[np.float64]
+    uncertainty_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    drift_bound_ppm: float = 0.0
+    drift_resolved: bool = True
+
+    @property
+    def max_uncertainty_s(self) -> float:
+        return float(np.max(self.uncertainty_s)) if self.uncertainty_s.size else 0.0
 
     @property
     def n_events(self) -> int:
@@ -57,10 +71,21 @@ class ClockFit:
         return np.asarray(self.offset_s + self.slope * np.asarray(recording_s, dtype=np.float64))
 
     def describe(self) -> str:
-        return (
-            f"{self.n_events} sync events, offset {self.offset_s:.6f} s, drift {self.drift_ppm:+.1f} ppm, "
+        drift = (
+            f"drift {self.drift_ppm:+.1f} ppm"
+            if self.drift_resolved
+            else f"drift not resolved by the edges (±{self.drift_bound_ppm:.0f} ppm), taken as 0"
+        )
+        text = (
+            f"{self.n_events} sync events, offset {self.offset_s:.6f} s, {drift}, "
             f"residuals rms {1e3 * self.rms_residual_s:.3f} ms, max {1e3 * self.max_residual_s:.3f} ms"
         )
+        if self.max_uncertainty_s > RESIDUAL_TOLERANCE_S:
+            text += (
+                f"; edges sent within up to {1e3 * self.max_uncertainty_s:.0f} ms (a command trigger): "
+                "aligned no better than that"
+            )
+        return text
 
 
 def clock_fit(
@@ -69,79 +94,168 @@ def clock_fit(
     *,
     drift_tolerance_ppm: float = DRIFT_TOLERANCE_PPM,
     residual_tolerance_s: float = RESIDUAL_TOLERANCE_S,
+    uncertainty_s: ArrayLike | None = None,
 ) -> ClockFit:
-    """Least-squares offset and drift from paired sync event times (s), checked against tolerances.
+    """Weighted least-squares offset and drift from paired sync event times (s), checked.
 
-    One event fixes the offset only (slope 1). Times are centred before the fit, so sessions that
-    start hours into either clock lose no precision.
+    ``uncertainty_s`` (default 0) is how long each event's send took on the controller: its edge lies
+    somewhere in that interval, uniformly as far as bowden knows (variance u²/12). Events weigh by the
+    inverse of that variance plus :data:`EDGE_FLOOR_S`², so a GPIO edge outweighs a command's and
+    events of equal uncertainty weigh equally (ordinary least squares). A residual may exceed
+    ``residual_tolerance_s`` by half its event's uncertainty. The drift must exceed what the
+    uncertainties alone could produce (the worst case of the weighted slope over edges anywhere in
+    their intervals), else it is not resolved and the fit keeps slope 1 rather than report latency as
+    drift. One event fixes the offset only. Times are centred before the fit, so sessions that start
+    hours into either clock lose no precision.
 
     Raises
     ------
     SyncError
-        No events, a drift beyond ``drift_tolerance_ppm``, or a residual beyond ``residual_tolerance_s``
-        (the message names the worst event).
+        No events, a drift beyond ``drift_tolerance_ppm``, or a residual beyond its tolerance (the
+        message names the worst event).
     """
     if not (math.isfinite(drift_tolerance_ppm) and drift_tolerance_ppm > 0.0):
-        raise ParameterError(f"drift_tolerance_ppm must be positive, got {drift_tolerance_ppm}")
+        raise ParameterError(f"--max-drift-ppm must be positive, got {drift_tolerance_ppm:g}")
     if not (math.isfinite(residual_tolerance_s) and residual_tolerance_s > 0.0):
-        raise ParameterError(f"residual_tolerance_s must be positive, got {residual_tolerance_s}")
+        raise ParameterError(f"--max-residual-ms must be positive, got {1e3 * residual_tolerance_s:g}")
     x = np.asarray(recording_s, dtype=np.float64).ravel()
     y = np.asarray(controller_s, dtype=np.float64).ravel()
-    if x.size != y.size:
-        raise ParameterError(f"{x.size} recording times but {y.size} controller times")
+    u = np.zeros_like(x) if uncertainty_s is None else np.asarray(uncertainty_s, dtype=np.float64).ravel()
+    if x.size != y.size or u.size != x.size:
+        raise ParameterError(
+            f"{x.size} recording times but {y.size} controller times, {u.size} uncertainties"
+        )
     if x.size == 0:
         raise SyncError("no sync event is shared by the recording and the store")
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
         raise SyncError("a sync event time is not finite")
-    x0, y0 = float(np.mean(x)), float(np.mean(y))
+    u = np.where(np.isfinite(u) & (u > 0.0), u, 0.0)
+    weights = 1.0 / (u**2 / 12.0 + EDGE_FLOOR_S**2)
+    x0, y0 = float(np.average(x, weights=weights)), float(np.average(y, weights=weights))
     dx, dy = x - x0, y - y0
-    spread = float(np.dot(dx, dx))
-    slope = float(np.dot(dx, dy) / spread) if x.size > 1 and spread > 0.0 else 1.0
+    spread = float(np.dot(weights * dx, dx))
+    slope = float(np.dot(weights * dx, dy) / spread) if x.size > 1 and spread > 0.0 else 1.0
+    # The slope's worst-case error were every edge at the far end of its interval (half of u).
+    bound = float(np.dot(weights * np.abs(dx), 0.5 * u) / spread) if x.size > 1 and spread > 0.0 else 0.0
+    resolved = abs(slope - 1.0) > bound or bound == 0.0
+    if not resolved:  # latency could explain all of it: no drift, the weighted mean offset
+        slope = 1.0
     offset = y0 - slope * x0
-    fit = ClockFit(offset_s=offset, slope=slope, residuals_s=dy - slope * dx)
+    fit = ClockFit(
+        offset_s=offset,
+        slope=slope,
+        residuals_s=dy - slope * dx,
+        uncertainty_s=u,
+        drift_bound_ppm=1e6 * bound,
+        drift_resolved=resolved,
+    )
     if abs(fit.drift_ppm) > drift_tolerance_ppm:
         raise SyncError(
             f"the clocks drift {fit.drift_ppm:+.0f} ppm apart over {fit.n_events} sync events, beyond "
             f"the {drift_tolerance_ppm:g} ppm tolerance: events are mismatched or a clock is broken"
         )
-    if fit.max_residual_s > residual_tolerance_s:
-        worst = int(np.argmax(np.abs(fit.residuals_s)))
+    excess = np.abs(fit.residuals_s) - (residual_tolerance_s + 0.5 * u)
+    if np.any(excess > 0.0):
+        worst = int(np.argmax(excess))
+        allowed = residual_tolerance_s + 0.5 * u[worst]
         raise SyncError(
             f"sync event {worst + 1} of {fit.n_events} (recording {x[worst]:.4f} s) is "
-            f"{1e3 * fit.residuals_s[worst]:+.2f} ms off the fit, beyond {1e3 * residual_tolerance_s:g} ms: "
-            "a spurious or shifted edge"
+            f"{1e3 * fit.residuals_s[worst]:+.2f} ms off the fit, beyond {1e3 * allowed:g} ms "
+            "(--max-residual-ms plus half the edge's send time): a spurious or shifted edge"
         )
     return fit
 
 
-def trigger_pulses(emg: EmgSignal, channel: str) -> NDArray[np.float64]:
-    """The high pulses of a trigger channel as rows (rising, falling), recording time, s.
+TriggerPolarity = Literal["auto", "high", "low"]
+POLARITIES: tuple[TriggerPolarity, ...] = ("auto", "high", "low")
+_MAX_TRIGGER_BIT = 31
+
+
+def trigger_pulses(
+    emg: EmgSignal, channel: str, *, polarity: TriggerPolarity = "auto", bit: int | None = None
+) -> NDArray[np.float64]:
+    """A trigger channel's pulses (one per trial) as rows (leading, trailing edge), recording time, s.
 
     Edges are crossings of the midpoint between the channel's minimum and maximum, interpolated
     linearly between the two samples around it. A channel that never changes has no pulse.
 
+    Parameters
+    ----------
+    polarity
+        ``"high"``: the line idles low and a trial is a high pulse (bowden's GPIO line into a
+        positive-logic input); ``"low"``: the line idles high and a trial is a low pulse (a
+        negative-logic input such as the TMSi SAGA's TRIGGER port, whose bits read 1 while nothing
+        drives them and 0 while a trigger does [TMSi knowledge base, "How can I send triggers to SAGA
+        via USB ports?"]); ``"auto"``: from the baseline, the level at the recording's start and end.
+    bit
+        Read this bit (0 the least significant) of the channel's integer value instead of the whole
+        value: a trigger word whose other bits are driven by other devices (the SAGA's TRIGGER port
+        has 16 bits [TMSi knowledge base, "What are the specifications of SAGA's trigger inputs?"]).
+
     Raises
     ------
     SyncError
-        If the recording starts or ends while the line is high (a trial cut in two).
+        The recording starts or ends inside a pulse (a trial cut in two), ``auto`` finds the line at
+        different levels at the start and the end, or ``bit`` is asked of non-integer values.
     """
-    x = np.asarray(emg.channel(channel))
+    if polarity not in POLARITIES:
+        raise ParameterError(f"--trigger-polarity must be one of {', '.join(POLARITIES)}, got {polarity!r}")
+    x = np.asarray(emg.channel(channel), dtype=np.float64)
+    if bit is not None:
+        x = _bit(x, channel, bit)
     low, high = float(np.min(x)), float(np.max(x))
     if not high > low:
         return np.empty((0, 2))
     level = 0.5 * (low + high)
     above = x >= level
+    if polarity == "auto":
+        if bool(above[0]) != bool(above[-1]):
+            raise SyncError(
+                f"trigger channel {channel!r} starts {'high' if above[0] else 'low'} and ends "
+                f"{'high' if above[-1] else 'low'}: its idle level is unclear (a recording started or "
+                "stopped inside a trial?); give --trigger-polarity high (the line idles low) or low "
+                "(it idles high)"
+            )
+        polarity = "low" if above[0] else "high"
+    if polarity == "low":  # a negative-logic line: a trial is a low pulse; mirror it
+        x, level = -x, -level
+        above = x >= level
     change = np.flatnonzero(above[1:] != above[:-1])
     fraction = (level - x[change]) / (x[change + 1] - x[change])
     times = emg.start_s + (change + fraction) / emg.rate_hz
-    rising = above[change + 1]
+    leading = above[change + 1]
+    idle = "low" if polarity == "high" else "high"
+    hint = (
+        ""
+        if polarity == "low"
+        else "; if the input idles high (negative logic, e.g. a TMSi SAGA), give --trigger-polarity low"
+    )
     if above[0]:
-        raise SyncError(f"trigger channel {channel!r} is high when the recording starts (inside a trial)")
+        raise SyncError(
+            f"trigger channel {channel!r} is not {idle} when the recording starts (inside a trial){hint}"
+        )
     if above[-1]:
-        raise SyncError(f"trigger channel {channel!r} is still high when the recording ends (inside a trial)")
-    # Alternation is guaranteed by construction: low at both ends, so edges go up, down, up, down...
-    assert bool(np.all(rising[::2])) and not bool(np.any(rising[1::2]))
+        raise SyncError(
+            f"trigger channel {channel!r} is still not {idle} when the recording ends (inside a trial)"
+        )
+    # Alternation is guaranteed by construction: idle at both ends, so edges lead, trail, lead...
+    assert bool(np.all(leading[::2])) and not bool(np.any(leading[1::2]))
     return np.asarray(times.reshape(-1, 2), dtype=np.float64)
+
+
+def _bit(values: NDArray[np.float64], channel: str, bit: int) -> NDArray[np.float64]:
+    """Bit ``bit`` of a trigger word's values (0 or 1), which must be integers."""
+    if not 0 <= bit <= _MAX_TRIGGER_BIT:
+        raise ParameterError(f"--trigger-bit must be 0–{_MAX_TRIGGER_BIT}, got {bit}")
+    codes = np.rint(values)
+    # An EDF export scales the word into its 16-bit range: a value within a quarter of an integer
+    # is that integer; further off, the word's bits were not kept.
+    if not (np.all(np.isfinite(values)) and np.all(np.abs(values - codes) <= 0.25)):
+        raise SyncError(
+            f"trigger channel {channel!r} does not hold integer values, so it has no bit {bit} to read "
+            "(a trigger word exported without its codes?): leave out --trigger-bit"
+        )
+    return np.asarray((codes.astype(np.int64) >> bit) & 1, dtype=np.float64)
 
 
 def match_pulses(
@@ -151,13 +265,15 @@ def match_pulses(
     *,
     drift_tolerance_ppm: float = DRIFT_TOLERANCE_PPM,
     residual_tolerance_s: float = RESIDUAL_TOLERANCE_S,
+    uncertainty_s: ArrayLike | None = None,
 ) -> int:
     """Which consecutive trials a recording's trigger pulses belong to: the index of the first.
 
     ``pulses_s`` (recording clock) and ``trials_s`` (controller clock) are rows (start, end) in
     recording order. The pulses belong to trials ``k .. k + n - 1`` when every edge, timed from the
     first pulse's start, agrees with the trials' edges timed from trial ``k``'s start, within twice the
-    residual tolerance plus the largest drift over that span. Exactly one ``k`` must fit.
+    residual tolerance plus the largest drift over that span (plus the edges' send times,
+    ``uncertainty_s``, rows like ``trials_s``). Exactly one ``k`` must fit.
 
     Raises
     ------
@@ -167,6 +283,9 @@ def match_pulses(
     """
     pulses = np.asarray(pulses_s, dtype=np.float64).reshape(-1, 2)
     trials = np.asarray(trials_s, dtype=np.float64).reshape(-1, 2)
+    spreads = np.zeros_like(trials)
+    if uncertainty_s is not None:
+        spreads = np.asarray(uncertainty_s, dtype=np.float64).reshape(-1, 2)
     ids = [int(i) for i in np.asarray(trial_ids).ravel()]
     n, m = len(pulses), len(trials)
     if n == 0:
@@ -174,7 +293,8 @@ def match_pulses(
     if n > m:
         raise SyncError(
             f"the recording has {n} trigger pulses but the store has {m} trials with sync events "
-            f"(trials {_ids(ids)}): {n - m} pulse(s) too many"
+            f"(trials {_ids(ids)}): {n - m} pulse(s) too many (if other devices drive the trigger "
+            "channel's other bits, give --trigger-bit N)"
         )
     relative_pulses = pulses - pulses[0, 0]
     # A wide drift window finds the run; a line through it then decides (and clock_fit reports a
@@ -184,11 +304,13 @@ def match_pulses(
     fits: list[int] = []
     for k in range(m - n + 1):
         relative = trials[k : k + n] - trials[k, 0]
-        allowed = 2.0 * residual_tolerance_s + window_ppm * 1e-6 * np.abs(relative)
+        slack = spreads[k : k + n] + spreads[k, 0]  # both ends of each difference may be off
+        allowed = 2.0 * residual_tolerance_s + slack + window_ppm * 1e-6 * np.abs(relative)
         ok = np.all(np.abs(relative_pulses - relative) <= allowed, axis=1)
         matched = n if ok.all() else int(np.argmin(ok))
         best = max(best, (matched, -k))
-        if ok.all() and _line_residual(pulses, trials[k : k + n]) <= 2.0 * residual_tolerance_s:
+        line_budget = 2.0 * residual_tolerance_s + float(np.max(spreads[k : k + n]))
+        if ok.all() and _line_residual(pulses, trials[k : k + n]) <= line_budget:
             fits.append(k)
     if len(fits) == 1:
         return fits[0]

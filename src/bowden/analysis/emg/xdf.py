@@ -10,13 +10,13 @@ kept with their time stamps for the clock fit.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from bowden.analysis.emg.read import volt_scale
+from bowden.analysis.emg.read import SourceChannel, volt_scale
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.errors import RecordingError
 
@@ -30,6 +30,8 @@ class XdfRecording:
     emg: EmgSignal
     markers: tuple[tuple[float, str], ...]  # (recorder time s, marker text)
     stream_name: str
+    # Per channel, the stream's samples in their own format (float32, double64, int) and unit factor.
+    sources: dict[str, SourceChannel] = field(default_factory=dict)
 
 
 def read_emg_xdf(path: str | Path) -> XdfRecording:
@@ -52,17 +54,27 @@ def read_emg_xdf(path: str | Path) -> XdfRecording:
     stream = max(emg_streams, key=lambda s: int(_info(s, "channel_count") or 0))
     name = _info(stream, "name") or "EMG"
     stamps = np.asarray(stream["time_stamps"], dtype=np.float64)
-    values = np.asarray(stream["time_series"], dtype=np.float64)
+    samples = np.asarray(stream["time_series"])
+    if samples.dtype == np.int8:  # the store keeps 16-bit and wider codes
+        samples = samples.astype(np.int16)
+    if samples.ndim != 2 or samples.dtype.kind not in "iuf":
+        raise RecordingError(f"{file.name}: stream {name!r} does not hold numeric samples")
     if stamps.size < 2:
         raise RecordingError(f"{file.name}: stream {name!r} has {stamps.size} samples")
     # The rate of the stream on the recorder's clock: a line through all time stamps.
     index = np.arange(stamps.size, dtype=np.float64)
     i0, t0 = float(index.mean()), float(stamps.mean())
     slope = float(np.dot(index - i0, stamps - t0) / np.dot(index - i0, index - i0))
-    labels, units = _channels(stream, values.shape[1])
-    scales = np.array([_scale(unit) for unit in units])
+    labels, units = _channels(stream, samples.shape[1])
+    sources = {
+        label: SourceChannel(codes=np.ascontiguousarray(samples[:, i]), gain_v=_scale(unit))
+        for i, (label, unit) in enumerate(zip(labels, units, strict=True))
+    }
     emg = EmgSignal(
-        values=values * scales, rate_hz=1.0 / slope, channels=tuple(labels), start_s=t0 - slope * i0
+        values=np.column_stack([sources[label].volts() for label in labels]),
+        rate_hz=1.0 / slope,
+        channels=tuple(labels),
+        start_s=t0 - slope * i0,
     )
     markers: list[tuple[float, str]] = []
     for s in streams:
@@ -71,7 +83,7 @@ def read_emg_xdf(path: str | Path) -> XdfRecording:
                 (float(t), str(v[0])) for t, v in zip(s["time_stamps"], s["time_series"], strict=True)
             )
     markers.sort(key=lambda m: m[0])
-    return XdfRecording(emg=emg, markers=tuple(markers), stream_name=name)
+    return XdfRecording(emg=emg, markers=tuple(markers), stream_name=name, sources=sources)
 
 
 def _scale(unit: str) -> float:
