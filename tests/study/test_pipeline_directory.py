@@ -18,9 +18,20 @@ import pytest
 from bowden.cli import main
 from bowden.contracts import BACKEND_CAN, BACKEND_SIM, TRIAL_COLUMNS
 from bowden.errors import OutputFileError, StoreError
+from bowden.model import CompensationModel
+from bowden.model.model_file import save_model
 from bowden.runtime.recorder import TrialInfo
 from bowden.runtime.sample_chunks import sample_count
-from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE, made_by_study_pipeline, read_trial_origins
+from bowden.study import pipeline
+from bowden.study.ownership import (
+    FILES_MANIFEST,
+    RECORDED_BY_KEY,
+    STUDY_PIPELINE,
+    files_not_written_by_study,
+    made_by_study_pipeline,
+    note_written,
+    read_trial_origins,
+)
 from bowden.study.pipeline import StudySettings, run_study
 from bowden.study.store import StudyStore
 
@@ -129,6 +140,66 @@ def test_an_unusable_out_path_is_one_line_naming_it(
     assert err.startswith("bowden: error: ") and str(out) in err
     assert err.count("\n") == 1 and "Traceback" not in err
     assert (tmp_path / "some_file.csv").read_text() == "x"
+
+
+def test_force_never_replaces_a_labs_own_model(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 27: `bowden study --out DIR --force` deleted the lab's model.json in DIR."""
+    save_model(CompensationModel.from_friction(k=0.2), tmp_path / "model.json")  # the lab's identified model
+    (tmp_path / "report.html").write_text("<p>the lab's own report</p>")
+    before = snapshot(tmp_path)
+    argv = ["study", "--participants", "2", "--quick-bench", "--quiet", "--force", "--out", str(tmp_path)]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "model.json (not written by bowden study), report.html (not written by bowden study)" in err
+    assert "even with --force" in err and err.count("\n") == 1 and "Traceback" not in err
+    assert snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("force", [True, False])
+def test_a_model_changed_since_the_study_wrote_it_is_neither_replaced_nor_reused(
+    tmp_path: Path, force: bool
+) -> None:
+    (tmp_path / "settings.json").write_text(json.dumps(asdict(SETTINGS)))
+    save_model(CompensationModel.from_friction(k=0.1), tmp_path / "model.json")
+    note_written(tmp_path, ["model.json"])
+    save_model(CompensationModel.from_friction(k=0.3), tmp_path / "model.json")  # the lab put theirs there
+    before = snapshot(tmp_path)
+    with pytest.raises(StoreError, match=r"model\.json \(changed since bowden study wrote it\)"):
+        run_study(SETTINGS, tmp_path, force=force)
+    assert snapshot(tmp_path) == before
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_force_replaces_what_the_study_wrote(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "settings.json").write_text(json.dumps({**asdict(SETTINGS), "seed": 99}))
+    save_model(CompensationModel.from_friction(k=0.1), tmp_path / "model.json")
+    (tmp_path / "report.html").write_text("<p>the study's report</p>")
+    note_written(tmp_path, ["model.json", "report.html"])
+
+    def stop(*_args: object) -> None:
+        raise _Stop  # after the old results are gone, before the new bench
+
+    monkeypatch.setattr(pipeline, "_bench_stage", stop)
+    with pytest.raises(_Stop):
+        run_study(SETTINGS, tmp_path, force=True, workers=1)
+    assert not (tmp_path / "model.json").exists() and not (tmp_path / "report.html").exists()
+    assert json.loads((tmp_path / "settings.json").read_text()) == asdict(SETTINGS)
+    assert files_not_written_by_study(tmp_path, ["model.json", "report.html"]) == []
+
+
+def test_a_study_directory_from_before_the_list_of_files_stays_the_studys(tmp_path: Path) -> None:
+    """Written before bowden study listed its files: its settings.json vouches for them, and the first
+    run lists them."""
+    (tmp_path / "settings.json").write_text(json.dumps(asdict(SETTINGS)))
+    save_model(CompensationModel.from_friction(k=0.1), tmp_path / "model.json")
+    assert files_not_written_by_study(tmp_path, ["model.json", "bench.parquet"]) == []
+    note_written(tmp_path, ["model.json", "bench.parquet"])
+    manifest = json.loads((tmp_path / FILES_MANIFEST).read_text())
+    model_sha256 = hashlib.sha256((tmp_path / "model.json").read_bytes()).hexdigest()
+    assert manifest == {"files": {"model.json": model_sha256}}
 
 
 def test_out_being_a_file_is_an_output_file_error(tmp_path: Path) -> None:

@@ -29,8 +29,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument("--no-emg", action="store_true", help="do not keep raw sEMG in the store")
     parser.add_argument(
         "--force", action="store_true",
-        help="redo every stage from scratch (a store holding trials this command did not record, such "
-        "as live recordings, is refused even then)",
+        help="redo every stage from scratch, replacing only what this command wrote in --out (a file it "
+        "did not write, such as a lab's own model.json, or a store holding trials it did not record, "
+        "such as live recordings, is refused even then)",
     )
     parser.add_argument(
         "--compensation", choices=("paper", "dynamic"), default="paper",

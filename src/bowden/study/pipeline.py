@@ -39,7 +39,7 @@ from bowden.study.analyze import AnalysisReport, analyze_store
 from bowden.study.compensation_comparison import ComparisonSettings
 from bowden.study.compensation_report import compensation_section
 from bowden.study.html import HtmlDocument
-from bowden.study.ownership import read_trial_origins
+from bowden.study.ownership import files_not_written_by_study, note_written, read_trial_origins
 from bowden.study.progress import StageProgress
 from bowden.study.stage_clock import StageClock
 from bowden.study.store import StudyStore
@@ -153,21 +153,24 @@ def _run_stages(
     clock = StageClock()
     settings_file = out / "settings.json"
     if force:
-        for name in _RESULT_FILES:
+        for name in _RESULT_FILES:  # the files among them are the pipeline's (checked before)
             (out / name).unlink(missing_ok=True)
     try:
         write_text_atomically(settings_file, json.dumps(asdict(settings), indent=2) + "\n")
     except OSError as error:
         raise OutputFileError(f"cannot write {settings_file}: {error.strerror or error}") from None
+    note_written(out, _OWN_FILES)  # what is there was checked to be ours (a directory of an older run too)
 
     with clock.stage("bench"):
         bench_path = _bench_stage(settings, out, progress)
+        note_written(out, [bench_path.name])
     with clock.stage("identify"):
         model_path = out / "model.json"
         if not model_path.exists():
             with progress.spinner("identifying the transmission"):
                 identifier = TransmissionIdentifier().fit(bench_path)
             save_model(identifier.model_, model_path)
+            note_written(out, [model_path.name])
         model = load_model(model_path)
 
     store_path = out / "study.db"
@@ -209,6 +212,7 @@ def _run_stages(
             engine=engine,
             appendix=appendix,
         )
+        note_written(out, ["report.html"])
     return StudyResult(
         directory=out,
         report=out / "report.html",
@@ -225,6 +229,9 @@ def _run_stages(
 
 # What a run leaves in its directory besides settings.json (--force deletes these).
 _RESULT_FILES = ("bench.parquet", "model.json", "study.db", "study.db-wal", "study.db-shm", "report.html")
+# Those it writes whole, listed with their hashes (bowden.study.ownership); the store's trials say
+# whose it is.
+_OWN_FILES = ("bench.parquet", "model.json", "report.html")
 
 
 def _study_directory(directory: str | Path) -> Path:
@@ -254,6 +261,7 @@ def _check_directory_is_ours(out: Path, settings: StudySettings, *, force: bool)
             "bowden study never deletes or adds to another recording's store; use another --out directory"
         )
     if force:
+        _refuse_files_not_ours(out)
         return
     settings_file = out / "settings.json"
     stored = _read_settings(settings_file)
@@ -270,6 +278,18 @@ def _check_directory_is_ours(out: Path, settings: StudySettings, *, force: bool)
         raise ParameterError(
             f"{out} holds a study run with other settings ({settings_file}); "
             "use another --out directory or --force to start again"
+        )
+    _refuse_files_not_ours(out)
+
+
+def _refuse_files_not_ours(out: Path) -> None:
+    """Refuse a directory holding a file the pipeline would replace or resume from but did not
+    write as it is (a lab's own model.json): never replaced, even with ``--force``."""
+    foreign = files_not_written_by_study(out, _OWN_FILES)
+    if foreign:
+        raise StoreError(
+            f"{out} holds {', '.join(foreign)}: bowden study replaces or reuses only the files it wrote, "
+            "even with --force; move them out of the directory or use another --out directory"
         )
 
 
