@@ -33,13 +33,15 @@ from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 from bowden.control import Command, Fault
-from bowden.errors import DeviceTimeoutError, HardwareError, ParameterError, TransmitError
-from bowden.hardware.ak60_codec import MotorErrorCode
-from bowden.hardware.protocols import Clock, ElevationSensor, Motor, MotorState, TensionSensor
+from bowden.errors import DeviceTimeoutError, HardwareError, ParameterError
+from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
+from bowden.runtime.motor_link import MotorLink
+from bowden.runtime.pacer import STALL_NOTICE_S, Pacer
 from bowden.runtime.realtime import RealtimeConfig, realtime
 from bowden.runtime.safety import LoopState, SafetyConfig, ramp_torque_nm
 from bowden.runtime.slack import SlackTakeUp
 from bowden.runtime.timing import LoopTiming, TimingSummary
+from bowden.runtime.watchdogs import FINE, DeviceReader, Readings, Watchdogs
 
 _log = logging.getLogger(__name__)
 _NAN = math.nan
@@ -92,10 +94,6 @@ class LoopConfig:
             raise ParameterError(f"LoopConfig.duration_s must be positive, got {self.duration_s!r}")
 
 
-STALL_NOTICE_S = 0.01
-"""A gap between cycles this much longer than the period counts (and is recorded) as a host stall."""
-
-
 @dataclass(frozen=True)
 class LoopReport:
     """How a run ended (times in s since the loop started, on its clock)."""
@@ -129,6 +127,26 @@ class LoopReport:
                  f"transmit failures {self.transmit_failures}"]
         parts.extend(self.degraded)
         return "; ".join(parts)
+
+
+class _Run:
+    """What one run has done so far: its state, why it stops, the torque it commands, its tallies."""
+
+    __slots__ = ("controller_fault_cycles", "cycles", "degraded", "degraded_flags", "disabled", "fault",
+                 "ramp_from", "reason", "safe_time", "slack_time", "state", "stop_time", "taking_up",
+                 "torque", "zero_time")
+
+    def __init__(self, *, taking_up: bool) -> None:
+        self.state = LoopState.RUNNING
+        self.fault = Fault.NONE
+        self.reason = ""
+        self.stop_time = self.zero_time = self.safe_time = self.slack_time = _NAN
+        self.ramp_from = self.torque = 0.0
+        self.taking_up = taking_up
+        self.degraded: list[str] = []
+        self.degraded_flags = 0
+        self.controller_fault_cycles = self.cycles = 0
+        self.disabled = False
 
 
 class ControlLoop:
@@ -237,296 +255,153 @@ class ControlLoop:
             self.on_event(time_s, kind, message)
 
     def _run(self) -> LoopReport:
-        safety = self.config.safety
+        """The cycles: pace, read the devices, judge their health, command, send, record."""
         clock = self.clock
-        motor = self.motor
-        imu = self.elevation_sensor
-        load_cell = self.tension_sensor
-        controller = self.controller
-        record = self.record
-        reference = self.reference_elevation
-        recorder_failure = self.recorder_failure
-        timing = self.timing
-        period = 1.0 / self.config.rate_hz
-        duration = self.config.duration_s if self.config.duration_s is not None else math.inf
-        imu_max_age = safety.imu_max_age_s
-        motor_max_silence = safety.motor_max_silence_s
-        motor_min_unanswered = safety.motor_min_unanswered
-        max_transmit_failures = safety.max_transmit_failures
-        stall_max = safety.host_stall_max_s
-        max_temperature = safety.max_temperature_c
-        max_tension = safety.max_tension_n
-        cell_max_age = safety.load_cell_max_age_s
-        stop_on_cell_lost = safety.on_load_cell_lost == "stop"
-        stop_on_recorder_failure = safety.on_recorder_failure == "stop"
-        ramp_s = safety.ramp_down_s
-        isfinite = math.isfinite
-        disabled = False
         slack = self.config.slack
-        command_mit = getattr(motor, "command_mit", None)
-        if slack is not None and command_mit is None:
+        if slack is not None and getattr(self.motor, "command_mit", None) is None:
             _log.warning("slack take-up skipped: this motor has no velocity mode")
             slack = None
-        taking_up = slack is not None
-        slack_time = _NAN
-
-        reply: MotorState | None = motor.enable()
-        t0 = clock.now()
-        deadline = t0
-        last_wake = t0 - period
-        fresh_since = t0  # sample ages count from here at most: the loop could not read before it
-        k = 0
-        state = LoopState.RUNNING
-        fault = Fault.NONE
-        reason = ""
-        stop_time = zero_time = safe_time = _NAN
-        ramp_from = 0.0
-        torque = 0.0
-        motor_timeouts = 0
-        unanswered = 0
-        oldest_unanswered_s = _NAN
-        controller_fault_cycles = 0
-        transmit_failures = consecutive_transmit_failures = 0
-        transmit_error = ""
-        new_reply: MotorState | None = None
-        motor_malformed = False
-        host_stalls = 0
-        worst_stall = 0.0
-        degraded: list[str] = []
-        degraded_flags = 0
-        cell_lost = recording_lost = False
-        cycles = 0
-
+        run = _Run(taking_up=slack is not None)
+        pacer = Pacer(clock, self.timing)
+        reader = DeviceReader(self.elevation_sensor, self.tension_sensor,
+                              self.config.safety.load_cell_max_age_s, self.recorder_failure)
+        watchdogs = Watchdogs(self.config.safety, slack)
+        duration = self.config.duration_s
+        end_s = duration - 1e-9 if duration is not None else math.inf  # 1 ns: a cycle on the end, rounded
+        link = MotorLink(self.motor, self.motor.enable())
+        pacer.start(clock.now())
         while True:
-            clock.sleep_until(deadline)
-            now = clock.now()
-            t = now - t0
-            stall = now - last_wake - period
-            last_wake = now
-            if stall > STALL_NOTICE_S:
-                host_stalls += 1
-                fresh_since = now
-                if stall > worst_stall:
-                    worst_stall = stall
-                if stall <= stall_max:
-                    self._event(t, "host_stall", f"loop not scheduled for {1e3 * stall:.0f} ms "
-                                f"(tolerated up to {1e3 * stall_max:.0f} ms)")
-            sample = imu.read()
-            tension = _NAN
-            cell_problem = ""
-            if load_cell is not None and not cell_lost:
-                tension_sample = load_cell.read()
-                failure = load_cell.failure
-                if tension_sample is not None:
-                    tension = tension_sample.tension_n
-                    cell_age = now - max(tension_sample.time_s, fresh_since)
-                else:
-                    cell_age = now - fresh_since
-                if failure is not None:
-                    cell_problem = failure
-                elif cell_age > cell_max_age:
-                    cell_problem = (f"load cell: no reading for {1e3 * cell_age:.0f} ms "
-                                    f"(limit {1e3 * cell_max_age:.0f} ms)")
-            if sample is not None:
-                elevation = sample.elevation_rad
-                velocity = sample.elevation_velocity_rad_s
-                imu_age = now - max(sample.time_s, fresh_since)
+            now = pacer.wait()
+            t = now - pacer.t0
+            if pacer.stall_s > STALL_NOTICE_S:
+                self._note_stall(pacer.stall_s, t)
+            readings = reader.read(now, pacer.fresh_since, link.reply)
+            if run.state is LoopState.RUNNING:
+                verdict = watchdogs.judge(readings, link, pacer.stall_s, now, t, run.taking_up)
+                if verdict is not FINE or self._stop_reason is not None or t >= end_s:
+                    self._stop(run, verdict, t)
+            if readings.cell_problem or readings.recording_problem is not None:
+                self._degrade(run, reader, readings, t)
+            desired_tension, moment_arm, flags = self._command(run, readings, slack, t)
+            if slack is not None and run.taking_up and run.state is LoopState.RUNNING:
+                link.send(now, run.torque, slack.velocity_rad_s, slack.kd_nms_rad)
             else:
-                elevation = velocity = _NAN
-                imu_age = math.inf
-            if reply is not None:
-                motor_velocity = reply.velocity_rad_s
-                motor_torque = reply.torque_nm
-            else:
-                motor_velocity = motor_torque = _NAN
-            recording_problem = None
-            if recorder_failure is not None and not recording_lost:
-                recording_problem = recorder_failure()
-
-            if state is LoopState.RUNNING:
-                # Watchdogs, most specific first; each one names what to check.
-                new_fault = Fault.NONE
-                if stall > stall_max:
-                    new_fault = Fault.HOST_STALL
-                    reason = (f"host stall: the loop was not scheduled for {1e3 * stall:.0f} ms "
-                              f"(limit {1e3 * stall_max:.0f} ms)")
-                elif consecutive_transmit_failures >= max_transmit_failures:
-                    new_fault = Fault.TRANSMIT_FAILED
-                    reason = (f"motor: CAN transmit failed {consecutive_transmit_failures} times in a row "
-                              f"({transmit_error})")
-                elif unanswered >= motor_min_unanswered and now - oldest_unanswered_s > motor_max_silence:
-                    new_fault = Fault.MOTOR_NO_REPLY
-                    reason = (f"motor: no valid reply to the last {unanswered} commands "
-                              f"(the oldest sent {1e3 * (now - oldest_unanswered_s):.0f} ms ago)")
-                    if motor_malformed or getattr(motor, "last_malformed", None):
-                        reason += " (malformed frames)"
-                elif reply is not None and reply.error_code != 0:
-                    new_fault = Fault.MOTOR_ERROR
-                    code = reply.error_code
-                    reason = f"motor error code {code}: {MotorErrorCode.describe(code)}"
-                elif reply is not None and reply.temperature_c > max_temperature:
-                    new_fault = Fault.MOTOR_OVER_TEMPERATURE
-                    reason = (f"motor temperature {reply.temperature_c:.0f} °C "
-                              f"above {max_temperature:.0f} °C")
-                elif imu_age > imu_max_age:
-                    new_fault = Fault.IMU_STALE
-                    reason = (f"IMU: newest sample {1e3 * imu_age:.0f} ms old "
-                              f"(limit {1e3 * imu_max_age:.0f} ms)")
-                elif not (isfinite(elevation) and isfinite(velocity) and isfinite(motor_velocity)
-                          and isfinite(motor_torque)):
-                    new_fault = Fault.NONFINITE_INPUT
-                    reason = (f"non-finite input: elevation {elevation}, velocity {velocity}, "
-                              f"motor velocity {motor_velocity}, motor torque {motor_torque}")
-                elif tension > max_tension:
-                    new_fault = Fault.TENSION_LIMIT
-                    reason = f"load cell: {tension:.1f} N above the {max_tension:.0f} N limit"
-                elif cell_problem and stop_on_cell_lost:
-                    new_fault, reason = Fault.LOAD_CELL_LOST, f"{cell_problem}: the tension limit is blind"
-                elif recording_problem is not None and stop_on_recorder_failure:
-                    new_fault, reason = Fault.RECORDER_FAILED, f"recording failed: {recording_problem}"
-                elif taking_up and slack is not None and t > slack.timeout_s:
-                    new_fault = Fault.SLACK_NOT_TAKEN_UP
-                    reason = (f"slack take-up: the cable did not tighten to {slack.pretension_n:g} N in "
-                              f"{slack.timeout_s:g} s (pull {slack.pull_n(tension, motor_torque):.1f} N): "
-                              "is it attached?")
-                elif self._stop_reason is not None:
-                    new_fault, reason = Fault.STOP_REQUESTED, self._stop_reason
-                elif t >= duration - 1e-9:  # 1 ns: a cycle landing on the end, up to rounding
-                    reason = f"duration {duration:g} s reached"
-                    new_fault = Fault.NONE
-                    state = LoopState.RAMPING_DOWN
-                if new_fault != Fault.NONE:
-                    fault = new_fault
-                    state = LoopState.RAMPING_DOWN
-                if state is LoopState.RAMPING_DOWN:
-                    stop_time = t
-                    ramp_from = torque
-                    log = _log.info if fault in (Fault.NONE, Fault.STOP_REQUESTED) else _log.warning
-                    log("safe stop at t = %.3f s: %s; ramping %.2f Nm to zero in %.0f ms",
-                        t, reason, ramp_from, 1e3 * ramp_s)
-            # Degraded states the operator chose to run on in: said once, flagged in every row after.
-            if cell_problem and not cell_lost and not stop_on_cell_lost:
-                cell_lost = True
-                degraded_flags |= int(Fault.LOAD_CELL_LOST)
-                degraded.append(f"load cell lost at t = {t:.3f} s ({cell_problem}); tension limit off")
-                _log.warning("%s", degraded[-1])
-                self._event(t, "degraded", degraded[-1])
-            if recording_problem is not None and not recording_lost and not stop_on_recorder_failure:
-                recording_lost = True
-                degraded_flags |= int(Fault.RECORDER_FAILED)
-                degraded.append(f"recording failed at t = {t:.3f} s ({recording_problem}); "
-                                "assisting without it")
-                _log.error("%s", degraded[-1])
-
-            desired_tension = moment_arm = _NAN
-            flags = int(fault) | degraded_flags
-            if taking_up and slack is not None and state is LoopState.RUNNING \
-                    and slack.pull_n(tension, motor_torque) >= slack.pretension_n:
-                taking_up = False
-                slack_time = t
-                self._event(t, "slack", f"slack taken up in {t:.2f} s "
-                            f"({slack.pull_n(tension, motor_torque):.1f} N)")
-            if taking_up and state is LoopState.RUNNING:
-                # Reeling in: the motor's own velocity loop commands the torque (at most kd·v).
-                torque = motor_torque if isfinite(motor_torque) else 0.0
-            elif state is LoopState.RUNNING:
-                command = controller.step(t, elevation, velocity, motor_velocity, motor_torque)
-                torque = command.torque_nm
-                desired_tension = command.tension_n
-                moment_arm = command.moment_arm_m
-                if command.faults:
-                    flags |= command.faults
-                    controller_fault_cycles += 1
-            else:
-                torque = ramp_torque_nm(ramp_from, t - stop_time, ramp_s)
-                if torque == 0.0 and zero_time != zero_time:
-                    zero_time = t
-
-            try:
-                if taking_up and state is LoopState.RUNNING and slack is not None and command_mit is not None:
-                    new_reply = command_mit(0.0, slack.velocity_rad_s, 0.0, slack.kd_nms_rad)
-                else:
-                    new_reply = motor.command_torque(torque)
-            except TransmitError as error:
-                transmit_failures += 1
-                consecutive_transmit_failures += 1
-                transmit_error = str(error)
-            # Any other refusal or a timeout of a motor that waits: no new reply this cycle.
-            except DeviceTimeoutError:
-                new_reply = None
-                consecutive_transmit_failures = 0
-            except HardwareError:
-                new_reply = None
-                motor_malformed = True
-                consecutive_transmit_failures = 0
-            else:
-                consecutive_transmit_failures = 0
-            if consecutive_transmit_failures == 0:
-                if new_reply is not None:
-                    reply = new_reply
-                    motor_malformed = False
-                    # The command just sent now waits for its own reply.
-                    unanswered, oldest_unanswered_s = 1, now
-                else:
-                    motor_timeouts += 1
-                    if unanswered == 0:
-                        oldest_unanswered_s = now
-                    unanswered += 1
+                link.send(now, run.torque)
             end = clock.now()
-
-            if record is not None:  # a failed recorder counts what it can no longer write
-                record((
-                    t,
-                    reference(t) if reference is not None else _NAN,
-                    elevation,
-                    velocity,
-                    desired_tension,
-                    moment_arm,
-                    torque,
-                    motor_torque,
-                    motor_velocity,
-                    tension,
-                    int(state),
-                    flags,
-                ))
-            cycles += 1
-            timing.record(now - deadline, end > deadline + period)
-
-            if state is LoopState.RAMPING_DOWN and zero_time == zero_time:
-                disabled = self._disable_motor()
-                safe_time = clock.now() - t0
-                state = LoopState.SAFE
-                self.state = state
-                _log.info("safe state reached at t = %.3f s (motor mode exited)", safe_time)
+            if self.record is not None:  # a failed recorder counts what it can no longer write
+                self._record(self.record, t, readings, desired_tension, moment_arm, run, flags)
+            run.cycles += 1
+            pacer.cycle_done(end)
+            if run.state is LoopState.RAMPING_DOWN and run.zero_time == run.zero_time:
+                run.disabled = self._disable_motor()
+                run.safe_time = clock.now() - pacer.t0
+                run.state = LoopState.SAFE
+                _log.info("safe state reached at t = %.3f s (motor mode exited)", run.safe_time)
                 break
+            pacer.advance()
+        self.state = run.state
+        return self._report(run, link, pacer)
 
-            # Deadlines are t0 + k·period, computed afresh so that rounding never accumulates.
-            k += 1
-            deadline = t0 + k * period
-            behind = clock.now() - deadline
-            if behind > period:
-                skipped = int(behind / period)
-                k += skipped
-                deadline = t0 + k * period
-                timing.skip(skipped)
+    def _note_stall(self, stall_s: float, t: float) -> None:
+        stall_max = self.config.safety.host_stall_max_s
+        if stall_s <= stall_max:  # a longer one is a fault, with its own reason
+            self._event(t, "host_stall", f"loop not scheduled for {1e3 * stall_s:.0f} ms "
+                        f"(tolerated up to {1e3 * stall_max:.0f} ms)")
 
-        self.state = state
+    def _stop(self, run: _Run, verdict: tuple[Fault, str], t: float) -> None:
+        """Start the safe stop: for a watchdog's fault, else a stop request, else the end of the duration."""
+        fault, reason = verdict
+        if fault == Fault.NONE:
+            if self._stop_reason is not None:
+                fault, reason = Fault.STOP_REQUESTED, self._stop_reason
+            else:
+                reason = f"duration {self.config.duration_s:g} s reached"
+        run.fault, run.reason = fault, reason
+        run.state = LoopState.RAMPING_DOWN
+        run.stop_time, run.ramp_from = t, run.torque
+        log = _log.info if fault in (Fault.NONE, Fault.STOP_REQUESTED) else _log.warning
+        log("safe stop at t = %.3f s: %s; ramping %.2f Nm to zero in %.0f ms",
+            t, reason, run.ramp_from, 1e3 * self.config.safety.ramp_down_s)
+
+    def _degrade(self, run: _Run, reader: DeviceReader, readings: Readings, t: float) -> None:
+        """Degraded states the operator chose to run on in: said once, flagged in every row after."""
+        safety = self.config.safety
+        if readings.cell_problem and not reader.cell_lost and safety.on_load_cell_lost != "stop":
+            reader.cell_lost = True
+            run.degraded_flags |= int(Fault.LOAD_CELL_LOST)
+            run.degraded.append(f"load cell lost at t = {t:.3f} s ({readings.cell_problem}); "
+                                "tension limit off")
+            _log.warning("%s", run.degraded[-1])
+            self._event(t, "degraded", run.degraded[-1])
+        problem = readings.recording_problem
+        if problem is not None and not reader.recording_lost and safety.on_recorder_failure != "stop":
+            reader.recording_lost = True
+            run.degraded_flags |= int(Fault.RECORDER_FAILED)
+            run.degraded.append(f"recording failed at t = {t:.3f} s ({problem}); assisting without it")
+            _log.error("%s", run.degraded[-1])
+
+    def _command(self, run: _Run, r: Readings, slack: SlackTakeUp | None,
+                 t: float) -> tuple[float, float, int]:
+        """Set ``run.torque``; return the desired tension, the moment arm and the row's fault flags."""
+        flags = int(run.fault) | run.degraded_flags
+        running = run.state is LoopState.RUNNING
+        if running and run.taking_up and slack is not None:
+            pull = slack.pull_n(r.tension_n, r.motor_torque_nm)
+            if pull >= slack.pretension_n:
+                run.taking_up, run.slack_time = False, t
+                self._event(t, "slack", f"slack taken up in {t:.2f} s ({pull:.1f} N)")
+            else:
+                # Reeling in: the motor's own velocity loop commands the torque (at most kd·v).
+                run.torque = r.motor_torque_nm if math.isfinite(r.motor_torque_nm) else 0.0
+                return _NAN, _NAN, flags
+        if running:
+            command = self.controller.step(t, r.elevation_rad, r.velocity_rad_s, r.motor_velocity_rad_s,
+                                           r.motor_torque_nm)
+            run.torque = command.torque_nm
+            if command.faults:
+                flags |= command.faults
+                run.controller_fault_cycles += 1
+            return command.tension_n, command.moment_arm_m, flags
+        run.torque = ramp_torque_nm(run.ramp_from, t - run.stop_time, self.config.safety.ramp_down_s)
+        if run.torque == 0.0 and run.zero_time != run.zero_time:
+            run.zero_time = t
+        return _NAN, _NAN, flags
+
+    def _record(self, record: Callable[[Row], None], t: float, r: Readings, desired_tension: float,
+                moment_arm: float, run: _Run, flags: int) -> None:
+        reference = self.reference_elevation
+        record((
+            t,
+            reference(t) if reference is not None else _NAN,
+            r.elevation_rad,
+            r.velocity_rad_s,
+            desired_tension,
+            moment_arm,
+            run.torque,
+            r.motor_torque_nm,
+            r.motor_velocity_rad_s,
+            r.tension_n,
+            int(run.state),
+            flags,
+        ))
+
+    def _report(self, run: _Run, link: MotorLink, pacer: Pacer) -> LoopReport:
         return LoopReport(
-            reason=reason,
-            fault=fault,
-            cycles=cycles,
-            stop_time_s=stop_time,
-            zero_torque_time_s=zero_time,
-            safe_time_s=safe_time,
-            motor_disabled=disabled,
-            timing=timing.summary(),
-            motor_timeouts=motor_timeouts,
-            controller_fault_cycles=controller_fault_cycles,
-            host_stalls=host_stalls,
-            worst_host_stall_s=worst_stall,
-            transmit_failures=transmit_failures,
-            degraded=tuple(degraded),
-            slack_take_up_s=slack_time,
+            reason=run.reason,
+            fault=run.fault,
+            cycles=run.cycles,
+            stop_time_s=run.stop_time,
+            zero_torque_time_s=run.zero_time,
+            safe_time_s=run.safe_time,
+            motor_disabled=run.disabled,
+            timing=self.timing.summary(),
+            motor_timeouts=link.timeouts,
+            controller_fault_cycles=run.controller_fault_cycles,
+            host_stalls=pacer.host_stalls,
+            worst_host_stall_s=pacer.worst_stall_s,
+            transmit_failures=link.transmit_failures,
+            degraded=tuple(run.degraded),
+            slack_take_up_s=run.slack_time,
         )
 
     def _disable_motor(self) -> bool:
