@@ -114,10 +114,16 @@ def test_a_condition_that_contradicts_the_support_is_refused(
 
 
 @pytest.mark.parametrize(("argument", "message"), [
-    (["--height", "0"], "--height: height_m must be a stature"),
-    (["--mass", "500"], "--mass: mass_kg must be between"),
-    (["--hand-load", "-1"], "--hand-load: hand_load_kg must be between"),
-    (["--duration", "-1"], "duration_s"),
+    (["--height", "0"], "--height must be a stature"),
+    (["--mass", "500"], "--mass must be between"),
+    (["--hand-load", "-1"], "--hand-load must be between"),
+    (["--duration", "-1"], "--duration must be a positive number of seconds, got -1"),
+    (["--rate", "0"], "--rate must be 1–2000 Hz, got 0"),
+    (["--imu-max-age-ms", "-1"], "--imu-max-age-ms must be a positive number of milliseconds, got -1"),
+    (["--motor-silence-ms", "0"], "--motor-silence-ms must be a positive"),
+    (["--host-stall-ms", "nan"], "--host-stall-ms must be a positive"),
+    (["--rt-priority", "500"], "--rt-priority must be 1–99"),
+    (["--cpu", "-2"], "--cpu must be a CPU number ≥ 0, got -2"),
 ])
 def test_a_bad_wearer_or_limit_leaves_no_trial_and_opens_no_device(
     tmp_path: Path, argument: list[str], message: str, capsys: pytest.CaptureFixture[str]
@@ -128,6 +134,8 @@ def test_a_bad_wearer_or_limit_leaves_no_trial_and_opens_no_device(
     assert main(["run", "--backend", "sim", "--speed", "V3", "--record", str(store), *argument]) == 1
     err = capsys.readouterr().err
     assert message in err
+    # Flags, never the configuration's fields (LoopConfig.duration_s, height_m...).
+    assert "Config." not in err and "_m " not in err and "_kg " not in err and "_s " not in err
     assert "bowden run: " not in err  # the line printed once the suit is open
     assert _trials(store) == []
 

@@ -310,3 +310,47 @@ def test_a_csv_export_is_imported_like_an_edf(tmp_path, capsys):
     assert main([*args, "--csv-volts-per-unit", "1e-6"]) == 0
     assert "imported EMG of trial(s) 1, 2, 3 (by trigger: 6 sync events" in capsys.readouterr().out
     assert max(_alignment_errors(short, short.store).values()) < 1e-6
+
+
+def _as_command_trigger(store: Path, latency_s: dict[int, float]) -> None:
+    """Rewrite the store's sync events as a command trigger leaves them: each send took
+    ``latency_s[trial]``, the line changed near its end, the event keeps the middle (0.4 × early)."""
+    from bowden.runtime.sync_events import SYNC_KIND, SyncEvent
+
+    with StudyStore(store) as opened:
+        rows = opened.read_sql(
+            "SELECT rowid, trial_id, time_s, message FROM events WHERE kind = ?", (SYNC_KIND,)
+        )
+        for rowid, trial, time_s, message in rows.itertuples(index=False):
+            event = SyncEvent.from_event(time_s, message)
+            early = 0.4 * latency_s[int(trial)]
+            moved = SyncEvent(
+                edge=event.edge,
+                time_s=event.time_s - early,
+                host_time_s=event.host_time_s - early,
+                uncertainty_s=latency_s[int(trial)],
+                trigger="command 'gpioset ...'",
+            )
+            opened._db.execute(
+                "UPDATE events SET time_s = ?, message = ? WHERE rowid = ?",
+                (moved.time_s, moved.message(), rowid),
+            )
+        opened._db.commit()
+
+
+def test_command_trigger_latency_on_a_recording_without_drift_gives_no_drift(session, store, tmp_path):
+    # The issue: 22–51 ms command edges made a recording with no drift import with +79 ppm.
+    _as_command_trigger(store, {1: 0.051, 2: 0.036, 3: 0.022})
+    session.drift_ppm = 0.0
+    try:
+        path = _edf(session, tmp_path / "no_drift.edf")
+    finally:
+        session.drift_ppm = 80.0
+    result = import_emg(store, path, ImportOptions(trigger_channel=TRIGGER, channel_map=SAGA_CHANNELS))
+    assert result.trials == (1, 2, 3)
+    assert result.fit.drift_ppm == 0.0 and not result.fit.drift_resolved
+    assert "drift not resolved by the edges" in result.describe()
+    assert "aligned no better than that" in result.describe()
+    with StudyStore(store) as opened:
+        provenance = emg_imports(opened)[1]
+    assert provenance["max_edge_uncertainty_s"] == 0.051 and provenance["drift_resolved"] is False

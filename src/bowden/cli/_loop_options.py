@@ -9,7 +9,9 @@ loop's thread. Each flag maps onto one field of :class:`~bowden.runtime.SafetyCo
 from __future__ import annotations
 
 import argparse
+import math
 
+from bowden.errors import ParameterError
 from bowden.runtime import SafetyConfig
 from bowden.runtime.realtime import RealtimeConfig
 from bowden.runtime.safety import FAULT_POLICIES
@@ -52,8 +54,18 @@ def add_safety_arguments(parser: argparse.ArgumentParser) -> None:
                         help="pin the loop thread to CPU N (repeat for several; default: any)")
 
 
+def _positive_ms(flag: str, value: float) -> float:
+    """A millisecond flag's value in seconds; ParameterError naming the flag unless positive."""
+    if not (math.isfinite(value) and value > 0.0):
+        raise ParameterError(f"{flag} must be a positive number of milliseconds, got {value:g}")
+    return value / 1e3
+
+
 def safety_config(args: argparse.Namespace) -> SafetyConfig:
     """The watchdog thresholds and policies of :func:`add_safety_arguments`, validated."""
+    _positive_ms("--imu-max-age-ms", args.imu_max_age_ms)
+    _positive_ms("--motor-silence-ms", args.motor_silence_ms)
+    _positive_ms("--host-stall-ms", args.host_stall_ms)
     return SafetyConfig(imu_max_age_s=args.imu_max_age_ms / 1e3,
                         motor_max_silence_s=args.motor_silence_ms / 1e3,
                         host_stall_max_s=args.host_stall_ms / 1e3,
@@ -71,5 +83,9 @@ def slack_config(args: argparse.Namespace, pulley_radius_m: float) -> SlackTakeU
 
 def realtime_config(args: argparse.Namespace) -> RealtimeConfig:
     """The real-time settings of :func:`add_safety_arguments`, validated."""
+    if args.rt_priority and not 1 <= args.rt_priority <= 99:
+        raise ParameterError(f"--rt-priority must be 1–99 (0: none), got {args.rt_priority}")
+    if args.cpus and min(args.cpus) < 0:
+        raise ParameterError(f"--cpu must be a CPU number ≥ 0, got {min(args.cpus)}")
     return RealtimeConfig(priority=args.rt_priority or None,
                           cpus=frozenset(args.cpus) if args.cpus else None)

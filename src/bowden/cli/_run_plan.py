@@ -20,6 +20,7 @@ from bowden.errors import ParameterError
 from bowden.model import CompensationModel, Subject
 from bowden.model.anthropometry import arm_model
 from bowden.model.model_file import load_model
+from bowden.model.model_record import model_record
 from bowden.protocol.catalogue import PAPER, Catalogue
 from bowden.runtime import TrialInfo
 from bowden.runtime.loop import StepController
@@ -125,8 +126,12 @@ def wearer(args: argparse.Namespace) -> Subject:
         subject = Subject(height_m=args.height, mass_kg=args.mass, sex=args.sex)
         arm_model(subject, args.hand_load)
     except ParameterError as error:
-        flag = next((f for field, f in _WEARER_FLAGS.items() if str(error).startswith(field)), "wearer")
-        raise ParameterError(f"{flag}: {error}") from None
+        text = str(error)
+        field = next((name for name in _WEARER_FLAGS if text.startswith(name)), None)
+        if field is None:
+            raise ParameterError(f"wearer: {text}") from None
+        # "height_m must be ..." → "--height must be ...": the flag the user typed, not the field.
+        raise ParameterError(_WEARER_FLAGS[field] + text[len(field):]) from None
     return subject
 
 
@@ -246,11 +251,17 @@ def trial_setup_of(
 
 
 def trial_info(
-    args: argparse.Namespace, setup: TrialSetup, reference: TrialReference, compensation: str | None = None
+    args: argparse.Namespace,
+    setup: TrialSetup,
+    reference: TrialReference,
+    compensation: str | None = None,
+    model: CompensationModel | None = None,
 ) -> TrialInfo:
     """The trial's row in the store; its metadata follows the keys ``bowden serve`` writes.
 
-    ``compensation`` is the one the controller uses (None: no controller, the no-suit condition).
+    ``compensation`` is the one the controller uses (None: no controller, the no-suit condition);
+    ``model`` the compensation model (loaded from ``--model``): its SHA-256 and coefficients are
+    recorded (:mod:`bowden.model.model_record`), not only the file's name.
     """
     # The simulated arm follows the reference and --serve shows it; otherwise (the real suit, no
     # display) nobody follows it and the trial holds whatever number of cycles the wearer made.
@@ -262,6 +273,7 @@ def trial_info(
         "compensation": compensation,
         "bowden_version": __version__,
         "model": str(args.model) if args.model else "ideal (simulation)",
+        **(model_record(model, args.model) if model is not None else {}),
         **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},
     }
     if followed:

@@ -321,6 +321,25 @@ def _trial_sync(
     )
 
 
+def _trigger_report(uncertainties_s: dict[str, float]) -> list[str]:
+    """How long each trigger edge took to send (the edge lies within), and one warning line when that
+    exceeds the sync residual ``bowden emg import`` accepts."""
+    if not uncertainties_s:
+        return []
+    from bowden.analysis.emg.sync import RESIDUAL_TOLERANCE_S
+
+    edges = ", ".join(f"{edge} within {1e3 * spread:.3f} ms" for edge, spread in uncertainties_s.items())
+    lines = [f"sync: trigger edges sent: {edges}"]
+    worst = max(uncertainties_s.values())
+    if worst > RESIDUAL_TOLERANCE_S:
+        lines.append(
+            f"sync: warning: a trigger edge took {1e3 * worst:.0f} ms to send, beyond the "
+            f"{1e3 * RESIDUAL_TOLERANCE_S:g} ms residual bowden emg import accepts: the EMG aligns no better "
+            "than that; drive the line from a GPIO output (--trigger gpio:CHIP:LINE, microseconds) instead"
+        )
+    return lines
+
+
 def run(args: argparse.Namespace) -> int:
     # The conditions and speeds: the paper's, --define-condition/--define-speed and the store's own.
     catalogue: Catalogue = protocol_catalogue(
@@ -341,7 +360,12 @@ def run(args: argparse.Namespace) -> int:
     # Everything that can be wrong is found before any device is touched (on the real suit,
     # opening it enters motor mode): the limits, the reference, the model, the wearer, the
     # controller, and the store, which must open and take the participant.
+    if not (math.isfinite(args.rate) and 1.0 <= args.rate <= 2000.0):
+        raise ParameterError(f"--rate must be 1–2000 Hz, got {args.rate:g}")
+    if not (math.isfinite(args.duration) and args.duration > 0.0):
+        raise ParameterError(f"--duration must be a positive number of seconds, got {args.duration:g}")
     LoopConfig(rate_hz=args.rate, duration_s=args.duration, safety=safety_config(args))
+    realtime_config(args)
     reference = run_reference(args, catalogue)
     model = run_model(args)
     slack = slack_config(args, model.pulley_radius_m)
@@ -355,7 +379,7 @@ def run(args: argparse.Namespace) -> int:
         setup = trial_setup_of(args, participant, condition, support, reference, subject, catalogue)
     if args.record is not None:
         assert setup is not None  # a recorded trial has a condition (checked above)
-        trial = trial_info(args, setup, reference, getattr(controller, "compensation", None))
+        trial = trial_info(args, setup, reference, getattr(controller, "compensation", None), model)
         record_participant(args.record, participant, subject, args.hand_load)
     with ExitStack() as stack:
         server = stack.enter_context(_serving(args, model)) if args.serve else None
@@ -417,6 +441,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"real-time settings: {report.realtime}")
     if sync is not None and sync.error is not None:
         print(f"sync: the trigger failed ({sync.error}); this trial has no sync events")
+    elif sync is not None and sync.trigger is not None:
+        for line in _trigger_report(sync.edge_uncertainties_s):
+            print(line)
     if recorder is not None:
         gap_ms = 1e3 * recorder.stats.max_commit_gap_s
         print(

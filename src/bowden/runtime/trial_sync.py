@@ -74,6 +74,8 @@ class TrialSync:
         self._start: tuple[float, float] | None = None  # (host time, uncertainty) of the start edge
         self._queue: queue.SimpleQueue[tuple[str, float] | object] = queue.SimpleQueue()
         self.error: BaseException | None = None
+        # After finish: how long each edge's send took (the edge lies within), s; ``bowden run`` reports it.
+        self.edge_uncertainties_s: dict[str, float] = {}
         self._thread = threading.Thread(target=self._work, name="trial-sync", daemon=True)
         self._thread.start()
         if lsl is not None:
@@ -116,6 +118,7 @@ class TrialSync:
             self.lsl.marker(
                 marker_text(MARKER_TRIAL_END, trial=self.trial_id, time_s=end_host - zero), end_host
             )
+        self.edge_uncertainties_s = {"start": self._start[1], "end": end_spread}
         if self.on_event is not None:
             line = self.trigger.description if self.trigger is not None else None
             start_host, start_spread = self._start

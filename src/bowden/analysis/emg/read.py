@@ -164,7 +164,8 @@ def read_edf_source(
         columns.append(source.volts())
     if not columns:
         raise RecordingError(f"{file.name} has no signals to read")
-    emg = EmgSignal(values=np.column_stack(columns), rate_hz=next(iter(rates.values())), channels=tuple(names))
+    rate_hz = next(iter(rates.values()))
+    emg = EmgSignal(values=np.column_stack(columns), rate_hz=rate_hz, channels=tuple(names))
     return SourceRecording(signal=emg, sources=sources)
 
 
