@@ -88,11 +88,13 @@ def test_tracking_measures_equal_their_construction():
         "participant",
         "condition",
         "speed",
+        "trial_id",
         "repetition",
         "phase",
         "measure",
         "value",
     ]
+    assert set(out["trial_id"]) == {1}  # the trial's place in the study (no store ids given)
     assert sorted(out["repetition"].unique()) == list(range(2, 11))
     cycle = _cycle("V2")
 

@@ -109,6 +109,7 @@ def test_participants_questionnaires_outcomes_artifacts_and_export(tmp_path):
                 "participant": ["P01"],
                 "condition": ["no_suit"],
                 "speed": ["V1"],
+                "trial_id": pd.array([4], dtype="Int64"),
                 "repetition": [2],
                 "phase": ["entire"],
                 "measure": ["sparc"],

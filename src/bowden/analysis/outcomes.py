@@ -20,7 +20,7 @@ from __future__ import annotations
 import functools
 import multiprocessing
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass
 from typing import Any
@@ -51,6 +51,9 @@ from bowden.analysis.trial_outcomes import (
 from bowden.contracts import CONDITION_NO_SUIT, CONDITIONS, PHASES, SPEEDS
 from bowden.errors import ParameterError, RecordingError
 
+# The outcome table's column naming the trial of each row (the store's trial id, as in the samples).
+TRIAL_ID = "trial_id"
+
 # Names of the outcome table that callers import from here, as they did before the trial level
 # moved to its own module.
 __all__ = [
@@ -64,6 +67,7 @@ __all__ = [
     "SPARC",
     "TENSION_RMSE",
     "TORQUE_RMSE",
+    "TRIAL_ID",
     "AnalysisInfo",
     "AnalysisParameters",
     "StudyOutcomes",
@@ -140,14 +144,22 @@ def analyse_study(
     return combine_trial_outcomes(results, params)
 
 
-def combine_trial_outcomes(results: list[TrialOutcomes], params: AnalysisParameters) -> StudyOutcomes:
+def combine_trial_outcomes(
+    results: list[TrialOutcomes], params: AnalysisParameters, trial_ids: Sequence[int] | None = None
+) -> StudyOutcomes:
     """What needs the whole study, from every trial's :func:`analyse_trial` in study order.
 
     :func:`analyse_study` is this after its map; callers that analyse the trials on an engine of their
-    own (``bowden study``'s worker pool or Dask) call it with the gathered results.
+    own (``bowden study``'s worker pool or Dask) call it with the gathered results. The outcome table's
+    :data:`TRIAL_ID` column names the trial of each row: ``trial_ids`` (the store's ids, one per
+    result), else the trial's position in ``results`` from 1 — two trials of one participant,
+    condition and speed stay apart.
     """
     if not results:
         raise ParameterError("analyse_study needs at least one trial")
+    ids = list(range(1, len(results) + 1)) if trial_ids is None else [int(i) for i in trial_ids]
+    if len(ids) != len(results) or len(set(ids)) != len(ids):
+        raise ParameterError(f"trial_ids must give {len(results)} distinct ids, one per trial, got {ids}")
     sources: dict[str, int] = defaultdict(int)
     heart_rates: dict[str, list[float]] = defaultdict(list)
     for result in results:
@@ -157,9 +169,10 @@ def combine_trial_outcomes(results: list[TrialOutcomes], params: AnalysisParamet
     notes: list[str] = []
     references = _no_suit_references(results)
     rows = [row for result in results for row in result.rows]
+    row_trials = [trial_id for trial_id, result in zip(ids, results, strict=True) for _ in result.rows]
     curve_frames = []
     tau = normalised_time(params.segmentation.n_points)
-    for result in results:
+    for trial_id, result in zip(ids, results, strict=True):
         normalised = None
         if result.emg_curves is not None:
             key = (result.metadata.participant, result.metadata.speed)
@@ -171,9 +184,12 @@ def combine_trial_outcomes(results: list[TrialOutcomes], params: AnalysisParamet
             else:
                 scale = np.asarray([references[key][name] for name in result.emg_channels])
                 normalised = result.emg_curves / scale
-                rows.extend(_iemg_rows(result, normalised, tau))
+                iemg = _iemg_rows(result, normalised, tau)
+                rows.extend(iemg)
+                row_trials.extend([trial_id] * len(iemg))
         curve_frames.append(_mean_sd_curves(result, normalised, tau, params.curve_points))
     outcomes = pd.DataFrame.from_records(rows, columns=list(OUTCOME_COLUMNS))
+    outcomes.insert(OUTCOME_COLUMNS.index("speed") + 1, TRIAL_ID, np.asarray(row_trials, dtype=np.int64))
     info = AnalysisInfo(
         parameters=params,
         n_trials=len(results),

@@ -108,6 +108,11 @@ def _dynamic_to_dict(dynamic: DynamicCompensation) -> dict[str, Any]:
     return out
 
 
+def model_text(model: CompensationModel) -> str:
+    """The text of ``model``'s file, as :func:`save_model` writes it."""
+    return json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
+
+
 def save_model(model: CompensationModel, path: str | Path) -> None:
     """Write ``model`` to ``path`` atomically (a crash never leaves half a file).
 
@@ -120,7 +125,7 @@ def save_model(model: CompensationModel, path: str | Path) -> None:
         ``path`` is a directory, holds something else, or cannot be written (names path and reason).
     """
     path = Path(path)
-    text = json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
+    text = model_text(model)
     _refuse_replacing_other_files(path)
     try:
         write_text_atomically(path, text, durable=True)

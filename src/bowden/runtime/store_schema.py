@@ -57,7 +57,9 @@ STORE_FILE_NAME: Final = "study.db"
 # 4: samples and EMG in compressed chunks (sample_chunks, emg_chunks); samples and emg are legacy.
 # 5: emg_chunks.offset_v: imported EMG keeps its file's codes and scaling (volts = code × gain +
 #    offset_v); an older bowden would ignore the offset, so it must refuse such a store.
-SCHEMA_VERSION: Final = 5
+# 6: outcomes.trial_id: each outcome row names its trial (two trials of one participant, condition and
+#    speed stay apart); an older bowden's seven-value INSERT would fail on the table.
+SCHEMA_VERSION: Final = 6
 
 TRIALS_DDL: Final = """
 CREATE TABLE IF NOT EXISTS trials (
@@ -120,7 +122,7 @@ STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
     ),
     "emg": ("trial_id", "muscle", "rate_hz", "start_time_s", "gain", "data"),
     "questionnaires": ("participant", "condition", "questionnaire", "item", "score", "submitted_utc"),
-    "outcomes": ("participant", "condition", "speed", "repetition", "phase", "measure", "value"),
+    "outcomes": ("participant", "condition", "speed", "repetition", "phase", "measure", "value", "trial_id"),
     "artifacts": ("name", "content", "updated_utc"),
     "sessions": (
         "id", "participant", "protocol", "order_rule", "seed", "sequence", "condition_order", "created_utc",
@@ -137,6 +139,7 @@ LEGACY_TABLES: Final = frozenset({"samples", "emg"})
 ADDED_COLUMNS: Final[Mapping[str, frozenset[str]]] = {
     "participants": frozenset({"arm_side", "hand_load_kg", "age_years", "registered_utc"}),
     "emg_chunks": frozenset({"offset_v"}),  # schema 5 (bowden.study.emg_chunks.migrate_emg_chunks)
+    "outcomes": frozenset({"trial_id"}),  # schema 6 (bowden.study.store.migrate_outcomes)
 }
 
 

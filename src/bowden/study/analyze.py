@@ -67,6 +67,7 @@ from bowden.study.sessions import SessionFacts, left_open_notes, session_facts
 from bowden.study.statistics import FitJob, FitMapper, FitResult, StudyStatistics, study_statistics
 from bowden.study.store import StoredTrial, StudyStore
 from bowden.study.trial_analysis import LoadedTrialTask, StoredTrialTask, TrialJob, analyse_task
+from bowden.study.trial_list import trial_list
 
 _log = logging.getLogger(__name__)
 
@@ -206,6 +207,7 @@ def analyze_store(
                 identification_text=text,
                 timings=dict(timings or {}),
                 questionnaires=answers,
+                trials=trial_list(_trial_rows(store, kept)),
             )
             with progress.spinner("writing the report"):
                 document = build_report(inputs, figure_submit=engine.submit)  # drawn while it is built
@@ -305,7 +307,7 @@ def _combine(
     skipped: list[str],
 ) -> StudyOutcomes:
     try:
-        return combine_trial_outcomes(results, parameters)
+        return combine_trial_outcomes(results, parameters, list(kept))  # each row names its trial
     except ParameterError:
         if kept or not skipped:
             raise
@@ -340,6 +342,14 @@ def _identification_figure(pending: Pending[tuple[Any, dict[str, Any], str]] | N
         return None, ""
     selection, fits, text = pending.result()
     return plot_identification(selection, fits), text
+
+
+def _trial_rows(store: StudyStore, trial_ids: Iterable[int]) -> pd.DataFrame:
+    """The ``trials`` rows of ``trial_ids`` that the report's trial list reads."""
+    rows = store.read_sql(
+        "SELECT id, participant, condition, speed, stop_reason, metadata FROM trials ORDER BY id"
+    )
+    return rows[rows["id"].isin(list(trial_ids))]
 
 
 def _describe(trial: StoredTrial) -> str:

@@ -59,7 +59,8 @@ _TABLE_QUERIES: Final = {
     "ON t.id = e.trial_id ORDER BY e.trial_id, e.time_s",
     "questionnaires": "SELECT participant, condition, questionnaire, item, score, submitted_utc "
     "FROM questionnaires ORDER BY participant, condition, questionnaire, item",
-    "outcomes": "SELECT * FROM outcomes",
+    "outcomes": "SELECT participant, condition, speed, trial_id, repetition, phase, measure, value "
+    "FROM outcomes",
     "artifacts": "SELECT name, content, updated_utc FROM artifacts ORDER BY name",
 }
 EMG_TABLE: Final = "emg"

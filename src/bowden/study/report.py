@@ -66,6 +66,7 @@ class ReportInputs:
     identification_text: str = ""
     timings: dict[str, float] = field(default_factory=dict)
     questionnaires: pd.DataFrame = field(default_factory=pd.DataFrame)  # the long answers table
+    trials: pd.DataFrame = field(default_factory=pd.DataFrame)  # bowden.study.trial_list.trial_list
 
 
 def _tracking_table(outcomes: StudyOutcomes, measure: str) -> pd.DataFrame | None:
@@ -394,6 +395,15 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
                 "(Bonferroni post-hoc after a Friedman test with p < 0.05)",
                 dpi=80,
             )
+
+    if not inputs.trials.empty:
+        doc.heading("Trials")
+        doc.table(
+            inputs.trials,
+            "The trials analysed: how each stopped and the compensation it ran with (the model by the first "
+            "12 hex digits of its model.json's SHA-256; each trial's metadata holds the whole hash and the "
+            "coefficients)",
+        )
 
     doc.heading("Methods")
     doc.paragraph(inputs.methods.paragraph)

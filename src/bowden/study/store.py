@@ -86,7 +86,8 @@ CREATE TABLE IF NOT EXISTS outcomes (
     repetition INTEGER NOT NULL,
     phase TEXT NOT NULL,
     measure TEXT NOT NULL,
-    value REAL
+    value REAL,
+    trial_id INTEGER
 ) STRICT
 """,
     """
@@ -97,6 +98,21 @@ CREATE TABLE IF NOT EXISTS artifacts (
 ) STRICT
 """,
 )
+
+
+# The outcome table's columns as read and exported: the analysis's, with each row's trial after its
+# speed (stored last in the table: stores before schema 6 gained the column at the end).
+OUTCOME_TABLE_COLUMNS: Final = (
+    "participant", "condition", "speed", "trial_id", "repetition", "phase", "measure", "value",
+)
+
+
+def migrate_outcomes(connection: sqlite3.Connection) -> None:
+    """Give an outcome table of a store before schema 6 its ``trial_id`` column (inside the caller's
+    transaction; its rows keep NULL until the study is analysed again)."""
+    columns = {row[1] for row in connection.execute("PRAGMA table_info(outcomes)")}
+    if columns and "trial_id" not in columns:
+        connection.execute("ALTER TABLE outcomes ADD COLUMN trial_id INTEGER")
 
 
 def check_participant_id(participant: str) -> str:
@@ -172,6 +188,7 @@ class StudyStore:
             with self._db:
                 migrate_participants(self._db)  # older stores gain the registry's columns
                 migrate_questionnaires(self._db)  # and lose the paper-only CHECK on conditions
+                migrate_outcomes(self._db)  # and gain the trial of each outcome row
                 for ddl in (*_STUDY_DDL, *SESSION_DDL):
                     self._db.execute(ddl)
                 emg_chunks.migrate_emg_chunks(self._db)  # schema 4's EMG chunks gain offset_v
@@ -420,21 +437,25 @@ class StudyStore:
 
     # --- outcomes and artifacts ------------------------------------------------------------------
     def replace_outcomes(self, outcomes: pd.DataFrame) -> None:
-        columns = ("participant", "condition", "speed", "repetition", "phase", "measure", "value")
-        frame = outcomes.loc[:, list(columns)]
+        """Replace the outcome table by ``outcomes`` (its ``trial_id`` names each row's trial; a frame
+        without one stores NULL)."""
+        frame = outcomes.reindex(columns=list(OUTCOME_TABLE_COLUMNS))
         with self._db:
             self._db.execute("DELETE FROM outcomes")
             self._db.executemany(
-                "INSERT INTO outcomes VALUES (?, ?, ?, ?, ?, ?, ?)",
+                f"INSERT INTO outcomes ({', '.join(OUTCOME_TABLE_COLUMNS)}) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
                 (
-                    (p, c, s, int(r), ph, m, None if not math.isfinite(v) else float(v))
-                    for p, c, s, r, ph, m, v in frame.itertuples(index=False, name=None)
+                    (p, c, s, None if pd.isna(t) else int(t), int(r), ph, m,
+                     None if not math.isfinite(v) else float(v))
+                    for p, c, s, t, r, ph, m, v in frame.itertuples(index=False, name=None)
                 ),
             )
 
     def outcomes(self) -> pd.DataFrame:
-        frame = pd.read_sql_query("SELECT * FROM outcomes", self._db)
+        """The outcome table (``trial_id`` missing in rows an older bowden stored)."""
+        frame = pd.read_sql_query(f"SELECT {', '.join(OUTCOME_TABLE_COLUMNS)} FROM outcomes", self._db)
         frame["value"] = frame["value"].astype(np.float64)
+        frame["trial_id"] = frame["trial_id"].astype("Int64")
         return frame
 
     def put_artifact(self, name: str, content: str) -> None:

@@ -23,6 +23,7 @@ from bowden import __version__
 from bowden import contracts as c
 from bowden.engine.pool import Engine
 from bowden.model import CompensationModel
+from bowden.model.model_record import model_record
 from bowden.runtime.recorder import TrialInfo
 from bowden.sim.batch import ProtocolSettings, condition_order, session_trial, simulate_trial, trial_seed
 from bowden.sim.participants import VirtualParticipant
@@ -75,6 +76,11 @@ def simulate_task(task: TrialTask) -> TrialRecord:
             "seed": trial.seed,
             "repetitions": trial.repetitions,
             "movement_start_s": trial.movement_start_s,
+            # As bowden run records it: the controller's compensation (None without the suit) and the
+            # model's SHA-256 (that of the study's model.json, which save_model wrote) and coefficients.
+            "compensation": task.protocol.compensation if support is not None else None,
+            "model": "model.json",
+            **model_record(task.model),
         },
     )
     encoded = None
