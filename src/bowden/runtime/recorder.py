@@ -20,7 +20,10 @@ Failures reach the loop: :attr:`Recorder.failure` says why the recording cannot 
 failed (a full disk, a removed file), or the backlog passed ``max_backlog_rows`` (the disk cannot keep
 up). The loop reads it every cycle and, by default, stops safely. The queue's policy: rows are queued
 while the writer lives (the loop stops within a cycle of the backlog bound, so the queue stays
-bounded); once the writer has died, rows are counted as dropped instead of queued for nobody.
+bounded); once the writer has died, rows are counted as dropped instead of queued for nobody, and so
+are the rows it had not committed and those still queued (:attr:`RecorderStats.dropped_rows`). One
+row that cannot be stored (a NaN time, a state that is not a whole number) is not a failure: it is
+dropped alone, counted (:attr:`RecorderStats.rejected_rows`) and named in a ``rows_dropped`` event.
 :meth:`Recorder.close` then still closes the trial (end time, stop reason) over a fresh connection
 when the file lets it, and everything committed before the failure stays in the store.
 """
