@@ -4,6 +4,8 @@ The issue's size: 2 participants, 1 repetition per trial (which the analysis the
 dropped first repetition is the only one).
 """
 
+import hashlib
+import json
 import re
 
 import numpy as np
@@ -11,6 +13,7 @@ import pytest
 
 from bowden.cli import main
 from bowden.errors import ParameterError
+from bowden.study.ownership import FILES_MANIFEST, files_not_written_by_study
 from bowden.study.pipeline import StudySettings, run_study
 from bowden.study.store import StudyStore
 
@@ -74,6 +77,24 @@ def test_outcomes_are_finite_and_stored(study):
     # One repetition per trial, kept (there is no second to fall back on), in each phase.
     assert set(tension["repetition"]) == {1}
     assert len(tension) == 2 * 3 * 3 * 3  # participants × suit conditions × speeds × phases
+
+
+def test_each_trial_records_the_models_hash_and_the_study_lists_its_files(study):
+    """Issue 27: a trial is traceable to its model.json; the directory says which files are the study's."""
+    model_sha256 = hashlib.sha256(study.model.read_bytes()).hexdigest()
+    with StudyStore(study.store) as store:
+        trials = store.read_sql("SELECT condition, metadata FROM trials")
+    metadata = [json.loads(text) for text in trials["metadata"]]
+    assert {m["model_sha256"] for m in metadata} == {model_sha256}
+    assert all(m["model_coefficients"]["raising"]["slope_m"] > 0 for m in metadata)
+    compensation = {c: m["compensation"] for c, m in zip(trials["condition"], metadata, strict=True)}
+    suit = {"pretension": "paper", "support_25": "paper", "support_50": "paper"}
+    assert compensation == {"no_suit": None, **suit}
+    assert files_not_written_by_study(study.directory, ["bench.parquet", "model.json", "report.html"]) == []
+    listed = json.loads((study.directory / FILES_MANIFEST).read_text())["files"]
+    assert set(listed) == {"bench.parquet", "model.json", "report.html"}
+    text = study.report.read_text(encoding="utf-8")
+    assert f"{model_sha256[:12]} (model.json)" in text and "#1–#24" not in text  # no-suit trials apart
 
 
 def test_a_second_run_resumes_without_simulating_again(study):
