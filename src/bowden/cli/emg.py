@@ -3,8 +3,10 @@
 Each recording (EDF/BDF, XDF from LabRecorder, or CSV) is placed on the controller's clock from the
 trigger pulses that ``bowden run --trigger`` sent (``--trigger-channel``) or, in an XDF file, from
 bowden's LSL markers; offset and drift are fitted over all of them and the residuals reported. Every
-channel is checked, and each recording is written in one transaction or not at all. Importing a file
-again is a no-op; another file for a trial that has EMG is refused unless ``--replace``.
+channel is checked, and each recording is written in one transaction or not at all, keeping the file's
+own samples (EDF/BDF codes, XDF/CSV numbers). A CSV has a time_s column (s, evenly spaced) and one
+column per channel (--csv-volts-per-unit says its unit). Importing a file again is a no-op; another
+file for a trial that has EMG is refused unless ``--replace``.
 """
 
 from __future__ import annotations
