@@ -89,3 +89,35 @@ def test_parquet_is_written_once_the_protocol_is_complete(tmp_path):
         writer.finish()
     assert not writer.data_path.exists()
     assert len(pd.read_parquet(path)) == 50
+
+
+def test_a_resume_continues_after_the_device_log_of_the_stroke_under_way(tmp_path):
+    # Issue 26, item 9: the log of the stroke under way at a stop reaches past the last recorded
+    # stroke; a resume's times start after it, so the device log stays in time order.
+    path = tmp_path / "bench.csv"
+    with BenchRecordingWriter(path, PROTOCOL) as writer:
+        learned = {"points": [[[0.35, 1.0, -1.0, 0.35, 0.4]]]}
+        writer.write_stroke(*stroke(0, 0.0), strokes_done=1, learned=learned)
+        _, partial = stroke(1, 5.0)
+        writer.write_log(partial)  # positioning, hold and half a stroke, until 5.245 s
+    with BenchRecordingWriter(path, PROTOCOL, resume=True) as writer:
+        assert writer.resume_point.strokes_done == 1
+        assert writer.resume_point.last_time_s == pytest.approx(5.245)
+        assert writer.resume_point.learned == learned
+
+
+def test_a_recording_without_a_stroke_does_not_block_the_next_start(tmp_path):
+    # Issue 26, item 4: a run that stopped before its first stroke (a load the bench cannot hold)
+    # leaves a journal of 0 strokes; the next run starts without --resume, with its own protocol,
+    # and keeps the earlier device log.
+    path = tmp_path / "bench.csv"
+    with BenchRecordingWriter(path, {**PROTOCOL, "loads_nm": [12.0]}) as writer:
+        _, log = stroke(0, 0.0)
+        writer.write_log(log)
+    with BenchRecordingWriter(path, PROTOCOL) as writer:
+        assert writer.resume_point.strokes_done == 0
+        assert writer.resume_point.last_time_s == pytest.approx(0.245)
+        writer.write_stroke(*stroke(0, 1.245), strokes_done=1)
+    assert json.loads((tmp_path / "bench.csv.journal").read_text())["protocol"] == PROTOCOL
+    assert len(pd.read_csv(tmp_path / "bench.log.csv")) == 100
+    assert pd.read_csv(tmp_path / "bench.log.csv")["time_s"].is_monotonic_increasing

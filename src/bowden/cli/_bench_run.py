@@ -52,16 +52,38 @@ def bench_protocol(args: argparse.Namespace) -> BenchProtocol:
 def bench_config(args: argparse.Namespace) -> BenchRunConfig:
     """The run's configuration from the command line (validated: bad numbers are one line)."""
     protocol = bench_protocol(args)
+    _check_loads(protocol, args.mannequin_motor)
     slack = SlackTakeUp(pretension_n=args.pretension, pulley_radius_m=args.spool_radius)
     return BenchRunConfig(protocol=protocol, spool_radius_m=args.spool_radius, slack=slack,
                           safety=BenchSafety(max_tension_n=args.max_tension))
 
 
+def _check_loads(protocol: BenchProtocol, motor: str) -> None:
+    """Refuse, before anything moves, a load the mannequin's motor cannot apply: its MIT torque field
+    spans its peak torque (the AK80-9's 18 Nm: CubeMars AK80-9 KV100 specifications, peak torque
+    18 N·m; ``bowden.hardware.ak60_codec.MOTOR_LIMITS``), and a command beyond it is clipped."""
+    from bowden.hardware.ak60_codec import limits_for_motor
+
+    peak_nm = limits_for_motor(motor).torque_nm
+    over = [load for load in protocol.loads_nm if load > peak_nm]
+    if over:
+        raise ParameterError(f"--loads {' '.join(f'{load:g}' for load in over)} Nm: beyond the "
+                             f"{peak_nm:g} Nm peak torque of the mannequin's motor ({motor}, "
+                             "--mannequin-motor)")
+
+
 def _open(args: argparse.Namespace) -> AbstractContextManager[Backend]:
+    if args.mannequin_id == args.motor_id:
+        raise ParameterError(f"--mannequin-id {args.mannequin_id} is the TDU's id (--motor-id): "
+                             "each motor needs its own CAN id")
     if args.backend == "sim":
         from bowden.sim.backend import open_sim_bench
 
-        return open_sim_bench(announce=_say)
+        # The simulated bench is built as the real one (TDU id 1, an AK80-9 on id 2); the options
+        # name what the drivers expect, so a wrong id or model fails here as on the real bus.
+        return open_sim_bench(announce=_say, mannequin_id=args.mannequin_id,
+                              mannequin_motor=args.mannequin_motor,
+                              mannequin_direction=args.mannequin_direction)
     from bowden.cli._suit import CanSuitOptions, open_can_backend, require_hardware_extra
     from bowden.hardware.ak60 import AK60Config
     from bowden.hardware.ak60_codec import limits_for_motor
@@ -74,9 +96,6 @@ def _open(args: argparse.Namespace) -> AbstractContextManager[Backend]:
     limits = limits_for_motor(args.mannequin_motor)
     mannequin = AK60Config(motor_id=args.mannequin_id, limits=limits, direction=args.mannequin_direction,
                            torque_limit_nm=limits.torque_nm)
-    if mannequin.motor_id == options.motor_id:
-        raise ParameterError(f"--mannequin-id {args.mannequin_id} is the TDU's id (--motor-id): "
-                             "each motor needs its own CAN id")
     return open_can_backend(options, announce=_say, mannequin=mannequin)
 
 

@@ -5,18 +5,23 @@ quasi-constant velocity across the arm's range while the mannequin's own motor l
 constant torque; the load cell, the IMU on the mannequin's arm and both motors are recorded. Here:
 
 * the TDU tracks a trajectory in MIT mode (``kp``, ``kd`` of the protocol; the target advances at
-  the commanded velocity, with trapezoidal ramps at the protocol's acceleration), the mannequin
-  motor is commanded in torque (its load ramps when it changes);
-* a stroke ends by the IMU: the first visit of a range end (per load and direction) brakes on the
-  elevation-per-spool ratio measured so far, aiming short; later ones where the spool stood when the
-  arm came to rest there (docs/identification.md, "On your bench");
+  the commanded velocity by the clock, with trapezoidal ramps at the protocol's acceleration), the
+  mannequin motor is commanded in torque (its load ramps when it changes);
+* a stroke brakes where the spool stood when the arm last came to rest at its end under the same
+  load, arriving the same way (:mod:`bowden.runtime.bench_ends`, journalled for a resume); a slow
+  stroke to an end not visited yet brakes on the elevation-per-spool ratio measured so far, aiming
+  short; a faster one is preceded by a slow, unrecorded move to that end and back to learn it. A
+  stroke is recorded until the arm rests; one that rests short of its end is run again (three
+  attempts, then a fault that says so) (docs/identification.md, "On your bench");
 * every run starts by taking up the cable's slack (:mod:`bowden.runtime.slack`); before each stroke
-  the arm is brought to its start if it rests elsewhere (logged, not recorded);
+  the TDU servoes the arm to the stroke's start on the IMU and holds it there while the mannequin's
+  load ramps to the stroke's, until the arm rests there (logged, not recorded);
 * every cycle is watched, and any fault brings both motors to zero torque and out of motor mode
   within ``ramp_down_s`` plus a cycle: stale IMU, elevation out of the range with its margin, tension
   over the limit, a silent or failing motor, transmit failures, an IMU that does not follow the
-  spool, a mannequin that does not hold its load, a load cell that reads nothing while the TDU pulls,
-  a stroke that does not end in time.
+  spool, a mannequin that does not hold its load, a load cell that reads nothing while the TDU pulls
+  or while the arm rests on the cable under its load, an arm that cannot be held at a stroke's start
+  under its load, a stroke that does not end in time or does not reach its end.
 
 Strokes are written by :class:`~bowden.runtime.bench_recording.BenchRecordingWriter` as they complete,
 so a stop loses at most the stroke under way, and a resumed run skips what is on disk.
@@ -42,15 +47,27 @@ from bowden.runtime.bench_config import (
     BenchRunConfig,
     BenchSafety,
 )
+from bowden.runtime.bench_ends import LearnedEnds
 from bowden.runtime.bench_recording import LOG_COLUMNS, RECORDING_COLUMNS, BenchRecordingWriter
 from bowden.runtime.slack import take_up_slack
 
 _log = logging.getLogger(__name__)
 
 PHASE_HOLD, PHASE_STROKE, PHASE_POSITION, PHASE_TAKE_UP, PHASE_SETTLE = 0, 1, 2, 3, 4
-_SETTLE_S = 0.2  # after a stroke, before its end is measured (the arm comes to rest)
-_POSITION_ATTEMPTS = 4
 _FIRST_SAMPLE_WAIT_S = 0.5
+_STROKE_ATTEMPTS = 3  # a stroke that rests short of its end is run again, learning where it rested
+# The arm is at rest when its elevation speed (the IMU's gyroscope, averaged over _REST_AVERAGE_S)
+# stays below _REST_SPEED_RAD_S for _REST_WINDOW_S.
+_REST_SPEED_RAD_S = math.radians(3.0)
+_REST_AVERAGE_S = 0.05
+_REST_WINDOW_S = 0.1
+_STROKE_REST_LIMIT_S = 4.0  # how long a stroke's record waits for the arm to come to rest
+# Servoing the arm to a stroke's start: the spool's speed is this gain times the elevation error,
+# through the cuff's spool-per-elevation ratio (a first-order approach with a 0.25 s time constant,
+# slow against the cable and the arm); it stops within _SERVO_DEADBAND_RAD.
+_SERVO_GAIN_1_S = 4.0
+_SERVO_DEADBAND_RAD = math.radians(0.5)
+_SERVO_EXTRA_S = 4.0  # beyond the travel at the positioning speed and the load's ramp
 _TAKE_UP_LIFT_RAD = math.radians(3.0)
 _MIN_TRAVEL_FOR_RATIO_RAD = 0.3  # spool travel before the elevation/spool ratio is trusted for braking
 # Braking starts this much earlier than the stopping distance says: the IMU's sample age, a cycle,
@@ -58,6 +75,10 @@ _MIN_TRAVEL_FOR_RATIO_RAD = 0.3  # spool travel before the elevation/spool ratio
 # 4 rad/s without it).
 _BRAKE_LEAD_S = 0.05
 _HOST_STALL_S = 0.01  # a cycle this late is a stall of the host
+# The spool target advances by the clock, but by at most this much time per cycle: after a stall of
+# the host the motor held its last target, and a jump of the whole stall would jerk the cable.
+_MAX_ADVANCE_S = _HOST_STALL_S
+_TAKE_UP_STALL_S = 0.5  # a stalled spool pulling this long with a silent load cell: the load cell
 
 
 Progress = Callable[[BenchStroke, int], None]
@@ -96,10 +117,15 @@ class BenchRun:
         self._elevation_rad = math.nan
         self._stroke: BenchStroke | None = None
         self._phase = PHASE_HOLD
-        # (range end, load, direction of arrival) → (elevation, spool) with the arm at rest there: the
-        # cable's stretch and the sheath's friction differ with both.
-        self._ends: dict[tuple[float, float, float], tuple[float, float]] = {}
+        self._ends = LearnedEnds(config.geometry, config.spool_radius_m, writer.resume_point.learned)
         self._stall_end_s = -math.inf  # when the last host stall ended (clock time)
+        self._last_cycle_s = math.nan  # clock time of the last cycle (the target advances by the clock)
+        self._cycle_dt_s = self.period_s
+        self._arrival = 0.0  # the direction the spool last moved in (±1): the friction's branch
+        self._rest_speed_rad_s = math.inf  # the IMU's elevation speed, averaged
+        self._rest_since = math.nan
+        self.scouting_moves = 0  # slow moves to learn an end before a fast stroke
+        self._furthest_rad = math.nan  # the furthest elevation of the stroke under way
 
     # --- the run ---------------------------------------------------------------------------------
     def run(self) -> BenchReport:
@@ -110,19 +136,20 @@ class BenchRun:
         """
         done = self.writer.resume_point.strokes_done
         report = BenchReport(strokes_done=done, strokes_total=len(self.strokes))
-        self._time_offset_s = self.writer.resume_point.last_time_s + (1.0 if done else 0.0)
+        # Times continue a second after everything written before (the device log included).
+        last = self.writer.resume_point.last_time_s
+        self._time_offset_s = last + (1.0 if last > 0.0 else 0.0)
         self._enable()
         try:
             self._start_clock()
             self._take_up_slack()
             for stroke in self.strokes[done:]:
                 self._stroke = stroke
-                self._rows, self._log_rows = [], []
-                self._position_for(stroke)
-                self._hold(stroke)
-                self._run_stroke(stroke)
+                self._log_rows = []
+                self._run_covering(stroke)
                 try:
-                    self.writer.write_stroke(np.array(self._rows), np.array(self._log_rows), stroke.index + 1)
+                    self.writer.write_stroke(np.array(self._rows), np.array(self._log_rows), stroke.index + 1,
+                                             learned=self._ends.to_json())
                 except OutputFileError as error:  # a full disk: stop safely, the strokes before stay
                     raise BenchFault(f"recording failed: {error}") from None
                 report.strokes_done = stroke.index + 1
@@ -180,6 +207,8 @@ class BenchRun:
         now = clock.now()
         self._origin_s = now
         self._deadline = now
+        self._last_cycle_s = now
+        self._stall_end_s = now  # sample ages count from here at most: nothing was read before
 
     # --- phases ----------------------------------------------------------------------------------
     def _take_up_slack(self) -> None:
@@ -187,9 +216,10 @@ class BenchRun:
         slack = self.config.slack
 
         start_elevation = math.nan
+        stalled_since = math.nan
 
         def cycle(velocity_rad_s: float, kd: float) -> float:
-            nonlocal start_elevation
+            nonlocal start_elevation, stalled_since
             self._cycle_once(velocity_rad_s=velocity_rad_s, kp=0.0, kd=kd)
             if math.isnan(start_elevation):
                 start_elevation = self._elevation_rad
@@ -197,68 +227,131 @@ class BenchRun:
                 # The cable is taut and lifts the arm: near the top of the range a light load balances
                 # less than the pretension.
                 return math.inf
+            stalled_since = self._check_take_up_cell(velocity_rad_s, stalled_since)
             return self._tension_n
 
-        # The mannequin holds the arm against the cable as it tightens, with the next stroke's load if
-        # larger (a light load at the top of the range balances less than the pretension).
-        upcoming = self.strokes[self.writer.resume_point.strokes_done:]
-        self._set_load(max([self.config.take_up_load_nm] + [s.load_nm for s in upcoming[:1]]))
+        # The mannequin holds the arm lightly against the cable as it tightens: a heavy load would pull
+        # it to the bottom of its travel, where the cable's lever is too short to lift it again; the
+        # stroke's load ramps in later, with the arm held at the stroke's start.
+        self._set_load(self.config.take_up_load_nm)
         take_up_slack(slack, cycle, period_s=self.period_s, fail=BenchFault)
+        self._arrival = 1.0
         state = self._tdu_state
         self._target_rad = state.position_rad if state is not None else self._target_rad
         self._velocity_rad_s = 0.0
 
-    def _position_for(self, stroke: BenchStroke) -> None:
-        """Bring the arm to the start of ``stroke`` (logged, not recorded) if it is not there."""
-        p = self.config.protocol
-        start = p.low_rad if stroke.raising else p.high_rad
-        self._set_load(stroke.load_nm)
-        self._dwell(self.config.load_ramp_s, PHASE_POSITION)  # the new load settles first
-        tolerance = self.config.safety.range_margin_rad / 2.0
-        speed = self.config.position_speed_rad_s
-        for _ in range(_POSITION_ATTEMPTS):  # the arm may settle past the mark (sheath, stretch)
-            if abs(self._elevation_rad - start) <= tolerance:
-                return
-            direction = 1.0 if start > self._elevation_rad else -1.0
-            self._move(direction * speed, start, PHASE_POSITION)
-            self._dwell(_SETTLE_S, PHASE_POSITION)
-            speed /= 2.0
-        raise BenchFault(f"the arm could not be brought to {math.degrees(start):.0f}° for the next stroke "
-                         f"(it rests at {math.degrees(self._elevation_rad):.1f}°)")
-
-    def _hold(self, stroke: BenchStroke) -> None:
-        self._set_load(stroke.load_nm)
-        self._dwell(self.config.protocol.hold_s, PHASE_HOLD)
-
-    def _run_stroke(self, stroke: BenchStroke) -> None:
+    def _run_covering(self, stroke: BenchStroke) -> None:
+        """Run ``stroke`` until it covers the range (its rows in ``self._rows``), or fault saying so."""
         p = self.config.protocol
         end = p.high_rad if stroke.raising else p.low_rad
+        for _ in range(_STROKE_ATTEMPTS):
+            self._rows = []
+            self._position_for(stroke)
+            self._dwell(p.hold_s, PHASE_HOLD)
+            if self._run_stroke(stroke):
+                return
+        raise BenchFault(f"stroke {stroke.index + 1} ({stroke.spool_velocity_rad_s:+g} rad/s, load "
+                         f"{stroke.load_nm:g} Nm) came to rest at {math.degrees(self._elevation_rad):.1f}°, "
+                         f"short of {math.degrees(end):.0f}°, in {_STROKE_ATTEMPTS} attempts: the arm does "
+                         "not follow the spool at this speed and load")
+
+    def _position_for(self, stroke: BenchStroke) -> None:
+        """Hold the arm at the start of ``stroke`` while its load ramps in (logged, not recorded); a
+        fast stroke to an end not yet learned under this load is preceded by a slow move there."""
+        p = self.config.protocol
+        start, end = (p.low_rad, p.high_rad) if stroke.raising else (p.high_rad, p.low_rad)
+        direction = 1.0 if stroke.raising else -1.0
+        self._set_load(stroke.load_nm)
+        fast = abs(stroke.spool_velocity_rad_s) > self.config.position_speed_rad_s
+        if fast and self._ends.stop((end, stroke.load_nm, direction)) is None:
+            # The first stroke to this end under this load is too fast to brake on the ratio seen
+            # on the way (the arm lags the spool and catches up past the end): learn the end first.
+            self._servo_to(start)
+            self._servo_to(end)
+            self.scouting_moves += 1
+        self._servo_to(start)
+
+    def _servo_to(self, target_rad: float) -> None:
+        """Servo the spool on the IMU until the arm rests within half the range margin of
+        ``target_rad`` with the mannequin's load ramped in; the rest is learned if it is a range end."""
+        p, safety = self.config.protocol, self.config.safety
+        self._phase = PHASE_POSITION
+        tolerance = safety.range_margin_rad / 2.0
+        speed = self.config.position_speed_rad_s
+        travel_s = abs(target_rad - self._elevation_rad) * self._spool_per_elevation(target_rad) / speed
+        timeout_s = travel_s + self.config.load_ramp_s + _SERVO_EXTRA_S
+        started = self._deadline
+        self._rest_since = math.nan
+        while True:
+            error = target_rad - self._elevation_rad
+            wanted = 0.0
+            if abs(error) > _SERVO_DEADBAND_RAD:
+                wanted = _SERVO_GAIN_1_S * error * self._spool_per_elevation(self._elevation_rad)
+                wanted = min(max(wanted, -speed), speed)
+            step = p.spool_acceleration_rad_s2 * self._cycle_dt_s
+            self._velocity_rad_s += min(max(wanted - self._velocity_rad_s, -step), step)
+            self._cycle_once()
+            ramped = self.devices.clock.now() - self._load_ramp_start_s >= self.config.load_ramp_s
+            if ramped and abs(error) <= tolerance and self._at_rest() and self._velocity_rad_s == 0.0:
+                self._learn_rest()
+                return
+            if self._deadline - started > timeout_s:
+                raise BenchFault(
+                    f"the arm cannot be held at {math.degrees(target_rad):.0f}° under the load of "
+                    f"{self._load_to_nm:g} Nm (--loads): it is at {math.degrees(self._elevation_rad):.1f}° "
+                    f"after {timeout_s:.1f} s with {self._tension_n:.0f} N on the cable; a load the TDU "
+                    "cannot lift there is too heavy for this bench")
+
+    def _spool_per_elevation(self, elevation_rad: float) -> float:
+        """Spool radians per radian of elevation: the cable's lever over the pulley's (cuff geometry),
+        at least a tenth of the lever at 90° (near the bottom the lever vanishes)."""
+        geometry = self.config.geometry
+        lever = max(geometry.moment_arm_m(elevation_rad), 0.1 * geometry.moment_arm_m(math.pi / 2.0))
+        return lever / self.config.spool_radius_m
+
+    def _at_rest(self) -> bool:
+        """The arm has been still (the IMU's elevation speed) for ``_REST_WINDOW_S``."""
+        now = self.devices.clock.now()
+        if self._rest_speed_rad_s > _REST_SPEED_RAD_S:
+            self._rest_since = math.nan
+            return False
+        if math.isnan(self._rest_since):
+            self._rest_since = now
+        return now - self._rest_since >= _REST_WINDOW_S
+
+    def _learn_rest(self) -> None:
+        """Learn where the spool stands with the arm at rest here, if here is a range end."""
+        p = self.config.protocol
+        for end in (p.low_rad, p.high_rad):
+            if abs(self._elevation_rad - end) <= self.config.safety.range_margin_rad and self._arrival:
+                self._ends.learn((end, self._load_to_nm, self._arrival), self._elevation_rad,
+                                 self._target_rad)
+
+    def _run_stroke(self, stroke: BenchStroke) -> bool:
+        """The stroke, recorded until the arm rests; True if the arm reached its end (within half the
+        range margin) on the way."""
+        p = self.config.protocol
+        end = p.high_rad if stroke.raising else p.low_rad
+        direction = 1.0 if stroke.raising else -1.0
+        key = (end, stroke.load_nm, direction)
+        start_elevation = self._elevation_rad
+        self._furthest_rad = start_elevation
         self._move(stroke.spool_velocity_rad_s, end, PHASE_STROKE)
-        self._dwell(0.0, PHASE_HOLD)  # one cycle at rest ends the stroke's record
-        self._dwell(_SETTLE_S, PHASE_SETTLE)  # logged, not recorded: the next stroke's hold follows
-        self._remember_end(end, 1.0 if stroke.raising else -1.0)
-
-    def _remember_end(self, end_rad: float, direction: float) -> None:
-        """Where the spool stands with the arm at rest at ``end_rad``'s end of the range, reached by
-        a stroke in ``direction`` (the sheath's friction makes the cable's stretch depend on it)."""
-        if abs(self._elevation_rad - end_rad) <= self.config.safety.range_margin_rad:
-            self._ends[(end_rad, self._load_to_nm, direction)] = (self._elevation_rad, self._spool_position())
-
-    def _spool_stop(self, stop_rad: float, direction: float) -> float | None:
-        """The spool position that puts the arm at ``stop_rad``, from where it rested there after a
-        stroke in ``direction`` under this load (corrected by the elevation-per-spool ratio of the
-        range once both ends are known); None before."""
-        load = self._load_to_nm
-        end = self._ends.get((stop_rad, load, direction))
-        if end is None:
-            return None
-        elevation, spool = end
-        ends = [value for (_, end_load, _), value in self._ends.items() if end_load == load]
-        if len(ends) == 2:
-            (e1, q1), (e2, q2) = ends
-            if abs(q2 - q1) > _MIN_TRAVEL_FOR_RATIO_RAD and abs(e2 - e1) > 0.0:
-                spool += (stop_rad - elevation) * (q2 - q1) / (e2 - e1)
-        return spool
+        self._rest_since = math.nan
+        limit = self._deadline + _STROKE_REST_LIMIT_S
+        self._phase = PHASE_SETTLE
+        while True:  # recorded: the arm may still be on its way (a light load lowers it slowly)
+            self._cycle_once()
+            if self._at_rest() or self._deadline >= limit:
+                break
+        rest = self._elevation_rad
+        if direction * (rest - start_elevation) > 0.0:
+            # Where it rested is a point of the spool-to-elevation map of this end, load and
+            # direction (short of the end, too: the next stroke aims from it).
+            self._ends.learn(key, rest, self._target_rad)
+            self._ends.note_excursion(key, abs(stroke.spool_velocity_rad_s),
+                                      direction * (self._furthest_rad - rest))
+        return direction * (end - self._furthest_rad) <= self.config.safety.range_margin_rad / 2.0
 
     def _finish_load(self) -> None:
         self._set_load(0.0)
@@ -279,7 +372,6 @@ class BenchRun:
         self._phase = phase
         direction = 1.0 if velocity_rad_s > 0.0 else -1.0
         speed = abs(velocity_rad_s)
-        step = p.spool_acceleration_rad_s2 * self.period_s
         start_spool = self._spool_position()
         start_elevation = self._elevation_rad
         span = abs(stop_rad - start_elevation)
@@ -297,21 +389,23 @@ class BenchRun:
             if not braking:
                 v = abs(self._velocity_rad_s)
                 stopping_spool = v * v / (2.0 * p.spool_acceleration_rad_s2) + v * _BRAKE_LEAD_S
-                # (A positioning move goes by the elevation: it starts from wherever the arm rests.)
-                spool_stop = self._spool_stop(stop_rad, direction) if phase == PHASE_STROKE else None
+                spool_stop = self._ends.stop((stop_rad, self._load_to_nm, direction), speed,
+                                             allowed_rad=safety.range_margin_rad / 2.0)
                 if spool_stop is not None:
-                    # The spool position at which the arm rested at this end before (through the
-                    # taut cable): brake so that the spool itself stops there.
-                    braking = direction * (spool_stop - self._spool_position()) <= stopping_spool
+                    # The spool target at which the arm rested at this end before (through the taut
+                    # cable): brake so that the target, which decelerates exactly, stops there.
+                    braking = direction * (spool_stop - self._target_rad) <= (
+                        v * v / (2.0 * p.spool_acceleration_rad_s2) + v * self._cycle_dt_s)
                 else:
-                    # First visit of this end (or a positioning move): the elevation/spool ratio of
-                    # the move so far. A stroke aims half the range margin short, as the arm lags the
-                    # spool through the sheath and catches up when it stops (10° past the end
-                    # measured); a positioning move is slow and tries again if it misses.
+                    # First visit of this end by a slow stroke: the elevation/spool ratio of the move
+                    # so far. It aims half the range margin short, as the arm lags the spool through
+                    # the sheath and catches up when it stops (10° past the end measured); resting
+                    # short, it is run again from what it learned.
                     ratio = moved / travelled if abs(travelled) >= _MIN_TRAVEL_FOR_RATIO_RAD else 0.0
-                    short = safety.range_margin_rad / 2.0 if phase == PHASE_STROKE else 0.0
+                    short = safety.range_margin_rad / 2.0
                     remaining = direction * (stop_rad - self._elevation_rad) - short
                     braking = remaining <= abs(ratio) * stopping_spool
+            step = p.spool_acceleration_rad_s2 * self._cycle_dt_s  # by the clock, as the target
             if braking:
                 self._velocity_rad_s = direction * max(abs(self._velocity_rad_s) - step, 0.0)
                 if self._velocity_rad_s == 0.0:
@@ -336,10 +430,20 @@ class BenchRun:
             # replies missing across the stall are not the motors' fault.
             self._deadline = now
             self._stall_end_s = now
+        # The target advances with the time that passed, not with the cycles: a loop that falls
+        # behind (cycles late, no stall) would otherwise run the stroke slow.
+        self._cycle_dt_s = min(max(now - self._last_cycle_s, 0.0), _MAX_ADVANCE_S)
+        self._last_cycle_s = now
         self._sense(now)
+        if self._phase in (PHASE_STROKE, PHASE_SETTLE) and self._stroke is not None:
+            direction = 1.0 if self._stroke.raising else -1.0
+            self._furthest_rad = direction * max(direction * self._furthest_rad,
+                                                 direction * self._elevation_rad)
         p = self.config.protocol
         velocity = self._velocity_rad_s if velocity_rad_s is None else velocity_rad_s
-        self._target_rad += velocity * self.period_s
+        self._target_rad += velocity * self._cycle_dt_s
+        if abs(velocity) > 0.05:
+            self._arrival = 1.0 if velocity > 0.0 else -1.0
         self._load_command_nm = self._load_now(now)
         try:
             state = self.devices.mannequin.command_torque(self._load_command_nm)
@@ -373,6 +477,11 @@ class BenchRun:
         if not math.isfinite(sample.elevation_rad):
             raise BenchFault("IMU sent a non-finite elevation")
         self._elevation_rad = sample.elevation_rad
+        speed = abs(sample.elevation_velocity_rad_s)
+        if not math.isfinite(self._rest_speed_rad_s):
+            self._rest_speed_rad_s = speed
+        weight = min(self._cycle_dt_s / _REST_AVERAGE_S, 1.0)
+        self._rest_speed_rad_s += weight * (speed - self._rest_speed_rad_s)
         low, high = p.low_rad - safety.range_margin_rad, p.high_rad + safety.range_margin_rad
         if self._phase in (PHASE_TAKE_UP, PHASE_POSITION):
             low = -math.pi  # the arm may hang below the range until it is brought to a stroke's start
@@ -384,21 +493,60 @@ class BenchRun:
         if failure is not None:
             raise BenchFault(f"load cell lost: {failure}")
         reading = cell.read()
-        if reading is None or now - reading.time_s > 0.25:
-            raise BenchFault("load cell: no reading for 250 ms")
+        # Its age counts from the end of a host stall too, as the IMU's: the reader could not run.
+        cell_age = now - max(reading.time_s if reading is not None else -math.inf, self._stall_end_s)
+        if cell_age > safety.load_cell_max_age_s:
+            raise BenchFault(f"load cell: no reading for {1e3 * cell_age:.0f} ms "
+                             f"(limit {1e3 * safety.load_cell_max_age_s:.0f} ms)")
+        if reading is None:  # none yet, and the clock started less than the limit ago
+            return
         self._tension_n = reading.tension_n
         if reading.tension_n > safety.max_tension_n:
             raise BenchFault(f"tension {reading.tension_n:.0f} N over the limit "
                              f"({safety.max_tension_n:.0f} N)")
+        self._check_load_cell(now, reading.tension_n)
+
+    def _check_load_cell(self, now: float, tension_n: float) -> None:
+        """A load cell that reads (almost) nothing while the TDU pulls, or while the arm rests on the
+        cable under its load (at any load: the tension is then load / the cuff's lever)."""
+        safety = self.config.safety
         pull = self._pull_n()
-        if pull > safety.load_cell_check_pull_n and reading.tension_n < safety.load_cell_min_n:
-            if math.isnan(self._deaf_cell_since):
-                self._deaf_cell_since = now
-            elif now - self._deaf_cell_since > safety.load_cell_window_s:
-                raise BenchFault(f"the load cell reads {reading.tension_n:.1f} N while the TDU pulls about "
-                                 f"{pull:.0f} N: check its wiring and calibration")
+        implied = 0.0
+        settled = now - self._load_ramp_start_s >= self.config.load_ramp_s
+        if self._phase == PHASE_HOLD and settled and self._load_to_nm > 0.0:
+            lever = self.config.geometry.moment_arm_m(self._elevation_rad)
+            implied = self._load_to_nm / lever if lever > 0.0 else 0.0
+        if pull > safety.load_cell_check_pull_n and tension_n < safety.load_cell_min_n:
+            problem = f"while the TDU pulls about {pull:.0f} N"
+        elif tension_n < safety.load_cell_min_fraction * implied:
+            problem = (f"while the arm rests on the cable under {self._load_to_nm:g} Nm at "
+                       f"{math.degrees(self._elevation_rad):.0f}° (about {implied:.0f} N)")
         else:
             self._deaf_cell_since = math.nan
+            return
+        if math.isnan(self._deaf_cell_since):
+            self._deaf_cell_since = now
+        elif now - self._deaf_cell_since > safety.load_cell_window_s:
+            raise BenchFault(f"the load cell reads {tension_n:.1f} N {problem}: check its wiring and "
+                             "calibration")
+
+    def _check_take_up_cell(self, velocity_rad_s: float, stalled_since: float) -> float:
+        """During the take-up: a spool stalled against the taut cable, pulling more than the
+        pretension, while the load cell reads nothing, is the load cell's fault (not a loose cable).
+        Returns since when the spool is stalled so (NaN: it is not)."""
+        now = self.devices.clock.now()
+        spool_speed = abs(self._tdu_state.velocity_rad_s) if self._tdu_state is not None else math.inf
+        pull = self._pull_n()
+        if not (spool_speed < 0.2 * velocity_rad_s and pull > self.config.slack.pretension_n
+                and self._tension_n < self.config.safety.load_cell_min_n):
+            return math.nan
+        if math.isnan(stalled_since):
+            return now
+        if now - stalled_since > _TAKE_UP_STALL_S:
+            raise BenchFault(f"the load cell reads {self._tension_n:.1f} N while the TDU pulls about "
+                             f"{pull:.0f} N on the taut cable (the spool stalled): check its wiring and "
+                             "calibration")
+        return stalled_since
 
     def _check_motors(self, now: float) -> None:
         safety = self.config.safety
@@ -432,7 +580,8 @@ class BenchRun:
         tdu, man = self._tdu_state, self._mannequin_state
         trial = self._stroke.index if self._stroke is not None else -1
         nan = math.nan
-        if self._phase in (PHASE_HOLD, PHASE_STROKE) and self._stroke is not None and tdu is not None:
+        if self._phase in (PHASE_HOLD, PHASE_STROKE, PHASE_SETTLE) and self._stroke is not None \
+                and tdu is not None:
             self._rows.append((t, tdu.torque_nm, tdu.velocity_rad_s, self._tension_n, self._elevation_rad,
                                trial))
         self._log_rows.append((

@@ -12,6 +12,7 @@ from typing import Protocol
 
 from bowden.errors import BowdenError, ParameterError
 from bowden.hardware.protocols import Clock, ElevationSensor, MotorState, TensionSensor
+from bowden.model.geometry import CuffGeometry
 from bowden.protocol.bench import BenchProtocol
 from bowden.runtime.slack import SlackTakeUp
 
@@ -61,6 +62,13 @@ class BenchSafety:
     load_cell_check_pull_n, load_cell_min_n, load_cell_window_s
         While the TDU pulls more than ``load_cell_check_pull_n`` (its torque over the pulley radius),
         the load cell must read at least ``load_cell_min_n`` within the window.
+    load_cell_min_fraction
+        While the arm rests on the cable at a stroke's start, the load cell must read at least this
+        fraction of the tension the load implies (load over the cuff's lever there) within the window:
+        a dead load cell is found at any load, before the first stroke.
+    load_cell_max_age_s
+        The newest load-cell reading older than this stops the bench (counted, as the IMU's age, from
+        the end of a host stall at most).
     ramp_down_s
         Both torques ramp to zero over this long, then both motors leave motor mode.
     """
@@ -79,6 +87,8 @@ class BenchSafety:
     load_cell_check_pull_n: float = 20.0
     load_cell_min_n: float = 2.0
     load_cell_window_s: float = 0.2
+    load_cell_min_fraction: float = 0.3
+    load_cell_max_age_s: float = 0.25
     ramp_down_s: float = 0.03
 
     def __post_init__(self) -> None:
@@ -89,6 +99,8 @@ class BenchSafety:
             raise ParameterError(f"BenchSafety.ramp_down_s must be at most 0.1 s, got {self.ramp_down_s}")
         if self.load_hold_fraction >= 1.0:
             raise ParameterError("BenchSafety.load_hold_fraction must be below 1")
+        if self.load_cell_min_fraction >= 1.0:
+            raise ParameterError("BenchSafety.load_cell_min_fraction must be below 1")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -112,12 +124,17 @@ class BenchRunConfig:
     slack
         The slack take-up before the first stroke (:class:`~bowden.runtime.slack.SlackTakeUp`).
     take_up_load_nm
-        The mannequin's least load while the slack is taken up (it holds the arm down as the cable
-        tightens; the next stroke's load if that is larger).
+        The mannequin's load while the slack is taken up (it holds the arm lightly as the cable
+        tightens; a stroke's load ramps in later, with the arm held at the stroke's start).
     load_ramp_s
         A change of the mannequin's load is ramped over this long.
     position_speed_rad_s
-        Spool speed of the unrecorded move that brings the arm to the start of a stroke.
+        Largest spool speed of the unrecorded moves that bring the arm to a stroke's start (servoed
+        on the IMU); strokes faster than this to an end not yet learned under their load are
+        preceded by such a move to that end.
+    geometry
+        The cuff's geometry on the bench (the cable's lever about the shoulder): the spool's travel
+        per degree, and the tension a load implies with the arm at rest (the load-cell check).
     stroke_timeout_factor
         A stroke that takes longer than this times its expected duration (plus 2 s) is a fault.
     safety
@@ -132,6 +149,7 @@ class BenchRunConfig:
     load_ramp_s: float = 0.3
     position_speed_rad_s: float = 1.0
     stroke_timeout_factor: float = 3.0
+    geometry: CuffGeometry = field(default_factory=CuffGeometry)
     safety: BenchSafety = field(default_factory=BenchSafety)
 
     def __post_init__(self) -> None:

@@ -9,7 +9,13 @@ A stroke's rows are appended to both files only when the stroke is complete, the
 told the stroke is done and how long the files are. A crash or a safe stop at any moment therefore
 leaves complete strokes on disk; resuming truncates whatever a crash left after the last journalled
 stroke and goes on with the next stroke. The journal also keeps the protocol, so a resume with other
-numbers is refused rather than mixed into one recording.
+numbers is refused rather than mixed into one recording; what the run has learned about the bench
+(:mod:`bowden.runtime.bench_ends`), so a resume starts as informed as the run it continues; and the
+time of the last row of either file, so a resumed run's times continue after everything written
+(the device log holds the unrecorded moves and the stroke under way at a stop). A recording that
+holds no stroke yet (the bench stopped before its first) is continued by the next run, with or
+without ``--resume``, and with the protocol of that run: nothing of it blocks a new start, and its
+device log is kept.
 
 A ``.parquet`` recording is written as CSV while the run goes on (``<name>.parquet.partial.csv``:
 Parquet cannot be appended to) and converted once the protocol is complete.
@@ -22,7 +28,7 @@ import json
 import logging
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -46,10 +52,12 @@ _JOURNAL_VERSION = 1
 
 @dataclass(frozen=True)
 class ResumePoint:
-    """Where a recording stands: strokes complete, and the time (s) its last sample was taken at."""
+    """Where a recording stands: strokes complete, the time (s) of the last row written to either
+    file, and what the run learned about the bench (:meth:`bowden.runtime.bench_ends.LearnedEnds.to_json`)."""
 
     strokes_done: int
     last_time_s: float
+    learned: dict[str, Any] = field(default_factory=dict)
 
 
 class BenchRecordingWriter:
@@ -81,6 +89,8 @@ class BenchRecordingWriter:
         self.protocol = protocol
         self._data: TextIO | None = None
         self._log: TextIO | None = None
+        self._learned: dict[str, Any] = {}
+        self._last_log_time_s = 0.0
         self.resume_point = self._open(resume)
 
     # --- opening ---------------------------------------------------------------------------------
@@ -95,7 +105,10 @@ class BenchRecordingWriter:
                 raise OutputFileError(f"nothing to resume: {self.journal_path} does not exist")
             self._start_files()
             return ResumePoint(0, 0.0)
-        if not resume:
+        empty = not journal.get("complete") and journal["strokes_done"] == 0
+        if empty:
+            journal["protocol"] = self.protocol  # nothing recorded follows the earlier protocol
+        elif not resume:
             state = "complete" if journal.get("complete") else "unfinished"
             raise OutputFileError(f"{self.path} is an {state} bench recording: "
                                   + ("choose another file name" if journal.get("complete")
@@ -117,7 +130,11 @@ class BenchRecordingWriter:
                                      f"{journal['strokes_done']} strokes") from None
         self._data = self.data_path.open("a", encoding="utf-8", newline="")
         self._log = self.log_path.open("a", encoding="utf-8", newline="")
-        return ResumePoint(int(journal["strokes_done"]), float(journal["last_time_s"]))
+        learned = journal.get("learned", {})
+        self._learned = learned if isinstance(learned, dict) else {}
+        self._last_log_time_s = float(journal.get("last_log_time_s", journal["last_time_s"]))
+        last = max(float(journal["last_time_s"]), self._last_log_time_s)
+        return ResumePoint(int(journal["strokes_done"]), last, self._learned)
 
     def _read_journal(self) -> dict[str, Any] | None:
         try:
@@ -151,9 +168,10 @@ class BenchRecordingWriter:
 
     # --- writing ---------------------------------------------------------------------------------
     def write_stroke(self, rows: NDArray[np.float64], log_rows: NDArray[np.float64],
-                     strokes_done: int) -> None:
+                     strokes_done: int, learned: dict[str, Any] | None = None) -> None:
         """Append one complete stroke (``rows``: RECORDING_COLUMNS, ``log_rows``: LOG_COLUMNS) and
-        journal that ``strokes_done`` strokes are now on disk.
+        journal that ``strokes_done`` strokes are now on disk, with what the run has ``learned``
+        (JSON-serialisable; kept as it was if None).
 
         Raises
         ------
@@ -171,7 +189,14 @@ class BenchRecordingWriter:
             self._cut_back()
             raise OutputFileError(f"cannot write the bench recording {self.path}: "
                                   f"{error.strerror or error}") from None
+        if learned is not None:
+            self._learned = learned
+        self._note_log_time(log_rows)
         self._sync(strokes_done, float(rows[-1, 0]), complete=False)
+
+    def _note_log_time(self, log_rows: NDArray[np.float64]) -> None:
+        if log_rows.shape[0]:
+            self._last_log_time_s = max(self._last_log_time_s, float(log_rows[-1, 0]))
 
     def _cut_back(self) -> None:
         """After a failed write, cut both files back to their journalled length, so that the
@@ -201,6 +226,7 @@ class BenchRecordingWriter:
             self._cut_back()
             raise OutputFileError(f"cannot write the bench log {self.log_path}: "
                                   f"{error.strerror or error}") from None
+        self._note_log_time(log_rows)
         self._sync(int(journal["strokes_done"]), float(journal["last_time_s"]), complete=False)
 
     def finish(self) -> Path:
@@ -231,6 +257,7 @@ class BenchRecordingWriter:
                 "version": _JOURNAL_VERSION, "recording": self.path.name, "protocol": self.protocol,
                 "strokes_done": strokes_done, "last_time_s": last_time_s, "complete": complete,
                 "data_bytes": data.tell(), "log_bytes": log.tell(),
+                "last_log_time_s": self._last_log_time_s, "learned": self._learned,
             }
             write_text_atomically(self.journal_path, json.dumps(journal, indent=1) + "\n", durable=True)
         except OSError as error:

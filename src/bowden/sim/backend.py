@@ -110,12 +110,17 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
 
 
 @contextmanager
-def open_sim_bench(*, calibration_s: float = 0.3,
-                   announce: Callable[[str], None] | None = None) -> Iterator[Backend]:
+def open_sim_bench(*, calibration_s: float = 0.3, announce: Callable[[str], None] | None = None,
+                   mannequin_id: int = 2, mannequin_motor: str = "AK80-9",
+                   mannequin_direction: int = 1) -> Iterator[Backend]:
     """The simulated mannequin bench in its own process, behind its wire peers: the TDU (AK60-6, CAN
     id 1) and the mannequin's motor (AK80-9, id 2) on one CAN bus, the NGIMU on the mannequin's arm,
     the ADS1115 load cell; driven by the real drivers of this process (``Backend.mannequin`` is the
-    second motor). Everything is closed on exit; the drivers leave motor mode first."""
+    second motor). Everything is closed on exit; the drivers leave motor mode first.
+
+    ``mannequin_id``, ``mannequin_motor`` and ``mannequin_direction`` configure the mannequin's
+    *driver* (``bowden bench run``'s options), not the simulated motor: a driver set up for another
+    id hears no reply, as on the real bus."""
     import can
 
     from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
@@ -140,14 +145,16 @@ def open_sim_bench(*, calibration_s: float = 0.3,
         imu.calibrate_arm_down(calibration_s)
         suit.hold_arm_down(False)
         suit.start_plant()
-        mannequin_config = AK60Config(motor_id=MANNEQUIN_MOTOR_ID, limits=limits_for_motor("AK80-9"),
-                                      torque_limit_nm=limits_for_motor("AK80-9").torque_nm)
+        limits = limits_for_motor(mannequin_motor)
+        mannequin_config = AK60Config(motor_id=mannequin_id, limits=limits, direction=mannequin_direction,
+                                      torque_limit_nm=limits.torque_nm)
         yield Backend(
             motor=stack.enter_context(AK60Motor(tdu_bus, AK60Config())),
             mannequin=stack.enter_context(AK60Motor(mannequin_bus, mannequin_config)),
             imu=imu, clock=MonotonicClock(), load_cell=load_cell,
             describe=f"simulated mannequin bench in its own process (pid {suit.pid}): TDU id 1 and "
-                     f"mannequin id {MANNEQUIN_MOTOR_ID} over bowden_loopback, OSC on "
+                     f"mannequin id {MANNEQUIN_MOTOR_ID} (driven as id {mannequin_id}) over bowden_loopback, "
+                     f"OSC on "
                      f"{imu.address[0]}:{imu.address[1]}, I²C over a local socket",
             inject=suit.inject, simulation=suit,
         )
