@@ -133,8 +133,8 @@ def test_serve_flags_make_the_protocol_and_name_the_flag(
     for flags, text in ((["--define-speed", "V 4=240"], "--define-speed: speed name 'V 4' is not allowed"),
                         (["--define-speed", "V1=90"], "speed V1 is the paper's (60 °/s)"),
                         (["--define-speed", "V4=900"], "the peak must be 10–400 °/s"),
-                        (["--conditions", "support_70"], "--conditions: StudyProtocol.conditions: unknown"),
-                        (["--speeds", "V4"], "--speeds: StudyProtocol.speeds must be distinct speeds")):
+                        (["--conditions", "support_70"], "--conditions: unknown condition(s) support_70"),
+                        (["--speeds", "V4"], "--speeds must be distinct speeds")):
         code = main(["serve", "--store", str(tmp_path / "study.db"), "--port", "0", *flags])
         assert code == 1
         assert text in capsys.readouterr().err

@@ -12,12 +12,20 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Final
 
-from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
+from bowden.cli._flag_errors import flag_errors, positive_ms
+from bowden.cli._loop_options import (
+    MAX_RT_PRIORITY,
+    add_safety_arguments,
+    realtime_config,
+    safety_config,
+    slack_config,
+)
 from bowden.cli._protocol_options import add_protocol_arguments
 from bowden.cli._suit import (
     CanSuitOptions,
@@ -29,7 +37,7 @@ from bowden.contracts import BACKEND_CAN, REPETITIONS_PER_TRIAL, SPEEDS
 from bowden.errors import ParameterError
 from bowden.model.model_file import load_model
 from bowden.protocol.catalogue import catalogue_of
-from bowden.protocol.session_plan import ORDERS, PAPER_BREAK_S, StudyProtocol
+from bowden.protocol.session_plan import MAX_BREAK_S, ORDERS, PAPER_BREAK_S, StudyProtocol
 from bowden.runtime.store_schema import STORE_FILE_NAME
 
 if TYPE_CHECKING:
@@ -113,14 +121,67 @@ def can_backend(options: CanSuitOptions) -> SuitBackend:
     return ContextBackend(BACKEND_CAN, open_suit)
 
 
+# The names the runtime's refusals use for what serve takes from a flag in the same unit (the flags
+# in ms and minutes are checked before they are converted: _checked_units).
+_FLAGS: Final = {
+    "ServeConfig.port": "--port",
+    "ServeConfig.host": "--host",
+    "LoopConfig.rate_hz": "--rate-hz",
+    "time_scale": "--time-scale",
+    "SlackTakeUp.timeout_s": "--slack-timeout",
+    "StudyProtocol.conditions": "--conditions",
+    "StudyProtocol.speeds": "--speeds",
+    "StudyProtocol.repetitions": "--repetitions",
+    "StudyProtocol.lead_in_s": "--lead-in",
+    "StudyProtocol.order": "--order",
+    "CanSuitOptions.channel": "--channel",
+    "CanSuitOptions.interface": "--interface",
+    "CanSuitOptions.motor_id": "--motor-id",
+    "CanSuitOptions.direction": "--direction",
+    "CanSuitOptions.imu_port": "--imu-port",
+    "CanSuitOptions.calibration_s": "--calibration-s",
+    "CanSuitOptions.i2c_bus": "--i2c-bus",
+    "CanSuitOptions.load_cell_gain_n_per_v": "--load-cell-gain",
+}
+
+
 def serve_config(args: argparse.Namespace) -> ServeConfig:
     """What ``bowden serve`` runs, from its arguments; checked before anything is opened.
 
     Raises
     ------
     BowdenError
-        If the web (or, for ``--backend can``, the hardware) extra is missing, or an option is wrong.
+        If the web (or, for ``--backend can``, the hardware) extra is missing, or an option is wrong
+        (one line naming the flag).
     """
+    _checked_units(args)
+    with flag_errors(_FLAGS):
+        return _serve_config(args)
+
+
+def _checked_units(args: argparse.Namespace) -> None:
+    """The flags whose fields have another unit or meaning, checked as the user typed them."""
+    for flag in ("--imu-max-age-ms", "--motor-silence-ms", "--host-stall-ms"):
+        positive_ms(getattr(args, flag[2:].replace("-", "_")), flag)
+    max_break_min = MAX_BREAK_S / 60.0
+    if not (math.isfinite(args.break_min) and 0.0 <= args.break_min <= max_break_min):
+        raise ParameterError(f"--break-min must be 0–{max_break_min:g} min, got {args.break_min:g}")
+    if not 0 <= args.rt_priority <= MAX_RT_PRIORITY:
+        raise ParameterError(f"--rt-priority must be 1–{MAX_RT_PRIORITY} (0 leaves the scheduling alone), "
+                             f"got {args.rt_priority}")
+    for cpu in args.cpus or ():
+        if cpu < 0:
+            raise ParameterError(f"--cpu must be a CPU number ≥ 0, got {cpu}")
+    if args.friction_k is not None:
+        from bowden.model import CompensationModel
+
+        try:
+            CompensationModel.from_friction(k=args.friction_k)
+        except ParameterError as error:
+            raise ParameterError(f"--friction-k: {error}") from None
+
+
+def _serve_config(args: argparse.Namespace) -> ServeConfig:
     try:
         from bowden.web.server import ServeConfig
         from bowden.web.suits import SimulatedBackend
@@ -168,15 +229,10 @@ def session_protocol(args: argparse.Namespace) -> StudyProtocol:
     speeds = tuple(s.strip() for s in args.speeds.split(",") if s.strip())
     conditions = tuple(c.strip() for c in args.conditions.split(",") if c.strip())
     catalogue = catalogue_of(args.define_condition, args.define_speed)
-    try:
+    with flag_errors(_FLAGS):
         return StudyProtocol(conditions=conditions, speeds=speeds, repetitions=args.repetitions,
                              lead_in_s=args.lead_in, break_s=60.0 * args.break_min, order=args.order,
                              catalogue=catalogue)
-    except ParameterError as error:
-        flags = {"conditions": "--conditions", "speeds": "--speeds", "repetitions": "--repetitions",
-                 "lead_in_s": "--lead-in", "break_s": "--break-min"}
-        flag = next((f for name, f in flags.items() if f"StudyProtocol.{name}" in str(error)), "--speeds")
-        raise ParameterError(f"{flag}: {error}") from None
 
 
 def run(args: argparse.Namespace) -> int:

@@ -31,6 +31,7 @@ from bowden.protocol.catalogue import PAPER, Catalogue
 Order = Literal["random", "latin_square"]
 ORDERS: Final = ("random", "latin_square")
 PAPER_BREAK_S: Final = 300.0  # the 5-minute break with the questionnaires after each condition
+MAX_BREAK_S: Final = 3600.0  # a longer break is a new session
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -93,8 +94,8 @@ class StudyProtocol:
             raise ParameterError(f"StudyProtocol.repetitions must be 1-30, got {self.repetitions!r}")
         if not (math.isfinite(self.lead_in_s) and 0.0 <= self.lead_in_s <= 10.0):
             raise ParameterError(f"StudyProtocol.lead_in_s must be 0-10 s, got {self.lead_in_s!r}")
-        if not (math.isfinite(self.break_s) and 0.0 <= self.break_s <= 3600.0):
-            raise ParameterError(f"StudyProtocol.break_s must be 0-3600 s, got {self.break_s!r}")
+        if not (math.isfinite(self.break_s) and 0.0 <= self.break_s <= MAX_BREAK_S):
+            raise ParameterError(f"StudyProtocol.break_s must be 0-{MAX_BREAK_S:g} s, got {self.break_s!r}")
         if self.order not in ORDERS:
             raise ParameterError(f"StudyProtocol.order must be one of {ORDERS}, got {self.order!r}")
 

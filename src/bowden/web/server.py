@@ -144,7 +144,10 @@ def bind(host: str, port: int) -> socket.socket:
         sock.listen(64)
     except OSError as error:
         sock.close()
-        raise BowdenError(f"cannot listen on {host}:{port}: {error.strerror or error}") from None
+        raise BowdenError(
+            f"cannot listen on {host}:{port}: {error.strerror or error} (choose another --port or --host; "
+            "--port 0 picks a free port)"
+        ) from None
     sock.setblocking(False)
     return sock
 
