@@ -2,13 +2,12 @@
 
 The runtime's classes check their fields and name them (``LoopConfig.rate_hz``, ``ServeConfig.port``);
 a command that fills them from flags must say which flag was wrong. :func:`flag_errors` rewrites such a
-refusal to name the flag (for fields in the flag's own unit); :func:`positive_ms` checks a flag given in
-ms before it becomes a field in s, so the message shows the number the user typed.
+refusal to name the flag, for fields in the flag's own unit (a flag in another unit, ms for a field in
+s, is checked before it is converted, so the message shows the number the user typed).
 """
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -37,9 +36,3 @@ def flag_errors(flags: Mapping[str, str]) -> Iterator[None]:
                 raise ParameterError(re.sub(pattern, flag, text, count=1)) from None
         raise
 
-
-def positive_ms(value: float, flag: str) -> float:
-    """``value`` (ms) in s, once it is a positive finite number (else one line naming ``flag``)."""
-    if not (math.isfinite(value) and value > 0.0):
-        raise ParameterError(f"{flag} must be a positive number of ms, got {value:g}")
-    return value / 1e3

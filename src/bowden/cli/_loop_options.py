@@ -18,7 +18,6 @@ from bowden.runtime.safety import FAULT_POLICIES
 from bowden.runtime.slack import SlackTakeUp
 
 DEFAULT_RT_PRIORITY = 50
-MAX_RT_PRIORITY = 99  # SCHED_FIFO's highest on Linux; RealtimeConfig's limit
 
 
 def add_safety_arguments(parser: argparse.ArgumentParser) -> None:

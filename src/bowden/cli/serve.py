@@ -18,14 +18,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Final
 
-from bowden.cli._flag_errors import flag_errors, positive_ms
-from bowden.cli._loop_options import (
-    MAX_RT_PRIORITY,
-    add_safety_arguments,
-    realtime_config,
-    safety_config,
-    slack_config,
-)
+from bowden.cli._flag_errors import flag_errors
+from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
 from bowden.cli._protocol_options import add_protocol_arguments
 from bowden.cli._suit import (
     CanSuitOptions,
@@ -122,7 +116,7 @@ def can_backend(options: CanSuitOptions) -> SuitBackend:
 
 
 # The names the runtime's refusals use for what serve takes from a flag in the same unit (the flags
-# in ms and minutes are checked before they are converted: _checked_units).
+# in ms and minutes are checked before they are converted: _checked_units, safety_config).
 _FLAGS: Final = {
     "ServeConfig.port": "--port",
     "ServeConfig.host": "--host",
@@ -160,18 +154,15 @@ def serve_config(args: argparse.Namespace) -> ServeConfig:
 
 
 def _checked_units(args: argparse.Namespace) -> None:
-    """The flags whose fields have another unit or meaning, checked as the user typed them."""
-    for flag in ("--imu-max-age-ms", "--motor-silence-ms", "--host-stall-ms"):
-        positive_ms(getattr(args, flag[2:].replace("-", "_")), flag)
+    """The flags whose fields have another unit or meaning, checked as the user typed them.
+
+    (The watchdogs' ms flags and the real-time flags are checked so by ``_loop_options``; the
+    real-time ones here too, although only the real suit's trials use them.)
+    """
     max_break_min = MAX_BREAK_S / 60.0
     if not (math.isfinite(args.break_min) and 0.0 <= args.break_min <= max_break_min):
         raise ParameterError(f"--break-min must be 0–{max_break_min:g} min, got {args.break_min:g}")
-    if not 0 <= args.rt_priority <= MAX_RT_PRIORITY:
-        raise ParameterError(f"--rt-priority must be 1–{MAX_RT_PRIORITY} (0 leaves the scheduling alone), "
-                             f"got {args.rt_priority}")
-    for cpu in args.cpus or ():
-        if cpu < 0:
-            raise ParameterError(f"--cpu must be a CPU number ≥ 0, got {cpu}")
+    realtime_config(args)
     if args.friction_k is not None:
         from bowden.model import CompensationModel
 
