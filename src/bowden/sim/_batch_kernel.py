@@ -1,7 +1,7 @@
 """Compiled loop of one study trial: IMU → the controller → motor → plant ← participant.
 
 The controller arithmetic of :meth:`bowden.control.Controller.step` — the paper's compensation and
-the dynamic one (:mod:`bowden.control.dynamic_step`) — is restated here on a parameter vector so that
+the dynamic one (:mod:`bowden.control.step`) — is restated here on a parameter vector so that
 a whole trial runs as one compiled loop; ``tests/sim/test_batch.py`` and
 ``tests/control/test_dynamic_step.py`` check that both agree to 1e-12 on the same inputs. Keep them in
 step: any change there is a change here.
