@@ -48,14 +48,14 @@ from bowden.cli._suit import (
     open_sim_backend,
     require_hardware_extra,
 )
+from bowden.cli._sync_options import add_sync_arguments, open_sync_outputs
+from bowden.cli._sync_options import trigger_report as _trigger_report
 from bowden.contracts import CONDITIONS, SPEEDS
 from bowden.errors import BowdenError, ParameterError, StoreError
-from bowden.hardware.trigger import open_trigger
 from bowden.model import CompensationModel
 from bowden.protocol.catalogue import Catalogue
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row
 from bowden.runtime.loop import StepController
-from bowden.runtime.lsl_outlets import LslOutlets
 from bowden.runtime.signals import stop_on_signals
 from bowden.runtime.slack import SlackTakeUp
 from bowden.runtime.trial_sync import TrialSync
@@ -137,27 +137,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     web.add_argument(
         "--port", type=int, default=8765, help="with --serve: port (default 8765; 0 picks a free one)"
     )
-    sync = parser.add_argument_group("synchronisation with an EMG amplifier (see bowden emg import)")
-    sync.add_argument(
-        "--lsl",
-        action="store_true",
-        help="publish Lab Streaming Layer streams while the trial runs: bowden's markers and the loop's "
-        "signals (needs the lsl extra)",
-    )
-    sync.add_argument(
-        "--lsl-wait",
-        type=float,
-        default=0.0,
-        metavar="S",
-        help="with --lsl: wait up to S seconds for a recorder (LabRecorder) to connect before the trial",
-    )
-    sync.add_argument(
-        "--trigger",
-        metavar="SPEC",
-        help="raise a digital line at the trial's start, lower it at its end: gpio:CHIP:LINE (e.g. "
-        "gpio:/dev/gpiochip1:28, BeagleBone P9_12; needs the gpio extra) or 'command:PROGRAM ARGS' "
-        "with {level} for 1/0",
-    )
+    add_sync_arguments(parser, trials="the trial")
     add_safety_arguments(parser)
     add_can_arguments(parser)
     parser.set_defaults(handler=run)
@@ -292,52 +272,21 @@ def _trial_sync(
     condition: str | None,
 ) -> TrialSync | None:
     """The trial's trigger line and LSL outlets (``--trigger``, ``--lsl``); None when neither is asked."""
-    if not args.lsl and args.trigger is None:
+    outputs = open_sync_outputs(args, stack, rate_hz=args.rate, say=_say)
+    if outputs is None:
         return None
-    trigger = open_trigger(args.trigger) if args.trigger is not None else None
-    if trigger is not None:
-        stack.callback(trigger.close)
-    lsl = None
-    if args.lsl:
-        lsl = LslOutlets(rate_hz=args.rate)
-        stack.callback(lsl.close)
-        _say(f"LSL: publishing {lsl.marker_source_id} and {lsl.loop_source_id}")
-        if args.lsl_wait > 0.0 and not lsl.wait_for_consumers(args.lsl_wait):
-            _say(f"LSL: no recorder connected within {args.lsl_wait:g} s; starting anyway")
-    onsets = [reference.start_s + k * reference.cycle.period_s for k in range(reference.repetitions)]
     session = {
         "participant": participant,
         "condition": condition,
         "speed": args.speed,
         "store": args.record.name if args.record is not None else None,
     }
-    return TrialSync(
+    return outputs.trial(
         trial_id=recorder.trial_id if recorder is not None else None,
-        trigger=trigger,
-        lsl=lsl,
         on_event=recorder.event if recorder is not None else None,
-        repetition_onsets_s=onsets,
+        reference=reference,
         session=session,
     )
-
-
-def _trigger_report(uncertainties_s: dict[str, float]) -> list[str]:
-    """How long each trigger edge took to send (the edge lies within), and one warning line when that
-    exceeds the sync residual ``bowden emg import`` accepts."""
-    if not uncertainties_s:
-        return []
-    from bowden.analysis.emg.sync import RESIDUAL_TOLERANCE_S
-
-    edges = ", ".join(f"{edge} within {1e3 * spread:.3f} ms" for edge, spread in uncertainties_s.items())
-    lines = [f"sync: trigger edges sent: {edges}"]
-    worst = max(uncertainties_s.values())
-    if worst > RESIDUAL_TOLERANCE_S:
-        lines.append(
-            f"sync: warning: a trigger edge took {1e3 * worst:.0f} ms to send, beyond the "
-            f"{1e3 * RESIDUAL_TOLERANCE_S:g} ms residual bowden emg import accepts: the EMG aligns no better "
-            "than that; drive the line from a GPIO output (--trigger gpio:CHIP:LINE, microseconds) instead"
-        )
-    return lines
 
 
 def run(args: argparse.Namespace) -> int:
