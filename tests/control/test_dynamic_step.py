@@ -14,8 +14,9 @@ from bowden.control import ControllerLimits, Fault, build_controller
 from bowden.errors import ParameterError
 from bowden.model import CompensationLine, CompensationModel, Subject
 from bowden.model.dynamic import DynamicCompensation
-from bowden.model.elevation_estimator import ElevationEstimator, estimator_gains
+from bowden.model.elevation_estimator import estimator_gains
 from bowden.sim import _batch_kernel as bk
+from bowden.sim import _controller_kernel as ck
 
 SUBJECT = Subject(height_m=1.75, mass_kg=70.0, sex="male")
 DYNAMIC = DynamicCompensation(
@@ -72,8 +73,8 @@ def test_compiled_dynamic_step_equals_the_closure(support: float | str) -> None:
     limits = ControllerLimits(max_torque_nm=3.0, max_torque_rate_nm_s=80.0)
     controller = build_controller(model=MODEL, support=support, subject=SUBJECT, limits=limits)  # type: ignore[arg-type]
     vector = bk.controller_vector(controller)
-    assert vector[bk.C_MODE] == bk.MODE_DYNAMIC
-    state = bk.controller_state()
+    assert vector[ck.C_DYNAMIC] == 1.0
+    state = bk.controller_state(controller)
     out = np.zeros(5)
     rng = np.random.default_rng(5)
     for i, (elevation, velocity) in enumerate(movement(4000, 8)):
@@ -94,17 +95,41 @@ def test_compiled_dynamic_step_equals_the_closure(support: float | str) -> None:
         assert int(out[4]) == int(expected.limits)
 
 
-def test_estimator_class_and_step_predict_the_same_elevation() -> None:
+class MatrixKalman:
+    """The estimator in matrix form (x ← F·x; x ← x + K·(z − H·x)), written apart from the step: its
+    white-jerk model (θ, θ̇, θ̈, gyro bias), gain and prediction across the latency, with numpy."""
+
+    def __init__(self, period_s: float, latency_s: float) -> None:
+        self.f = np.eye(4)
+        self.f[0, 1], self.f[0, 2], self.f[1, 2] = period_s, 0.5 * period_s**2, period_s
+        self.h = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 1.0]])
+        self.k = np.array(estimator_gains(period_s, latency_s).gain)
+        self.latency_s = latency_s
+        self.x: np.ndarray | None = None
+
+    def update(self, elevation: float, gyro: float) -> tuple[float, float, float, float]:
+        """Predicted elevation, velocity and acceleration now, and the gyro bias."""
+        z = np.array([elevation, gyro])
+        if self.x is None:
+            self.x = np.array([elevation, gyro, 0.0, 0.0])
+        else:
+            prior = self.f @ self.x
+            self.x = prior + self.k @ (z - self.h @ prior)
+        th, w, a, b = self.x
+        lag = self.latency_s
+        return th + w * lag + 0.5 * a * lag**2, w + a * lag, a, b
+
+
+def test_the_step_predicts_the_elevation_of_the_matrix_form_filter() -> None:
     """The step's desired tension comes from the estimator's predicted elevation (pretension aside)."""
-    gains = estimator_gains(0.002, DYNAMIC.imu_latency_s)
-    estimator = ElevationEstimator(gains)
+    estimator = MatrixKalman(0.002, DYNAMIC.imu_latency_s)
     controller = build_controller(model=MODEL, support=0.5, subject=SUBJECT)
     reference = build_controller(model=MODEL, support=0.5, subject=SUBJECT, compensation="paper")
     for i, (elevation, velocity) in enumerate(movement(1500, 2)):
-        predicted, _, _ = estimator.update(elevation, velocity)
+        predicted, _, _, _ = estimator.update(elevation, velocity)
         command = controller.step(0.002 * i, elevation, velocity)
         assert command.tension_n == pytest.approx(
-            reference.step(0.002 * i, predicted, 0.0).tension_n, rel=1e-12
+            reference.step(0.002 * i, predicted, 0.0).tension_n, rel=1e-9
         )
 
 
@@ -112,13 +137,13 @@ def test_estimator_learns_the_gyro_bias_at_rest_and_predicts_across_the_latency(
     """A biased gyro at rest, then a constant-acceleration arm seen 40 ms late: the prediction is the arm
     now (hand-derived: θ = θ₀ + a·t²/2), not where the IMU saw it."""
     latency, acceleration, bias = 0.04, 2.0, 0.05
-    estimator = ElevationEstimator(estimator_gains(0.002, latency))
+    estimator = MatrixKalman(0.002, latency)
     for _ in range(10000):  # 20 s at rest
-        estimator.update(0.3, bias)
-    assert estimator.bias_rad_s == pytest.approx(bias, abs=2e-3)
+        *_, learnt_bias = estimator.update(0.3, bias)
+    assert learnt_bias == pytest.approx(bias, abs=2e-3)
     for i in range(501):  # 1 s of motion starting at t = 0
         seen = max(0.002 * i - latency, 0.0)
-        predicted, velocity, accel = estimator.update(
+        predicted, velocity, accel, _ = estimator.update(
             0.3 + 0.5 * acceleration * seen**2, acceleration * seen + bias
         )
     now = 1.0

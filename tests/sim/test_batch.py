@@ -31,7 +31,7 @@ def test_compiled_controller_equals_controller_step(support: float | str) -> Non
     limits = ControllerLimits(max_torque_nm=2.0, max_tension_n=60.0, max_torque_rate_nm_s=50.0)
     controller = build_controller(model=MODEL, support=support, subject=subject, limits=limits)  # type: ignore[arg-type]
     vector = bk.controller_vector(controller)
-    state = bk.controller_state()
+    state = bk.controller_state(controller)  # before its first step: the initial state
     out = np.zeros(5)
     rng = np.random.default_rng(11)
     t = 0.0

@@ -5,7 +5,9 @@ from __future__ import annotations
 from pathlib import Path
 from types import SimpleNamespace
 
+from bowden.control import command
 from bowden.sim import _batch_kernel as bk
+from bowden.sim import _controller_kernel as ck
 from bowden.sim import _kernels as k
 from bowden.sim._kernels import drop_stale_dependent_cache
 
@@ -52,4 +54,5 @@ def test_the_batch_kernel_cache_records_the_current_plant_kernels() -> None:
     assert isinstance(cache_path, str)
     marker = Path(cache_path) / "_batch_kernel.sources.sha256"
     assert marker.exists()
-    assert not drop_stale_dependent_cache(bk.run_trial, bk.__file__, k.__file__)
+    sources = (k.__file__, ck.__file__, command.__file__)
+    assert not drop_stale_dependent_cache(bk.run_trial, bk.__file__, *sources)

@@ -66,6 +66,38 @@ class StepFunction(Protocol):
     ) -> Command: ...
 
 
+_NONFINITE = int(Fault.NONFINITE_INPUT)
+_ELEVATION = int(Fault.ELEVATION_OUT_OF_RANGE)
+_VELOCITY = int(Fault.ELEVATION_VELOCITY_OUT_OF_RANGE)
+_OVERSPEED = int(Fault.MOTOR_OVERSPEED)
+
+
+def fault_bits(
+    time_s: float,
+    elevation_rad: float,
+    elevation_velocity_rad_s: float,
+    motor_velocity_rad_s: float,
+    motor_torque_nm: float,
+    elev_min: float,
+    elev_max: float,
+    max_vel: float,
+    max_motor_vel: float,
+) -> int:
+    """The :class:`Fault` bits of inputs the step refused (plain arithmetic: the batch kernel compiles it)."""
+    faults = 0
+    finite = (math.isfinite(time_s) and math.isfinite(elevation_rad)
+              and math.isfinite(elevation_velocity_rad_s))
+    if not finite or math.isinf(motor_velocity_rad_s) or math.isinf(motor_torque_nm):
+        faults |= _NONFINITE
+    if math.isfinite(elevation_rad) and not elev_min <= elevation_rad <= elev_max:
+        faults |= _ELEVATION
+    if math.isfinite(elevation_velocity_rad_s) and abs(elevation_velocity_rad_s) > max_vel:
+        faults |= _VELOCITY
+    if math.isfinite(motor_velocity_rad_s) and abs(motor_velocity_rad_s) > max_motor_vel:
+        faults |= _OVERSPEED
+    return faults
+
+
 def fault_command(
     time_s: float,
     elevation_rad: float,
@@ -77,16 +109,7 @@ def fault_command(
     max_vel: float,
     max_motor_vel: float,
 ) -> Command:
-    """The safe command, with flags saying which input was wrong (off the hot path)."""
-    faults = Fault.NONE
-    if not all(math.isfinite(v) for v in (time_s, elevation_rad, elevation_velocity_rad_s)) or any(
-        math.isinf(v) for v in (motor_velocity_rad_s, motor_torque_nm)
-    ):
-        faults |= Fault.NONFINITE_INPUT
-    if math.isfinite(elevation_rad) and not elev_min <= elevation_rad <= elev_max:
-        faults |= Fault.ELEVATION_OUT_OF_RANGE
-    if math.isfinite(elevation_velocity_rad_s) and abs(elevation_velocity_rad_s) > max_vel:
-        faults |= Fault.ELEVATION_VELOCITY_OUT_OF_RANGE
-    if math.isfinite(motor_velocity_rad_s) and abs(motor_velocity_rad_s) > max_motor_vel:
-        faults |= Fault.MOTOR_OVERSPEED
-    return Command((0.0, _NAN, _NAN, int(faults), 0))
+    """The safe command (zero torque), with flags saying which input was wrong (off the hot path)."""
+    faults = fault_bits(time_s, elevation_rad, elevation_velocity_rad_s, motor_velocity_rad_s,
+                        motor_torque_nm, elev_min, elev_max, max_vel, max_motor_vel)
+    return Command((0.0, _NAN, _NAN, faults, 0))

@@ -10,6 +10,9 @@ elevation itself, so it is learnt whenever the arm holds still and whenever it m
 Samples arrive ``latency`` seconds old (orientation filter and radio link); the estimate is carried
 forward across it with the filter's own velocity and acceleration, which is what lets the
 compensation see a turn when it happens rather than a latency later.
+
+The filter runs inside the controller's step (:mod:`bowden.control.step`), the one place its update
+is written; ``tests/control/test_dynamic_step.py`` checks it against the filter in matrix form.
 """
 
 from __future__ import annotations
@@ -74,43 +77,3 @@ def estimator_gains(
     gain = prior @ h.T @ np.linalg.inv(h @ prior @ h.T + r)
     rows = tuple((float(row[0]), float(row[1])) for row in gain)
     return EstimatorGains(period_s=period_s, latency_s=latency_s, gain=rows)
-
-
-class ElevationEstimator:
-    """The filter with its state; ``update(elevation, gyro)`` → predicted (θ, θ̇, θ̈) now.
-
-    The controller inlines the same arithmetic in its step (tests hold the two equal); this class is
-    for offline use and for tests.
-    """
-
-    __slots__ = ("_gains", "_state")
-
-    def __init__(self, gains: EstimatorGains) -> None:
-        self._gains = gains
-        self._state: list[float] | None = None
-
-    @property
-    def bias_rad_s(self) -> float:
-        """The gyroscope bias learnt so far (0 before the first sample)."""
-        return 0.0 if self._state is None else self._state[3]
-
-    def reset(self) -> None:
-        self._state = None
-
-    def update(self, elevation_rad: float, gyro_rad_s: float) -> tuple[float, float, float]:
-        dt, latency = self._gains.period_s, self._gains.latency_s
-        (k00, k01), (k10, k11), (k20, k21), (k30, k31) = self._gains.gain
-        if self._state is None:  # the first sample is the state
-            th, w, a, b = elevation_rad, gyro_rad_s, 0.0, 0.0
-        else:
-            th, w, a, b = self._state
-            th = th + w * dt + 0.5 * dt * dt * a
-            w = w + a * dt
-            e0 = elevation_rad - th
-            e1 = gyro_rad_s - w - b
-            th += k00 * e0 + k01 * e1
-            w += k10 * e0 + k11 * e1
-            a += k20 * e0 + k21 * e1
-            b += k30 * e0 + k31 * e1
-        self._state = [th, w, a, b]
-        return th + (w + 0.5 * a * latency) * latency, w + a * latency, a

@@ -1,10 +1,8 @@
 """Compiled loop of one study trial: IMU → the controller → motor → plant ← participant.
 
-The controller arithmetic of :meth:`bowden.control.Controller.step` — the paper's compensation and
-the dynamic one (:mod:`bowden.control.step`) — is restated here on a parameter vector so that
-a whole trial runs as one compiled loop; ``tests/sim/test_batch.py`` and
-``tests/control/test_dynamic_step.py`` check that both agree to 1e-12 on the same inputs. Keep them in
-step: any change there is a change here.
+The controller is the generated kernel of :mod:`bowden.sim._controller_kernel`: the step closure of
+:mod:`bowden.control.step` rewritten for numba (:mod:`bowden.sim.controller_codegen`), on a vector of
+the constants a built controller's closure holds and a vector of its state.
 """
 
 from __future__ import annotations
@@ -15,272 +13,33 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bowden.control import Controller
-from bowden.control.folding import fold
-from bowden.model.elevation_estimator import estimator_gains
+from bowden.control import command as command_module
+from bowden.sim import _controller_kernel as ck
 from bowden.sim import _kernels as k
+from bowden.sim._controller_kernel import controller_step
 from bowden.sim._kernels import drop_stale_dependent_cache, jit
 
-# --- controller parameter vector -----------------------------------------------------------------
-C_PRETENSION = 0  # NaN: support law
-C_SUPPORT_MOMENT = 1  # support·g·Σ m·d, Nm
-C_FLOOR = 2
-C_MAX_TENSION = 3
-C_LOW_INTERCEPT = 4
-C_LOW_SLOPE = 5
-C_D_INTERCEPT = 6
-C_D_SLOPE = 7
-C_BLEND_MID = 8
-C_BLEND_STEEP = 9
-C_MIN_TORQUE = 10
-C_MAX_TORQUE = 11
-C_MAX_RATE = 12
-C_NOMINAL_DT = 13
-C_ELEV_MIN = 14
-C_ELEV_MAX = 15
-C_MAX_VEL = 16
-C_MAX_MOTOR_VEL = 17
-C_GEOM_A = 18
-C_GEOM_B = 19
-C_GEOM_PSI = 20
-# Dynamic compensation (C_MODE 1; the lines above are then the dynamic model's).
-C_MODE = 21
-C_VISCOUS_PER_ARM = 22
-C_INERTIA_PER_ARM = 23
-C_MAX_DYNAMIC = 24
-C_HYSTERESIS = 25
-C_RELAX = 26
-C_LATENCY = 27
-C_PERIOD = 28
-C_GAIN = 29  # 8 entries: the estimator's gain row by row
-N_CONTROLLER = 37
 
-MODE_PAPER = 0.0
-MODE_DYNAMIC = 1.0
-
-# Controller state: last torque and its time; the dynamic step's estimator and reversal state.
-CS_TORQUE = 0
-CS_TIME = 1
-CS_TH = 2
-CS_W = 3
-CS_ACC = 4
-CS_BIAS = 5
-CS_STARTED = 6
-CS_SIGMA = 7
-CS_TARGET = 8
-N_CONTROLLER_STATE = 9
-
-# Fault and limit bits (bowden.control.faults; recording contract, never renumbered).
-FAULT_NONFINITE = 1
-FAULT_ELEVATION = 2
-FAULT_VELOCITY = 4
-FAULT_OVERSPEED = 8
-LIMIT_TENSION = 1
-LIMIT_TORQUE = 2
-LIMIT_RATE = 4
+def _closure_values(controller: Controller, names: tuple[str, ...]) -> NDArray[np.float64]:
+    """The values ``names`` hold in the controller's step closure, as floats (bools as 0/1)."""
+    step = controller.step
+    cells = dict(zip(step.__code__.co_freevars, step.__closure__ or (), strict=True))  # type: ignore[attr-defined]
+    return np.array([float(cells[name].cell_contents) for name in names])
 
 
-def controller_vector(controller: Controller) -> NDArray[np.float64]:
-    """Pack a built controller's constants the way its step closure folds them."""
-    c = np.zeros(N_CONTROLLER)
-    model, geometry, limits = controller.model, controller.geometry, controller.limits
-    folded = fold(controller.arm, geometry, controller.assistance, limits)  # as the step closures do
-    c[C_PRETENSION] = folded.pretension
-    c[C_SUPPORT_MOMENT] = folded.support_moment
-    c[C_FLOOR] = folded.floor
-    c[C_MAX_TENSION] = folded.max_tension
-    lines = model if controller.compensation == "paper" or model.dynamic is None else model.dynamic
-    c[C_LOW_INTERCEPT] = lines.lowering.intercept_nm
-    c[C_LOW_SLOPE] = lines.lowering.slope_m
-    c[C_D_INTERCEPT] = lines.raising.intercept_nm - lines.lowering.intercept_nm
-    c[C_D_SLOPE] = lines.raising.slope_m - lines.lowering.slope_m
-    c[C_BLEND_MID] = model.blend_midpoint_rad_s
-    c[C_BLEND_STEEP] = model.blend_steepness_s_rad
-    c[C_MIN_TORQUE] = folded.min_torque
-    c[C_MAX_TORQUE] = folded.max_torque
-    c[C_MAX_RATE] = folded.max_rate
-    c[C_NOMINAL_DT] = folded.nominal_dt
-    c[C_ELEV_MIN] = folded.elev_min
-    c[C_ELEV_MAX] = folded.elev_max
-    c[C_MAX_VEL] = folded.max_vel
-    c[C_MAX_MOTOR_VEL] = folded.max_motor_vel
-    c[C_GEOM_A] = geometry.exit_distance_m
-    c[C_GEOM_B] = geometry.anchor_distance_m
-    c[C_GEOM_PSI] = geometry.rest_angle_rad
-    c[C_MODE] = MODE_PAPER
-    dynamic = model.dynamic
-    if controller.compensation == "dynamic" and dynamic is not None:
-        gains = estimator_gains(limits.nominal_period_s, dynamic.imu_latency_s)
-        c[C_MODE] = MODE_DYNAMIC
-        c[C_VISCOUS_PER_ARM] = dynamic.viscous_nm_s_rad / model.pulley_radius_m
-        c[C_INERTIA_PER_ARM] = dynamic.inertia_kg_m2 / model.pulley_radius_m
-        c[C_MAX_DYNAMIC] = dynamic.max_dynamic_nm
-        c[C_HYSTERESIS] = dynamic.reversal_hysteresis_rad_s
-        c[C_RELAX] = 1.0 - math.exp(-limits.nominal_period_s / dynamic.reversal_time_s)
-        c[C_LATENCY] = gains.latency_s
-        c[C_PERIOD] = limits.nominal_period_s
-        c[C_GAIN : C_GAIN + 8] = [value for row in gains.gain for value in row]
-    return c
+def controller_vector(controller: Controller | None) -> NDArray[np.float64]:
+    """The constants of a built controller, read from its step closure, in the kernel's order (None:
+    zeros, for a trial without the suit, where the controller does not run)."""
+    if controller is None:
+        return np.zeros(len(ck.CONSTANTS))
+    return _closure_values(controller, ck.CONSTANTS)
 
 
-def controller_state() -> NDArray[np.float64]:
-    """A fresh controller state (no last command, estimator not started)."""
-    cs = np.zeros(N_CONTROLLER_STATE)
-    cs[CS_TIME] = math.nan
-    return cs
-
-
-@jit
-def controller_step(
-    c: NDArray[np.float64],
-    cs: NDArray[np.float64],
-    time_s: float,
-    elevation: float,
-    velocity: float,
-    motor_velocity: float,
-    motor_torque: float,
-    out: NDArray[np.float64],
-) -> None:
-    """One cycle of the paper's controller; ``out`` = (torque, tension, moment arm, faults, limits)."""
-    motor_velocity_bad = motor_velocity == motor_velocity and not (
-        -c[C_MAX_MOTOR_VEL] <= motor_velocity <= c[C_MAX_MOTOR_VEL]
-    )
-    motor_torque_bad = motor_torque - motor_torque != 0.0 and motor_torque == motor_torque
-    if (
-        not (
-            c[C_ELEV_MIN] <= elevation <= c[C_ELEV_MAX]
-            and -c[C_MAX_VEL] <= velocity <= c[C_MAX_VEL]
-            and time_s - time_s == 0.0
-        )
-        or motor_velocity_bad
-        or motor_torque_bad
-    ):
-        cs[CS_TORQUE] = 0.0
-        cs[CS_TIME] = math.nan
-        cs[CS_STARTED] = 0.0
-        cs[CS_SIGMA] = 0.0
-        cs[CS_TARGET] = 0.0
-        faults = 0
-        finite = math.isfinite(time_s) and math.isfinite(elevation) and math.isfinite(velocity)
-        if not finite or math.isinf(motor_velocity) or math.isinf(motor_torque):
-            faults |= FAULT_NONFINITE
-        if math.isfinite(elevation) and not (c[C_ELEV_MIN] <= elevation <= c[C_ELEV_MAX]):
-            faults |= FAULT_ELEVATION
-        if math.isfinite(velocity) and abs(velocity) > c[C_MAX_VEL]:
-            faults |= FAULT_VELOCITY
-        if math.isfinite(motor_velocity) and abs(motor_velocity) > c[C_MAX_MOTOR_VEL]:
-            faults |= FAULT_OVERSPEED
-        out[0] = 0.0
-        out[1] = math.nan
-        out[2] = math.nan
-        out[3] = faults
-        out[4] = 0.0
-        return
-    dynamic = c[C_MODE] == MODE_DYNAMIC
-    velocity_used = velocity
-    if dynamic:
-        elevation, velocity_used = _estimate(c, cs, elevation, velocity)
-    a = c[C_GEOM_A]
-    b = c[C_GEOM_B]
-    alpha = c[C_GEOM_PSI] - elevation
-    sin_alpha = math.sin(alpha)
-    cos_alpha = math.cos(alpha)
-    d = (a * a + b * b) - (2.0 * a * b) * cos_alpha
-    root = math.sqrt(d)
-    moment_arm = a * b * sin_alpha / root
-    limited = 0
-    tension = c[C_PRETENSION]
-    if tension != tension:
-        tension = c[C_FLOOR]
-        if moment_arm > 0.0:
-            supported = c[C_SUPPORT_MOMENT] * math.sin(elevation) / moment_arm
-            if supported > tension:
-                tension = supported
-    if tension > c[C_MAX_TENSION]:
-        tension = c[C_MAX_TENSION]
-        limited = LIMIT_TENSION
-    if dynamic:
-        if velocity_used > c[C_HYSTERESIS]:
-            cs[CS_TARGET] = 1.0
-        elif velocity_used < -c[C_HYSTERESIS]:
-            cs[CS_TARGET] = -1.0
-        cs[CS_SIGMA] += (cs[CS_TARGET] - cs[CS_SIGMA]) * c[C_RELAX]
-        slope = -(a * b) * (cos_alpha * d - (a * b) * sin_alpha * sin_alpha) / (d * root)
-        extra = c[C_VISCOUS_PER_ARM] * moment_arm * velocity_used + c[C_INERTIA_PER_ARM] * (
-            moment_arm * cs[CS_ACC] + slope * velocity_used * velocity_used
-        )
-        if extra > c[C_MAX_DYNAMIC]:
-            extra = c[C_MAX_DYNAMIC]
-        elif extra < -c[C_MAX_DYNAMIC]:
-            extra = -c[C_MAX_DYNAMIC]
-        torque = (
-            c[C_LOW_INTERCEPT] + c[C_LOW_SLOPE] * tension
-            + (c[C_D_INTERCEPT] + c[C_D_SLOPE] * tension) * 0.5 * (cs[CS_SIGMA] + 1.0)
-            + extra
-        )
-    else:
-        xb = c[C_BLEND_STEEP] * (velocity - c[C_BLEND_MID])
-        if xb >= 0.0:
-            weight = 1.0 / (1.0 + math.exp(-xb))
-        else:
-            e = math.exp(xb)
-            weight = e / (1.0 + e)
-        torque = c[C_LOW_INTERCEPT] + c[C_LOW_SLOPE] * tension
-        torque += (c[C_D_INTERCEPT] + c[C_D_SLOPE] * tension) * weight
-    if torque > c[C_MAX_TORQUE]:
-        torque = c[C_MAX_TORQUE]
-        limited |= LIMIT_TORQUE
-    elif torque < c[C_MIN_TORQUE]:
-        torque = c[C_MIN_TORQUE]
-        limited |= LIMIT_TORQUE
-    dt = time_s - cs[CS_TIME]
-    if not (0.0 < dt < 0.1):
-        dt = c[C_NOMINAL_DT]
-    step_max = c[C_MAX_RATE] * dt
-    if torque > cs[CS_TORQUE] + step_max:
-        torque = cs[CS_TORQUE] + step_max
-        limited |= LIMIT_RATE
-    elif torque < cs[CS_TORQUE] - step_max:
-        torque = cs[CS_TORQUE] - step_max
-        limited |= LIMIT_RATE
-    cs[CS_TORQUE] = torque
-    cs[CS_TIME] = time_s
-    out[0] = torque
-    out[1] = tension
-    out[2] = moment_arm
-    out[3] = 0.0
-    out[4] = limited
-
-
-@jit
-def _estimate(
-    c: NDArray[np.float64], cs: NDArray[np.float64], elevation: float, gyro: float
-) -> tuple[float, float]:
-    """The dynamic step's estimator: update, then predict across the latency (elevation clamped)."""
-    period = c[C_PERIOD]
-    if cs[CS_STARTED] != 0.0:
-        cs[CS_TH] += cs[CS_W] * period + 0.5 * period * period * cs[CS_ACC]
-        cs[CS_W] += cs[CS_ACC] * period
-        e0 = elevation - cs[CS_TH]
-        e1 = gyro - cs[CS_W] - cs[CS_BIAS]
-        g = C_GAIN
-        cs[CS_TH] += c[g] * e0 + c[g + 1] * e1
-        cs[CS_W] += c[g + 2] * e0 + c[g + 3] * e1
-        cs[CS_ACC] += c[g + 4] * e0 + c[g + 5] * e1
-        cs[CS_BIAS] += c[g + 6] * e0 + c[g + 7] * e1
-    else:
-        cs[CS_TH] = elevation
-        cs[CS_W] = gyro
-        cs[CS_ACC] = 0.0
-        cs[CS_BIAS] = 0.0
-        cs[CS_STARTED] = 1.0
-    latency = c[C_LATENCY]
-    predicted_velocity = cs[CS_W] + cs[CS_ACC] * latency
-    predicted = cs[CS_TH] + (cs[CS_W] + 0.5 * cs[CS_ACC] * latency) * latency
-    if predicted > c[C_ELEV_MAX]:
-        predicted = c[C_ELEV_MAX]
-    elif predicted < c[C_ELEV_MIN]:
-        predicted = c[C_ELEV_MIN]
-    return predicted, predicted_velocity
+def controller_state(controller: Controller | None) -> NDArray[np.float64]:
+    """The controller's state as the kernel keeps it (a fresh controller's: no command yet)."""
+    if controller is None:
+        return np.zeros(len(ck.STATE))
+    return _closure_values(controller, ck.STATE)
 
 
 # --- recorded signals of a trial, one row per control cycle ----------------------------------------
@@ -327,6 +86,7 @@ def run_trial(
     p: NDArray[np.float64],
     h: NDArray[np.float64],
     c: NDArray[np.float64],
+    cs: NDArray[np.float64],
     sensors: NDArray[np.float64],
     wears_suit: bool,
     control_dt: float,
@@ -342,14 +102,14 @@ def run_trial(
     from the IMU, the motor reply of that moment is recorded, then the plant runs ``substeps`` steps
     with that command while the participant moves. Without the suit the arm moves freely (no cable,
     controller not run, suit signals NaN). ``draws_control`` holds three unit normal draws per cycle
-    (IMU elevation, IMU velocity, load cell), ``draws_human`` one per step.
+    (IMU elevation, IMU velocity, load cell), ``draws_human`` one per step. ``c`` and ``cs`` are the
+    controller's constants and state (:func:`controller_vector`, :func:`controller_state`; ``cs`` is
+    updated in place).
     The motor's reply and the load cell are recorded at full precision here and quantised to their
     codes afterwards (:mod:`bowden.sim.sensor_readings`; the controller only checks them for faults).
     """
     dt = control_dt / substeps
     lag = 1.0 - math.exp(-dt / p[k.P_CURRENT_TAU])
-    cs = np.zeros(N_CONTROLLER_STATE)
-    cs[CS_TIME] = math.nan
     command = np.zeros(5)
     delay = int(sensors[S_IMU_DELAY_CYCLES])
     history_th = np.full(delay + 1, x[k.X_ARM_TH])
@@ -417,6 +177,6 @@ def run_trial(
                 x[k.X_TIME] += dt
 
 
-# run_trial compiles the plant of _kernels.py into itself; numba would reuse a cache made with older
-# kernels (it only watches this file), so drop that cache whenever either file changed.
-drop_stale_dependent_cache(run_trial, __file__, k.__file__)
+# run_trial compiles the plant of _kernels.py and the controller kernel into itself; numba would reuse
+# a cache made with older kernels (it only watches this file), so drop that cache whenever one changed.
+drop_stale_dependent_cache(run_trial, __file__, k.__file__, ck.__file__, command_module.__file__)

@@ -167,7 +167,7 @@ def simulate_trial(
     support = c.CONDITION_SUPPORT[condition]
     wears_suit = support is not None
     expected = None
-    controller_vector = np.zeros(bk.N_CONTROLLER)
+    controller = None
     if support is not None:
         controller = build_controller(
             model=model,
@@ -180,7 +180,6 @@ def simulate_trial(
             pretension_n=settings.pretension_n,
             compensation=settings.compensation,
         )
-        controller_vector = bk.controller_vector(controller)
         expected = ExpectedAssistance.for_condition(
             support,
             participant.subject,
@@ -215,8 +214,8 @@ def simulate_trial(
     x[k.X_ARM_THD] = 0.0
     out = np.empty((n_control, bk.N_OUT))
     bk.run_trial(
-        x, p, h, controller_vector, sensors, wears_suit, settings.control_period_s, settings.substeps,
-        draws_control, draws_human, out,
+        x, p, h, bk.controller_vector(controller), bk.controller_state(controller), sensors, wears_suit,
+        settings.control_period_s, settings.substeps, draws_control, draws_human, out,
     )
     # The motor's reply and the load cell at their real resolution (the IMU's is set in the kernel).
     out[:, bk.O_MOTOR_TORQUE] = ak60_torque(out[:, bk.O_MOTOR_TORQUE], MOTOR_REPLY_LIMITS)
