@@ -13,8 +13,10 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
+import sys
+from collections.abc import Iterator, Mapping
+from contextlib import ExitStack, contextmanager
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Final
 
@@ -27,6 +29,7 @@ from bowden.cli._suit import (
     open_can_backend,
     require_hardware_extra,
 )
+from bowden.cli._sync_options import SyncOutputs, add_sync_arguments, open_sync_outputs
 from bowden.contracts import BACKEND_CAN, REPETITIONS_PER_TRIAL, SPEEDS
 from bowden.errors import ParameterError
 from bowden.model.model_file import load_model
@@ -35,6 +38,8 @@ from bowden.protocol.session_plan import MAX_BREAK_S, ORDERS, PAPER_BREAK_S, Stu
 from bowden.runtime.store_schema import STORE_FILE_NAME
 
 if TYPE_CHECKING:
+    from bowden.runtime import Recorder
+    from bowden.runtime.trial_sync import TrialSync
     from bowden.web.server import ServeConfig
     from bowden.web.suits import OpenSuit, SuitBackend
     from bowden.web.trial_setup import TrialSetup
@@ -97,6 +102,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="address to listen on (default 127.0.0.1: this machine only)",
     )
     parser.add_argument("--port", type=int, default=8765, help="port (default 8765; 0 picks a free one)")
+    add_sync_arguments(parser, trials="each trial started from the console")
     add_safety_arguments(parser)
     add_can_arguments(parser)
     parser.set_defaults(handler=run)
@@ -231,8 +237,42 @@ def run(args: argparse.Namespace) -> int:
     from bowden.web.server import serve
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
-    serve(config)
+    with ExitStack() as stack:  # the trigger line and the outlets stay open while the server runs
+        outputs = open_sync_outputs(args, stack, rate_hz=args.rate_hz, say=_say)
+        if outputs is not None:
+            config = replace(config, sync=ConsoleSync(outputs, config.store_path.name))
+        serve(config)
     return 0
+
+
+def _say(text: str) -> None:
+    print(f"bowden serve: {text}", file=sys.stderr, flush=True)
+
+
+class ConsoleSync:
+    """The sync signals of each console trial, on the outputs ``--trigger``/``--lsl`` opened.
+
+    Implements :class:`bowden.web.trials.TrialSyncs`: the session marker carries the participant,
+    condition, speed and store, and for a trial of a plan its session and position.
+    """
+
+    def __init__(self, outputs: SyncOutputs, store_name: str) -> None:
+        self.outputs = outputs
+        self.store_name = store_name
+
+    def start(self, setup: TrialSetup, recorder: Recorder, metadata: Mapping[str, object]) -> TrialSync:
+        session: dict[str, object] = {
+            "participant": setup.participant,
+            "condition": setup.condition,
+            "speed": setup.speed,
+            "store": self.store_name,
+        }
+        session.update({k: metadata[k] for k in ("session_id", "plan_position") if k in metadata})
+        return self.outputs.trial(trial_id=recorder.trial_id, on_event=recorder.event,
+                                  reference=setup.reference, session=session)
+
+    def ended(self, sync: TrialSync) -> list[str]:
+        return self.outputs.ended(sync)
 
 
 def _sim_friction_k() -> float:

@@ -31,7 +31,7 @@ from bowden.web.questionnaire_store import QuestionnaireStore
 from bowden.web.security import SessionToken
 from bowden.web.session_desk import SessionDesk
 from bowden.web.suits import SimulatedBackend, SuitBackend
-from bowden.web.trials import TrialManager
+from bowden.web.trials import TrialManager, TrialSyncs
 
 _log = logging.getLogger(__name__)
 LOOPBACK_HOSTS: Final = ("127.0.0.1", "localhost", "::1")
@@ -63,6 +63,8 @@ class ServeConfig:
         The session token; None draws a fresh one.
     protocol
         The protocol of the session plans (default: the paper's).
+    sync
+        The trigger line and LSL outlets each console trial drives (``--trigger``, ``--lsl``), or None.
     """
 
     store_path: Path
@@ -76,6 +78,7 @@ class ServeConfig:
     slack: SlackTakeUp | None = None
     token: str | None = None
     protocol: StudyProtocol = field(default_factory=StudyProtocol)
+    sync: TrialSyncs | None = None
 
     def __post_init__(self) -> None:
         if not (isinstance(self.port, int) and 0 <= self.port <= 65535):
@@ -119,6 +122,7 @@ def build_server(config: ServeConfig) -> WebServer:
         safety=config.safety,
         realtime=config.realtime,
         slack=config.slack,
+        sync=config.sync,
     )
     desk = SessionDesk(config.store_path, manager, config.protocol)
     app = create_app(

@@ -25,6 +25,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Protocol
 
 from bowden import __version__
 from bowden.errors import BowdenError, ConflictError
@@ -41,12 +42,26 @@ from bowden.runtime import (
 )
 from bowden.runtime.realtime import RealtimeConfig
 from bowden.runtime.slack import SlackTakeUp
+from bowden.runtime.trial_sync import TrialSync
 from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, SampleTap, Stamped, Thinning
 from bowden.web.samples import FLAGS, STATE, TIME, console_samples, display_samples, fault_names
 from bowden.web.suits import OpenSuit, SuitBackend
 from bowden.web.trial_setup import TrialSetup, controller_for
 
 _log = logging.getLogger(__name__)
+
+
+class TrialSyncs(Protocol):
+    """Sync signals for each trial the server runs (``bowden serve --lsl/--trigger``).
+
+    ``start`` is called once the trial's recorder has started (from a worker thread; it may wait for
+    an LSL recorder to connect) and returns the trial's :class:`TrialSync`, whose ``row`` becomes one of
+    the loop's sinks; ``ended`` is called after its ``finish`` and says what to tell the operator.
+    """
+
+    def start(self, setup: TrialSetup, recorder: Recorder, metadata: Mapping[str, object]) -> TrialSync: ...
+
+    def ended(self, sync: TrialSync) -> list[str]: ...
 
 
 @dataclass
@@ -62,6 +77,8 @@ class _Trial:
     fault_cycles: int = 0
     last_row: tuple[float | int, ...] | None = None
     stop_requested_by: str | None = None
+    sync: TrialSync | None = None
+    sync_notes: list[str] = field(default_factory=list)
     done: asyncio.Event = field(default_factory=asyncio.Event)
 
 
@@ -84,6 +101,8 @@ class TrialManager:
         Watchdog thresholds of the trials' loops.
     slack
         The slack take-up that starts each trial (:class:`~bowden.runtime.slack.SlackTakeUp`), or None.
+    sync
+        The trigger line and LSL outlets each trial drives (:class:`TrialSyncs`), or None.
     display_rate_hz
         Rate of the samples sent to browsers (≥ the display's frame rate is enough).
     health_period_s
@@ -101,6 +120,7 @@ class TrialManager:
         safety: SafetyConfig | None = None,
         realtime: RealtimeConfig | None = None,
         slack: SlackTakeUp | None = None,
+        sync: TrialSyncs | None = None,
         display_rate_hz: float = 100.0,
         health_period_s: float = 0.25,
     ) -> None:
@@ -112,6 +132,7 @@ class TrialManager:
         self.safety = safety if safety is not None else SafetyConfig()
         self.realtime = realtime
         self.slack = slack
+        self.sync = sync
         self.health_period_s = health_period_s
         self._thinning = Thinning(display_rate_hz)
         self._trial: _Trial | None = None
@@ -288,12 +309,16 @@ class TrialManager:
         except BaseException:
             suit.close()
             raise
+        sync = self._start_sync(setup, suit, recorder, extra)
         tap = SampleTap(loop, self._wake.set)
         record_row, tap_row = recorder.record, tap.record
+        sync_row = sync.row if sync is not None else None
 
-        def record(row: tuple[float | int, ...]) -> None:
+        def record(row: Row) -> None:
             record_row(row)
             tap_row(row)
+            if sync_row is not None:
+                sync_row(row)
 
         control_loop = ControlLoop(
             controller=controller,
@@ -309,7 +334,39 @@ class TrialManager:
             on_event=recorder.event,
             realtime=self.realtime,
         )
-        return _Trial(setup, suit, control_loop, recorder, tap, time.time())
+        return _Trial(setup, suit, control_loop, recorder, tap, time.time(), sync=sync)
+
+    def _start_sync(
+        self, setup: TrialSetup, suit: OpenSuit, recorder: Recorder, extra: Mapping[str, object]
+    ) -> TrialSync | None:
+        if self.sync is None:
+            return None
+        try:
+            return self.sync.start(setup, recorder, extra)
+        except BaseException as exc:
+            with contextlib.suppress(BowdenError):
+                recorder.close(stop_reason=f"error: the trial's sync signals could not start ({exc})")
+            suit.close()
+            raise
+
+    def _finish_sync(self, trial: _Trial, report: LoopReport | None, error: str | None) -> None:
+        """Trigger low and the sync events recorded (before the recorder closes); notes for the console."""
+        sync = trial.sync
+        if sync is None or self.sync is None:
+            return
+        if report is not None:
+            stop_s, reason, clean = report.stop_time_s, report.reason, report.clean
+        else:  # the loop failed: the last row the server saw stands for the stop
+            row = trial.last_row
+            stop_s, reason, clean = (float(row[TIME]) if row is not None else 0.0), f"error: {error}", False
+        try:
+            sync.finish(stop_time_s=stop_s, reason=reason, clean=clean)
+            trial.sync_notes = self.sync.ended(sync)
+        except Exception as exc:  # the recording must still be closed
+            _log.exception("ending the trial's sync signals failed")
+            trial.sync_notes = [f"sync: ending the trial's sync signals failed ({exc})"]
+        for note in trial.sync_notes:
+            _log.info("trial %s %s", trial.recorder.trial_id, note)
 
     def _run(self, trial: _Trial) -> None:
         report: LoopReport | None = None
@@ -321,6 +378,7 @@ class TrialManager:
         except Exception as exc:  # a bug must still end in a closed recording and a message
             _log.exception("the control loop failed")
             error = f"{type(exc).__name__}: {exc}"
+        self._finish_sync(trial, report, error)
         try:
             trial.suit.close()
         except Exception:
@@ -353,6 +411,7 @@ class TrialManager:
             "faults": fault_names(int(report.fault)) if report is not None else [],
             "error": error,
             "committed_rows": trial.recorder.stats.committed_rows,
+            "sync": trial.sync_notes,
         }
         if report is not None:
             result.update(
