@@ -39,3 +39,30 @@ def test_an_unknown_mannequin_motor_is_named(tmp_path, capsys):
                  "-o", str(tmp_path / "b.csv")])
     assert code == 1
     assert "unknown AK-series motor 'AK99'" in capsys.readouterr().err
+
+
+def test_a_load_beyond_the_mannequin_motors_peak_is_refused_before_anything_opens(tmp_path, capsys):
+    # Issue 26, item 4: the AK80-9 peaks at 18 Nm; 19 Nm is refused by its flag, nothing is written.
+    code = main(["bench", "run", "--backend", "sim", "--loads", "2", "19", "-o", str(tmp_path / "b.csv")])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "--loads 19 Nm: beyond the 18 Nm peak torque of the mannequin's motor (AK80-9" in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_simulated_bench_takes_the_mannequin_motor_option(tmp_path, capsys):
+    # Issue 26, item 6: --mannequin-motor reaches the simulated bench's driver (an unknown one is named).
+    code = main(["bench", "run", "--backend", "sim", "--mannequin-motor", "AK99-1",
+                 "-o", str(tmp_path / "b.csv")])
+    assert code == 1
+    assert "unknown AK-series motor 'AK99-1'" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_simulated_bench_driven_on_a_wrong_mannequin_id_fails_as_on_the_bus(tmp_path, capsys):
+    # Issue 26, item 6: the simulated mannequin answers on id 2; a driver set to id 3 hears nothing.
+    code = main(["bench", "run", "--backend", "sim", "--mannequin-id", "3", "-o", str(tmp_path / "b.csv")])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "the mannequin's motor does not answer" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []

@@ -56,18 +56,24 @@ _log = logging.getLogger(__name__)
 PHASE_HOLD, PHASE_STROKE, PHASE_POSITION, PHASE_TAKE_UP, PHASE_SETTLE = 0, 1, 2, 3, 4
 _FIRST_SAMPLE_WAIT_S = 0.5
 _STROKE_ATTEMPTS = 3  # a stroke that rests short of its end is run again, learning where it rested
-# The arm is at rest when its elevation speed (the IMU's gyroscope, averaged over _REST_AVERAGE_S)
-# stays below _REST_SPEED_RAD_S for _REST_WINDOW_S.
-_REST_SPEED_RAD_S = math.radians(3.0)
-_REST_AVERAGE_S = 0.05
+# The arm is at rest when its elevation's speed stays below _REST_SPEED_RAD_S for _REST_WINDOW_S: the
+# speed is the difference of two running means of the IMU's elevation (time constants _REST_FAST_S
+# and _REST_SLOW_S) over the difference of their lags. (Not the gyroscope: with the arm hanging
+# near 0° the elevation's rate is ill-conditioned.)
+_REST_SPEED_RAD_S = math.radians(5.0)
+_REST_FAST_S = 0.03
+_REST_SLOW_S = 0.15
 _REST_WINDOW_S = 0.1
 _STROKE_REST_LIMIT_S = 4.0  # how long a stroke's record waits for the arm to come to rest
 # Servoing the arm to a stroke's start: the spool's speed is this gain times the elevation error,
 # through the cuff's spool-per-elevation ratio (a first-order approach with a 0.25 s time constant,
-# slow against the cable and the arm); it stops within _SERVO_DEADBAND_RAD.
+# slow against the cable and the arm); it lets go within _SERVO_DEADBAND_RAD and takes hold again
+# beyond _SERVO_ENGAGE_RAD (the IMU's noise, 0.3° on the simulated bench, would keep it hunting).
 _SERVO_GAIN_1_S = 4.0
 _SERVO_DEADBAND_RAD = math.radians(0.5)
-_SERVO_EXTRA_S = 4.0  # beyond the travel at the positioning speed and the load's ramp
+_SERVO_ENGAGE_RAD = math.radians(2.0)
+_SERVO_EXTRA_S = 6.0  # beyond the travel at the positioning speed and the load's ramp
+_POSITION_STEPS = 6  # moves by the geometry, each from the arm at rest
 _TAKE_UP_LIFT_RAD = math.radians(3.0)
 _MIN_TRAVEL_FOR_RATIO_RAD = 0.3  # spool travel before the elevation/spool ratio is trusted for braking
 # Braking starts this much earlier than the stopping distance says: the IMU's sample age, a cycle,
@@ -122,10 +128,21 @@ class BenchRun:
         self._last_cycle_s = math.nan  # clock time of the last cycle (the target advances by the clock)
         self._cycle_dt_s = self.period_s
         self._arrival = 0.0  # the direction the spool last moved in (±1): the friction's branch
-        self._rest_speed_rad_s = math.inf  # the IMU's elevation speed, averaged
+        self._rest_speed_rad_s = math.inf  # the elevation's speed, from two running means
+        self._fast_mean_rad = self._slow_mean_rad = math.nan
         self._rest_since = math.nan
         self.scouting_moves = 0  # slow moves to learn an end before a fast stroke
         self._furthest_rad = math.nan  # the furthest elevation of the stroke under way
+
+    @property
+    def phase(self) -> int:
+        """What the bench does now (``PHASE_*``; the device log's ``phase``)."""
+        return self._phase
+
+    @property
+    def stroke_under_way(self) -> BenchStroke | None:
+        """The stroke being run (its positioning and hold included), None between runs."""
+        return self._stroke
 
     # --- the run ---------------------------------------------------------------------------------
     def run(self) -> BenchReport:
@@ -261,46 +278,101 @@ class BenchRun:
         p = self.config.protocol
         start, end = (p.low_rad, p.high_rad) if stroke.raising else (p.high_rad, p.low_rad)
         direction = 1.0 if stroke.raising else -1.0
+        # The new load ramps in with the arm held at the start (resting there anchors what an earlier
+        # run learned: bench_ends). A raising stroke may start from below its start: near the low end
+        # a heavy load has no stable rest for the arm (on the simulated bench 4 Nm flips it between
+        # 0° and 35° at 20°), and an arm hanging lower is safe; the stroke covers the range anyway.
         self._set_load(stroke.load_nm)
+        self._servo_to(start, or_below=stroke.raising)
         fast = abs(stroke.spool_velocity_rad_s) > self.config.position_speed_rad_s
         if fast and self._ends.stop((end, stroke.load_nm, direction)) is None:
             # The first stroke to this end under this load is too fast to brake on the ratio seen
             # on the way (the arm lags the spool and catches up past the end): learn the end first.
-            self._servo_to(start)
             self._servo_to(end)
+            self._servo_to(start, or_below=stroke.raising)
             self.scouting_moves += 1
-        self._servo_to(start)
 
-    def _servo_to(self, target_rad: float) -> None:
-        """Servo the spool on the IMU until the arm rests within half the range margin of
-        ``target_rad`` with the mannequin's load ramped in; the rest is learned if it is a range end."""
+    def _servo_to(self, target_rad: float, *, or_below: bool = False) -> None:
+        """Bring the arm to rest within half the range margin of ``target_rad`` with the mannequin's
+        load ramped in (logged, not recorded); the rest is learned if it is a range end.
+
+        While the load ramps, the spool servoes the arm on the IMU towards the target, holding it
+        against the changing load (a heavy load would otherwise pull it down to where the cable's
+        lever is too short to lift it again). Then it goes in steps: the arm comes to rest, and the
+        spool moves by what the cuff's geometry says the remaining error takes (a continuous servo
+        hunts under a heavy load: the sheath's friction sticks and slips). ``or_below``: a rest below
+        the target is as good (the low end of a raising stroke)."""
         p, safety = self.config.protocol, self.config.safety
         self._phase = PHASE_POSITION
-        tolerance = safety.range_margin_rad / 2.0
         speed = self.config.position_speed_rad_s
-        travel_s = abs(target_rad - self._elevation_rad) * self._spool_per_elevation(target_rad) / speed
-        timeout_s = travel_s + self.config.load_ramp_s + _SERVO_EXTRA_S
-        started = self._deadline
-        self._rest_since = math.nan
-        while True:
+        travel_s = abs(self._spool_travel(self._elevation_rad, target_rad)) / speed
+        deadline = self._deadline + travel_s + self.config.load_ramp_s + _SERVO_EXTRA_S
+        engaged = True
+        while self.devices.clock.now() - self._load_ramp_start_s < self.config.load_ramp_s:
             error = target_rad - self._elevation_rad
+            engaged = abs(error) > (_SERVO_DEADBAND_RAD if engaged else _SERVO_ENGAGE_RAD)
             wanted = 0.0
-            if abs(error) > _SERVO_DEADBAND_RAD:
+            if engaged:
                 wanted = _SERVO_GAIN_1_S * error * self._spool_per_elevation(self._elevation_rad)
                 wanted = min(max(wanted, -speed), speed)
             step = p.spool_acceleration_rad_s2 * self._cycle_dt_s
             self._velocity_rad_s += min(max(wanted - self._velocity_rad_s, -step), step)
             self._cycle_once()
-            ramped = self.devices.clock.now() - self._load_ramp_start_s >= self.config.load_ramp_s
-            if ramped and abs(error) <= tolerance and self._at_rest() and self._velocity_rad_s == 0.0:
+            self._check_position_deadline(target_rad, deadline)
+        for _ in range(_POSITION_STEPS):
+            self._come_to_rest(target_rad, deadline)
+            error = target_rad - self._elevation_rad
+            if abs(error) <= safety.range_margin_rad / 2.0 or (or_below and error > 0.0):
                 self._learn_rest()
                 return
-            if self._deadline - started > timeout_s:
-                raise BenchFault(
-                    f"the arm cannot be held at {math.degrees(target_rad):.0f}° under the load of "
-                    f"{self._load_to_nm:g} Nm (--loads): it is at {math.degrees(self._elevation_rad):.1f}° "
-                    f"after {timeout_s:.1f} s with {self._tension_n:.0f} N on the cable; a load the TDU "
-                    "cannot lift there is too heavy for this bench")
+            self._spool_move(self._spool_travel(self._elevation_rad, target_rad), target_rad, deadline)
+        self._check_position_deadline(target_rad, -math.inf)
+
+    def _spool_travel(self, from_rad: float, to_rad: float) -> float:
+        """The spool's travel (rad, > 0 reeling in) that moves the arm between two elevations by the
+        cuff's geometry (the cable's stretch aside)."""
+        length = self.config.geometry.cable_length_m
+        return (length(from_rad) - length(to_rad)) / self.config.spool_radius_m
+
+    def _spool_move(self, travel_rad: float, target_rad: float, deadline: float) -> None:
+        """Move the spool's target by ``travel_rad`` (trapezoidal, at most the positioning speed)."""
+        p = self.config.protocol
+        goal = self._target_rad + travel_rad
+        direction = 1.0 if travel_rad > 0.0 else -1.0
+        while True:
+            remaining = direction * (goal - self._target_rad)
+            v = abs(self._velocity_rad_s)
+            step = p.spool_acceleration_rad_s2 * self._cycle_dt_s
+            if remaining <= v * v / (2.0 * p.spool_acceleration_rad_s2) + v * self._cycle_dt_s:
+                v = max(v - step, 0.0)
+                if v == 0.0:
+                    self._velocity_rad_s = 0.0
+                    return
+            else:
+                v = min(v + step, self.config.position_speed_rad_s)
+            self._velocity_rad_s = direction * v
+            self._cycle_once()
+            self._check_position_deadline(target_rad, deadline)
+
+    def _come_to_rest(self, target_rad: float, deadline: float) -> None:
+        """Stop the spool and wait until the arm rests."""
+        step = self.config.protocol.spool_acceleration_rad_s2
+        while self._velocity_rad_s != 0.0:
+            v = max(abs(self._velocity_rad_s) - step * self._cycle_dt_s, 0.0)
+            self._velocity_rad_s = math.copysign(v, self._velocity_rad_s)
+            self._cycle_once()
+        self._rest_since = math.nan
+        while not self._at_rest():
+            self._cycle_once()
+            self._check_position_deadline(target_rad, deadline)
+
+    def _check_position_deadline(self, target_rad: float, deadline: float) -> None:
+        if self._deadline > deadline:
+            raise BenchFault(
+                f"the arm cannot be held at {math.degrees(target_rad):.0f}° under the load of "
+                f"{self._load_to_nm:g} Nm (--loads): it is at {math.degrees(self._elevation_rad):.1f}° "
+                f"with {self._tension_n:.0f} N on the cable; a load the TDU cannot lift there is too "
+                "heavy for this bench")
 
     def _spool_per_elevation(self, elevation_rad: float) -> float:
         """Spool radians per radian of elevation: the cable's lever over the pulley's (cuff geometry),
@@ -477,14 +549,20 @@ class BenchRun:
         if not math.isfinite(sample.elevation_rad):
             raise BenchFault("IMU sent a non-finite elevation")
         self._elevation_rad = sample.elevation_rad
-        speed = abs(sample.elevation_velocity_rad_s)
-        if not math.isfinite(self._rest_speed_rad_s):
-            self._rest_speed_rad_s = speed
-        weight = min(self._cycle_dt_s / _REST_AVERAGE_S, 1.0)
-        self._rest_speed_rad_s += weight * (speed - self._rest_speed_rad_s)
+        if math.isnan(self._fast_mean_rad):
+            self._fast_mean_rad = self._slow_mean_rad = sample.elevation_rad
+        self._fast_mean_rad += min(self._cycle_dt_s / _REST_FAST_S, 1.0) * (sample.elevation_rad
+                                                                              - self._fast_mean_rad)
+        self._slow_mean_rad += min(self._cycle_dt_s / _REST_SLOW_S, 1.0) * (sample.elevation_rad
+                                                                              - self._slow_mean_rad)
+        lag_s = _REST_SLOW_S - _REST_FAST_S
+        self._rest_speed_rad_s = abs(self._fast_mean_rad - self._slow_mean_rad) / lag_s
         low, high = p.low_rad - safety.range_margin_rad, p.high_rad + safety.range_margin_rad
-        if self._phase in (PHASE_TAKE_UP, PHASE_POSITION):
-            low = -math.pi  # the arm may hang below the range until it is brought to a stroke's start
+        raising = self._stroke is not None and self._stroke.raising
+        if self._phase in (PHASE_TAKE_UP, PHASE_POSITION) or (raising and self._phase != PHASE_SETTLE):
+            # The arm may hang below the range until it is brought to a stroke's start, and a raising
+            # stroke may start below it (a heavy load at the low end); the guard is for overshoots.
+            low = -math.pi
         if not low <= sample.elevation_rad <= high:
             raise BenchFault(f"elevation {math.degrees(sample.elevation_rad):.1f}° left the bench's range "
                              f"({math.degrees(low):.0f}°–{math.degrees(high):.0f}°)")

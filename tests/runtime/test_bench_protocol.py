@@ -1,0 +1,209 @@
+"""The default protocol's hazards on the simulated bench over its wire peers (issue 26): every load
+step, the fastest lowering under the lightest load, a resume at a fast lowering stroke after SIGKILL
+and after SIGINT, a host that stalls or falls behind, a dead load cell. The whole default protocol
+(350 strokes, about 25 minutes in real time) runs with ``BOWDEN_NIGHTLY=1``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bowden.cli import main
+from bowden.model.model_file import load_model
+from bowden.protocol.bench import BenchProtocol
+from bowden.runtime.bench import PHASE_STROKE, BenchDevices, BenchRun, BenchRunConfig
+from bowden.runtime.bench_recording import BenchRecordingWriter
+from bowden.sim.backend import open_sim_bench
+
+CHILD = Path(__file__).with_name("bench_child.py")
+LOW_DEG, HIGH_DEG = 20.0, 110.0
+TOLERANCE_DEG = 5.0  # half the range margin: how close a stroke must come to its end
+
+
+def run(protocol: BenchProtocol, path: Path, *, clock_wrapper=None, inject=None, **config: object):
+    config_ = BenchRunConfig(protocol=protocol, **config)  # type: ignore[arg-type]
+    with open_sim_bench() as backend:
+        if inject is not None:
+            inject(backend)
+        clock = backend.clock if clock_wrapper is None else clock_wrapper(backend.clock)
+        devices = BenchDevices(tdu=backend.motor, mannequin=backend.mannequin, imu=backend.imu,
+                               load_cell=backend.load_cell, clock=clock)
+        with BenchRecordingWriter(path, config_.protocol_fingerprint()) as writer:
+            bench = BenchRun(devices, config_, writer)
+            if clock_wrapper is not None:
+                clock.run = bench
+            report = bench.run()
+    return report, bench
+
+
+def assert_every_stroke_covers_the_range(path: Path, protocol: BenchProtocol) -> None:
+    frame = pd.read_csv(path)
+    low, high = protocol.low_rad, protocol.high_rad
+    for stroke in protocol.strokes():
+        elevation = np.degrees(frame.loc[frame["trial"] == stroke.index, "elevation_rad"].to_numpy())
+        assert elevation.size, stroke
+        if stroke.raising:
+            assert elevation.max() >= math.degrees(high) - TOLERANCE_DEG, (stroke, elevation.max())
+            assert elevation[0] <= math.degrees(low) + TOLERANCE_DEG, (stroke, elevation[0])
+        else:
+            assert elevation.min() <= math.degrees(low) + TOLERANCE_DEG, (stroke, elevation.min())
+            assert elevation[0] >= math.degrees(high) - TOLERANCE_DEG, (stroke, elevation[0])
+
+
+def test_every_load_step_holds_the_arm_at_the_next_strokes_start(tmp_path):
+    # Item 1: the load ramps 0.5 → 1 → 2 → 3 → 4 Nm with the arm at the low end, where it sagged below
+    # the range guard at 2 → 3 Nm. (A short range keeps the test quick; the sag is at the low end.)
+    protocol = BenchProtocol(spool_speeds_rad_s=(2.0,), repetitions=1, high_rad=math.radians(60.0))
+    report, _ = run(protocol, tmp_path / "steps.csv", position_speed_rad_s=2.0)
+    assert report.complete, report.fault
+    assert_every_stroke_covers_the_range(tmp_path / "steps.csv", protocol)
+    log = pd.read_csv(tmp_path / "steps.log.csv")
+    holds = log[log["phase"] == 0]
+    assert holds["mannequin_torque_command_nm"].round(3).isin(protocol.loads_nm).all()  # ramped in before
+
+
+def test_the_fastest_lowering_under_the_lightest_load_covers_the_range(tmp_path):
+    # Item 2: −6 rad/s at 0.5 Nm was recorded as complete 50° short of the low end (the light load
+    # lowers the arm slower than the spool pays out). Item 3: the first stroke is fast, with nothing
+    # learned: a slow move to each end first.
+    protocol = BenchProtocol(spool_speeds_rad_s=(6.0,), loads_nm=(0.5,), repetitions=1)
+    report, bench = run(protocol, tmp_path / "fast.csv")
+    assert report.complete, report.fault
+    assert bench.scouting_moves == 2
+    assert_every_stroke_covers_the_range(tmp_path / "fast.csv", protocol)
+
+
+def child(path: Path, options: list[str], *, resume: bool = False) -> subprocess.Popen[str]:
+    command = [sys.executable, str(CHILD), str(path), *options, *(["resume"] if resume else [])]
+    return subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
+
+
+def interrupt_at(process: subprocess.Popen[str], stroke: int, signal_number: int, delay_s: float) -> str:
+    """Send ``signal_number`` ``delay_s`` into stroke ``stroke``'s motion; what the child said after."""
+    assert process.stdout is not None
+    for line in process.stdout:
+        if line.strip() == f"stroke {stroke}":
+            time.sleep(delay_s)
+            process.send_signal(signal_number)
+            break
+    rest = process.stdout.read()
+    process.wait(timeout=60)
+    return rest
+
+
+def test_a_run_killed_and_interrupted_at_fast_lowering_strokes_resumes_to_the_same_lines(tmp_path, capsys):
+    # Item 3 and "Done when": SIGKILL during the −4 rad/s lowering at 1 Nm (stroke 4 of 8), then Ctrl-C
+    # during the −4 rad/s lowering at 3 Nm (stroke 8); each resume completes what it can, as informed
+    # as the run it continues (no slow move to learn an end again), and the lines identified agree
+    # with `bowden bench simulate` within 2 %. Item 9: the device log stays in time order.
+    path = tmp_path / "wire.csv"
+    options = ["1,4", "1,3", "1"]
+    killed = child(path, options)
+    interrupt_at(killed, 3, signal.SIGKILL, 0.3)
+    assert killed.returncode == -signal.SIGKILL
+    interrupted = child(path, options, resume=True)
+    said = interrupt_at(interrupted, 7, signal.SIGINT, 0.3)
+    assert "done False interrupted scouted 0" in said, said
+    finished = child(path, options, resume=True)
+    out, _ = finished.communicate(timeout=120)
+    assert "done True None scouted 0" in out, out
+    protocol = BenchProtocol(spool_speeds_rad_s=(1.0, 4.0), loads_nm=(1.0, 3.0), repetitions=1)
+    assert_every_stroke_covers_the_range(path, protocol)
+    assert pd.read_csv(tmp_path / "wire.log.csv")["time_s"].is_monotonic_increasing
+
+    batch = tmp_path / "batch.csv"
+    assert main(["bench", "simulate", "-o", str(batch), "--quiet", "--speeds", "1", "4", "--loads", "1", "3",
+                 "--repetitions", "1"]) == 0
+    for recording in (path, batch):
+        assert main(["identify", str(recording), "-o", str(recording.with_suffix(".json"))]) in (0, 3)
+    capsys.readouterr()
+    wire, simulated = (load_model(p.with_suffix(".json")) for p in (path, batch))
+    for direction in ("raising", "lowering"):
+        a, b = getattr(wire, direction), getattr(simulated, direction)
+        assert a.slope_m == pytest.approx(b.slope_m, rel=0.02), direction
+        for tension in (20.0, 40.0, 80.0):
+            assert a.intercept_nm + a.slope_m * tension == pytest.approx(
+                b.intercept_nm + b.slope_m * tension, rel=0.02), (direction, tension)
+
+
+class StallingClock:
+    """The bench's clock on a host that falls behind: every cycle 1.5 ms late (no stall), and once,
+    during the first stroke, the whole process held for 0.3 s (its threads too: the GIL is kept)."""
+
+    def __init__(self, clock) -> None:
+        self.clock = clock
+        self.run: BenchRun | None = None
+        self.stalled = False
+
+    def now(self) -> float:
+        return self.clock.now()
+
+    def sleep_until(self, deadline_s: float) -> None:
+        self.clock.sleep_until(deadline_s)
+        time.sleep(0.0015)
+        run = self.run
+        if not self.stalled and run is not None and run.phase == PHASE_STROKE:
+            self.stalled = True
+            interval = sys.getswitchinterval()
+            sys.setswitchinterval(1.0)  # no other thread of this process runs: the load cell's reader
+            try:
+                end = time.monotonic() + 0.3
+                while time.monotonic() < end:
+                    pass
+            finally:
+                sys.setswitchinterval(interval)
+
+
+def test_a_host_that_stalls_or_falls_behind_runs_the_strokes_at_their_speed(tmp_path):
+    # Item 7: a reading left old by a stall of the host is not a dead load cell (its age counts from
+    # the stall's end, as the IMU's). Item 8: cycles late by 1.5 ms (a loop at 2/5 of its rate) still
+    # move the spool at the commanded speed: the target advances by the clock.
+    protocol = BenchProtocol(spool_speeds_rad_s=(1.0,), loads_nm=(1.0,), repetitions=1)
+    report, _ = run(protocol, tmp_path / "busy.csv", clock_wrapper=StallingClock)
+    assert report.complete, report.fault
+    frame = pd.read_csv(tmp_path / "busy.csv")
+    for trial, velocity in ((0, 1.0), (1, -1.0)):
+        spool = frame.loc[frame["trial"] == trial, "motor_velocity_rad_s"].to_numpy()
+        cruising = spool[np.abs(spool - velocity) < 0.5]  # away from the ramps and the stall
+        assert np.median(cruising) == pytest.approx(velocity, rel=0.05), trial
+
+
+def test_a_dead_load_cell_under_the_lightest_load_is_named_before_the_first_stroke(tmp_path):
+    # Item 5: 0 N at 0.5 Nm ran the whole protocol; judged against the tension the load implies, it
+    # stops at the first hold, naming the load cell.
+    protocol = BenchProtocol(spool_speeds_rad_s=(1.0,), loads_nm=(0.5,), repetitions=1)
+
+    def dead(backend) -> None:
+        backend.inject("adc", "override_tension_n", 0.0)
+
+    report, _ = run(protocol, tmp_path / "dead.csv", inject=dead)
+    assert report.strokes_done == 0
+    assert report.fault is not None, report
+    assert report.fault.startswith("the load cell reads 0.0 N while the arm rests"), report.fault
+
+
+@pytest.mark.skipif(not os.environ.get("BOWDEN_NIGHTLY"), reason="the full default protocol takes about "
+                    "25 minutes in real time: set BOWDEN_NIGHTLY=1")
+@pytest.mark.timeout(3600)
+def test_the_full_default_protocol_completes_and_identifies_as_bench_simulate(tmp_path, capsys):
+    wire, batch = tmp_path / "wire.csv", tmp_path / "batch.csv"
+    assert main(["bench", "run", "--backend", "sim", "-o", str(wire)]) == 0
+    assert main(["bench", "simulate", "-o", str(batch), "--quiet"]) == 0
+    assert_every_stroke_covers_the_range(wire, BenchProtocol())
+    for recording in (wire, batch):
+        assert main(["identify", str(recording), "-o", str(recording.with_suffix(".json"))]) in (0, 3)
+    capsys.readouterr()
+    a_model, b_model = (load_model(p.with_suffix(".json")) for p in (wire, batch))
+    for direction in ("raising", "lowering"):
+        a, b = getattr(a_model, direction), getattr(b_model, direction)
+        assert a.slope_m == pytest.approx(b.slope_m, rel=0.02), direction
