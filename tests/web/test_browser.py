@@ -9,14 +9,17 @@ Playwright cannot download its own browsers here, so Debian's ``/usr/bin/chromiu
 from __future__ import annotations
 
 import math
+import re
 import sqlite3
+import sys
 from collections.abc import Iterator
+from contextlib import ExitStack
 from pathlib import Path
 
 import pytest
 
 from bowden.cli import build_parser
-from bowden.cli.serve import serve_config
+from bowden.cli.serve import serve_config, synced
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.model import CompensationModel
 from bowden.runtime.sample_chunks import read_samples
@@ -35,6 +38,7 @@ CHROMIUM_ARGS = [
 ]
 ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts" / "web"
 TIMEOUT_MS = 20_000
+TRIGGER_LOG = Path(__file__).parents[1] / "runtime" / "trigger_log.py"
 
 
 @pytest.fixture(scope="module")
@@ -225,6 +229,31 @@ def test_a_questionnaire_submitted_through_the_form_is_in_the_store(server, brow
     page.wait_for_function("() => document.getElementById('message').textContent.includes('already stored')")
     assert store_snapshot(server.web.config.store_path) == before
     page.context.close()
+
+
+def test_the_console_says_how_long_each_trigger_edge_took(browser: Windows, tmp_path: Path) -> None:
+    """``bowden serve --trigger command:...``: the trial's result names its edges and warns (a slow line)."""
+    levels = tmp_path / "levels.txt"
+    trigger = f"command:{sys.executable} {TRIGGER_LOG} {levels} {{level}}"
+    args = build_parser().parse_args(["serve", "--store", str(tmp_path / "study.db"), "--port", "0",
+                                      "--rate-hz", "250", "--trigger", trigger])
+    with ExitStack() as stack, ServerThread(synced(serve_config(args), args, stack)) as server:
+        console = browser.new_page()
+        console.goto(f"{server.url}/console#token={server.web.token.value}")
+        console.wait_for_function("() => document.getElementById('connection').textContent === 'live'")
+        console.fill("#participant", "P32")
+        console.select_option("#condition", "support_25")
+        console.select_option("#speed", "V3")
+        console.fill("#repetitions", "1")
+        console.click("#start")
+        console.wait_for_function(
+            "() => document.getElementById('last-result').textContent.includes('completed')")
+        result = console.inner_text("#last-result")
+        console.context.close()
+    edges = r"sync: trigger edges sent: start within [\d.]+ ms, end within [\d.]+ ms"
+    assert re.search(edges, result), result
+    assert "sync: warning: a trigger edge took" in result  # a Python program is slower than the 2 ms budget
+    assert [line.split()[0] for line in levels.read_text().splitlines()] == ["1", "0"]
 
 
 def test_the_console_stop_button_puts_the_real_suit_in_its_safe_state(

@@ -238,11 +238,17 @@ def run(args: argparse.Namespace) -> int:
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s: %(message)s")
     with ExitStack() as stack:  # the trigger line and the outlets stay open while the server runs
-        outputs = open_sync_outputs(args, stack, rate_hz=args.rate_hz, say=_say)
-        if outputs is not None:
-            config = replace(config, sync=ConsoleSync(outputs, config.store_path.name))
-        serve(config)
+        serve(synced(config, args, stack))
     return 0
+
+
+def synced(config: ServeConfig, args: argparse.Namespace, stack: ExitStack) -> ServeConfig:
+    """``config`` with the trigger line and LSL outlets of ``--trigger``/``--lsl`` (opened now, closed
+    by ``stack``) driven by every console trial; ``config`` itself when neither is asked."""
+    outputs = open_sync_outputs(args, stack, rate_hz=args.rate_hz, say=_say)
+    if outputs is None:
+        return config
+    return replace(config, sync=ConsoleSync(outputs, config.store_path.name))
 
 
 def _say(text: str) -> None:

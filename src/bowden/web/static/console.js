@@ -246,7 +246,9 @@
   function showResult(r) {
     const how = r.completed ? "completed" : "stopped before its end";
     const text = `Trial ${r.trial_id} ${how}: ${r.reason}. ${r.committed_rows} rows recorded.`
-      + (r.timing ? ` ${r.timing}.` : "");
+      + (r.timing ? ` ${r.timing}.` : "")
+      // The trigger line and LSL (bowden serve --trigger/--lsl): each edge's send time, a warning.
+      + (r.sync && r.sync.length ? ` ${r.sync.join(" ")}` : "");
     $("last-result").textContent = text;
     $("h-state").textContent = r.clean ? "safe (ended)" : "safe (FAULT)";
     if (!r.clean) {
