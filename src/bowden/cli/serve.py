@@ -5,7 +5,9 @@ safely first). Trials started from the console run on the simulated suit (``--ba
 virtual participant follows the reference, paced to wall time) or on the real suit (``--backend
 can``: the AK60-6 over CAN, the NGIMU over OSC/UDP and optionally the ADS1115 load cell, opened for
 each trial with the same options and code as ``bowden run --backend can``; the arm hangs still for
-the IMU calibration when a trial starts). Needs the ``web`` extra.
+the IMU calibration when a trial starts). With ``--trigger`` and ``--lsl`` every console trial pulses
+the trigger line and publishes its LSL markers and samples, as ``bowden run`` does
+(:mod:`bowden.cli._sync_options`). Needs the ``web`` extra.
 """
 
 from __future__ import annotations
@@ -58,7 +60,7 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
             "Serve the study pages: /display (participant, read-only), /console (operator: start and "
             "stop trials, live plots, loop health) and /questionnaire. Operator actions need the "
             "session token printed at start. Trials run on the simulated suit (--backend sim) or on "
-            "the real one (--backend can)."
+            "the real one (--backend can); --trigger and --lsl synchronise each with an EMG amplifier."
         ),
     )
     parser.add_argument(
