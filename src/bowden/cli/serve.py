@@ -260,7 +260,7 @@ def _say(text: str) -> None:
 class ConsoleSync:
     """The sync signals of each console trial, on the outputs ``--trigger``/``--lsl`` opened.
 
-    Implements :class:`bowden.web.trials.TrialSyncs`: the session marker carries the participant,
+    Implements :class:`bowden.web.trial_signals.TrialSyncs`: the session marker carries the participant,
     condition, speed and store, and for a trial of a plan its session and position.
     """
 

@@ -31,7 +31,8 @@ from bowden.web.questionnaire_store import QuestionnaireStore
 from bowden.web.security import SessionToken
 from bowden.web.session_desk import SessionDesk
 from bowden.web.suits import SimulatedBackend, SuitBackend
-from bowden.web.trials import TrialManager, TrialSyncs
+from bowden.web.trial_signals import TrialSyncs
+from bowden.web.trials import TrialManager
 
 _log = logging.getLogger(__name__)
 LOOPBACK_HOSTS: Final = ("127.0.0.1", "localhost", "::1")

@@ -25,7 +25,6 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
 
 from bowden import __version__
 from bowden.errors import BowdenError, ConflictError
@@ -47,21 +46,9 @@ from bowden.web.live import ROLE_CONSOLE, ROLE_DISPLAY, LiveHub, SampleTap, Stam
 from bowden.web.samples import FLAGS, STATE, TIME, console_samples, display_samples, fault_names
 from bowden.web.suits import OpenSuit, SuitBackend
 from bowden.web.trial_setup import TrialSetup, controller_for
+from bowden.web.trial_signals import TrialSyncs, end_sync
 
 _log = logging.getLogger(__name__)
-
-
-class TrialSyncs(Protocol):
-    """Sync signals for each trial the server runs (``bowden serve --lsl/--trigger``).
-
-    ``start`` is called once the trial's recorder has started (from a worker thread; it may wait for
-    an LSL recorder to connect) and returns the trial's :class:`TrialSync`, whose ``row`` becomes one of
-    the loop's sinks; ``ended`` is called after its ``finish`` and says what to tell the operator.
-    """
-
-    def start(self, setup: TrialSetup, recorder: Recorder, metadata: Mapping[str, object]) -> TrialSync: ...
-
-    def ended(self, sync: TrialSync) -> list[str]: ...
 
 
 @dataclass
@@ -349,25 +336,6 @@ class TrialManager:
             suit.close()
             raise
 
-    def _finish_sync(self, trial: _Trial, report: LoopReport | None, error: str | None) -> None:
-        """Trigger low and the sync events recorded (before the recorder closes); notes for the console."""
-        sync = trial.sync
-        if sync is None or self.sync is None:
-            return
-        if report is not None:
-            stop_s, reason, clean = report.stop_time_s, report.reason, report.clean
-        else:  # the loop failed: the last row the server saw stands for the stop
-            row = trial.last_row
-            stop_s, reason, clean = (float(row[TIME]) if row is not None else 0.0), f"error: {error}", False
-        try:
-            sync.finish(stop_time_s=stop_s, reason=reason, clean=clean)
-            trial.sync_notes = self.sync.ended(sync)
-        except Exception as exc:  # the recording must still be closed
-            _log.exception("ending the trial's sync signals failed")
-            trial.sync_notes = [f"sync: ending the trial's sync signals failed ({exc})"]
-        for note in trial.sync_notes:
-            _log.info("trial %s %s", trial.recorder.trial_id, note)
-
     def _run(self, trial: _Trial) -> None:
         report: LoopReport | None = None
         error: str | None = None
@@ -378,7 +346,11 @@ class TrialManager:
         except Exception as exc:  # a bug must still end in a closed recording and a message
             _log.exception("the control loop failed")
             error = f"{type(exc).__name__}: {exc}"
-        self._finish_sync(trial, report, error)
+        if trial.sync is not None and self.sync is not None:  # trigger low before the recording closes
+            last_s = float(trial.last_row[TIME]) if trial.last_row is not None else 0.0
+            trial.sync_notes = end_sync(self.sync, trial.sync, report, error=error, last_time_s=last_s)
+            for note in trial.sync_notes:
+                _log.info("trial %s %s", trial.recorder.trial_id, note)
         try:
             trial.suit.close()
         except Exception:
