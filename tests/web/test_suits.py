@@ -111,5 +111,5 @@ def test_a_simulated_backend_with_an_unusable_time_scale_is_refused_at_startup(
         SimulatedBackend(time_scale=time_scale)
     store = tmp_path / "s.sqlite"
     assert main(["serve", "--time-scale", repr(time_scale), "--store", str(store)]) == 1
-    assert "time_scale must be in" in capsys.readouterr().err
+    assert "bowden: error: --time-scale must be in" in capsys.readouterr().err  # the flag, not the field
     assert not store.exists()
