@@ -461,8 +461,12 @@ class BenchRun:
             if not braking:
                 v = abs(self._velocity_rad_s)
                 stopping_spool = v * v / (2.0 * p.spool_acceleration_rad_s2) + v * _BRAKE_LEAD_S
+                # A fast stroke with no stroke to this end seen yet expects to turn as far past its
+                # rest as the range margin: it aims half of it short.
+                fast = speed > self.config.position_speed_rad_s
                 spool_stop = self._ends.stop((stop_rad, self._load_to_nm, direction), speed,
-                                             allowed_rad=safety.range_margin_rad / 2.0)
+                                             allowed_rad=safety.range_margin_rad / 2.0,
+                                             unknown_rad=safety.range_margin_rad if fast else 0.0)
                 if spool_stop is not None:
                     # The spool target at which the arm rested at this end before (through the taut
                     # cable): brake so that the target, which decelerates exactly, stops there.

@@ -82,15 +82,17 @@ class LearnedEnds:
             self.unanchored.remove(group)
         self.points[key] = (elevation_rad, spool_rad)
 
-    def stop(self, key: Key, speed_rad_s: float = 0.0, allowed_rad: float = math.inf) -> float | None:
+    def stop(self, key: Key, speed_rad_s: float = 0.0, allowed_rad: float = math.inf,
+             unknown_rad: float = 0.0) -> float | None:
         """The spool position at which a stroke at ``speed_rad_s`` brings the arm to rest at ``key``'s
-        end, or short of it by what its expected excursion carries it beyond ``allowed_rad`` past
-        the end; None before any rest there is known."""
+        end, or short of it by what its expected excursion (``unknown_rad`` before any stroke there
+        was seen) carries it beyond ``allowed_rad`` past the end; None before any rest there is known."""
         point = self.points.get(key)
         if point is None:
             return None
         end, _, direction = key
-        short_rad = max(self.expected_excursion(key, speed_rad_s) - allowed_rad, 0.0)
+        expected = self.expected_excursion(key, speed_rad_s) if key in self.excursions else unknown_rad
+        short_rad = max(expected - allowed_rad, 0.0)
         return self.spool_at(point, end - direction * short_rad)
 
     def note_excursion(self, key: Key, speed_rad_s: float, excursion_rad: float) -> None:
