@@ -113,9 +113,9 @@ FAULTS = {
     "tension limit": ("adc", "override_tension_n", (400.0,), (None,), "over the limit", True),
     "imu off the arm": ("imu", "freeze", (True,), (False,), "does not follow", False),
     "mannequin too weak": ("mannequin", "limit_torque", (0.2,), (18.0,), "does not hold its load", False),
-    "load cell reads zero": ("adc", "override_tension_n", (0.0,), (None,), "while the TDU pulls", False),
+    "load cell reads zero": ("adc", "override_tension_n", (0.0,), (None,), "the load cell reads 0", False),
 }
-LOADS_NM = {"load cell reads zero": 4.0}  # the TDU must pull more than 20 N for the check to apply
+LOADS_NM = {"load cell reads zero": 4.0}
 
 
 @pytest.mark.parametrize("name", sorted(FAULTS))
