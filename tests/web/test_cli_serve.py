@@ -75,3 +75,10 @@ def test_a_wrong_flag_is_one_line_naming_the_flag_not_an_internal_name(
     assert line.startswith(said), line
     assert not INTERNAL.search(line), line
     assert not store.exists()  # refused before the store was opened
+
+
+def test_run_serve_names_its_port_flag(tmp_path, capsys):
+    store = str(tmp_path / "study.db")
+    code = main(["run", "--backend", "sim", "--serve", "--record", store, "--port", "70000"])
+    assert code == 1
+    assert capsys.readouterr().err == "bowden: error: --port must be 0–65535, got 70000\n"

@@ -26,6 +26,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from bowden.cli._flag_errors import flag_errors
 from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
 from bowden.cli._protocol_options import add_protocol_arguments, protocol_catalogue
 from bowden.cli._run_plan import (
@@ -186,15 +187,16 @@ def _serving(args: argparse.Namespace, model: CompensationModel) -> Iterator[Ser
         raise BowdenError(
             f"bowden run --serve needs the web extra ({error.name} is missing): pip install 'bowden[web]'"
         ) from None
-    config = ServeConfig(
-        store_path=args.record,
-        model=model,
-        backend=CommandLineBackend(args.backend),
-        host=args.host,
-        port=args.port,
-        rate_hz=args.rate,
-        safety=safety_config(args),
-    )
+    with flag_errors({"ServeConfig.port": "--port", "ServeConfig.host": "--host"}):
+        config = ServeConfig(
+            store_path=args.record,
+            model=model,
+            backend=CommandLineBackend(args.backend),
+            host=args.host,
+            port=args.port,
+            rate_hz=args.rate,
+            safety=safety_config(args),
+        )
     with ServerThread(config) as server:
         for line in server.announcement(title="bowden run --serve"):
             print(line, flush=True)
