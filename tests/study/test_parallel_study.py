@@ -7,6 +7,8 @@ the parent in the protocol's order, and analysed in trial order.
 
 from __future__ import annotations
 
+import hashlib
+import json
 from pathlib import Path
 
 import pandas as pd
@@ -20,8 +22,14 @@ SMALL = StudySettings(participants=3, repetitions=2, quick_bench=True, seed=3)
 
 
 def _contents(result: StudyResult) -> dict[str, object]:
+    model_sha256 = hashlib.sha256((result.store.parent / "model.json").read_bytes()).hexdigest()
     with StudyStore(result.store) as store:
         trials = store.read_sql("SELECT id, participant, condition, speed, metadata FROM trials ORDER BY id")
+        # Each run writes its own model.json (its provenance has the time it was written), so the
+        # trials name that file's hash; apart from it they must be the same.
+        metadata = [json.loads(text) for text in trials["metadata"]]
+        assert {meta.pop("model_sha256") for meta in metadata} == {model_sha256}
+        trials["metadata"] = [json.dumps(meta, sort_keys=True) for meta in metadata]
         last = int(trials["id"].iloc[-1])
         contents: dict[str, object] = {
             "trials": trials,

@@ -132,93 +132,35 @@ def analyze_store(
     if not store_path.exists():
         raise StoreError(f"no study store at {store_path}")
     progress = progress if progress is not None else StageProgress(enabled=False)
-    skipped: list[str] = []
-    kept: dict[int, dict[str, Any]] = {}  # trial id → metadata of the trials analysed
-    with StudyStore(store_path) as store:
+    with StudyStore(store_path) as store, ExitStack() as stack:
         facts = session_facts(store)
-        skipped.extend(left_open_notes(facts))
+        skipped = list(left_open_notes(facts))
         trials = store.completed_trials()
         if not trials:
             raise StoreError(f"{store_path} holds no completed trial to analyse" + (
                 f" ({'; '.join(skipped)})" if skipped else ""))
-        metadata = {trial.trial_id: store.trial_metadata(trial.trial_id) for trial in trials}
-        counts = {trial_id: _expected(meta, repetitions) for trial_id, meta in metadata.items()}
-        # The paper drops each trial's first repetition (adaptation); a study whose trials hold one
-        # repetition each keeps it, and the methods text says so. One rule for every trial.
-        drop_first = 0 if all(n == 1 or isinstance(n, str) for n in counts.values()) else 1
-        segmentation = SegmentationParameters(expected_repetitions=None, drop_first=drop_first)
-        parameters = AnalysisParameters(segmentation=segmentation)
-
         # Each trial's analysis is a task on the engine (worker processes, or Dask), and so is each
         # statistical model; results come back in task order, so none depends on the workers.
-        with ExitStack() as stack:
-            if engine is None:
-                engine = stack.enter_context(study_engine(workers))
-            identification = (
-                engine.submit(fit_identification, Path(bench_path)) if bench_path is not None else None
-            )
-            jobs = _analysis_jobs(store, trials, facts.set_aside, counts, parameters, engine.shares_files)
-            results: list[TrialOutcomes] = []
-            analysed = zip(trials, engine.map(_analyse_job, jobs), strict=True)
-            with progress.bar("analysing trials", len(trials)) as advance:
-                for done, (trial, result) in enumerate(analysed, start=1):
-                    set_aside = facts.set_aside.get(trial.trial_id)
-                    if set_aside is not None:
-                        skipped.append(f"{_describe(trial)} set aside: {set_aside}")
-                    elif isinstance(result, str):
-                        skipped.append(f"{_describe(trial)} skipped: {result}")
-                        _log.warning("bowden analyze: %s", skipped[-1])
-                    elif result is not None:
-                        kept[trial.trial_id] = metadata[trial.trial_id]
-                        results.append(result)
-                    advance(done)
-            outcomes = _combine(results, parameters, store_path, kept, skipped)
-            # The report's notes say which trials are missing and why, where each trial's EMG came
-            # from, and which conditions and speeds are the lab's own (out of the paper's comparisons).
-            sources = emg_sources(store, kept)
-            definitions = custom_definitions(store)
-            extra = custom_notes(outcomes.outcomes, definitions)
-            notes = (*skipped, *sources, *extra, *outcomes.info.notes)
-            info = dataclasses.replace(outcomes.info, notes=notes)
-            outcomes = dataclasses.replace(outcomes, info=info)
-            store.replace_outcomes(outcomes.outcomes)  # every trial's, the custom ones too
-            answers = store.questionnaires()
-            beyond = custom_table(outcomes.outcomes, answers, definitions)
-            if extra:
-                outcomes = paper_part(outcomes)
-                answers = answers[is_paper(answers)] if not answers.empty else answers
-            with progress.spinner("fitting the statistics"):
-                statistics = study_statistics(outcomes.outcomes, answers, mapper=_fit_mapper(engine))
-            model = _stored_model(store)
-            figure, text = _identification_figure(identification)
-
-            given: DataKind = "simulated" if simulated else "measured"
-            kind = data_kind(kept.values()) if simulated is None else given
-            inputs = ReportInputs(
-                outcomes=outcomes,
-                statistics=statistics,
-                methods=methods_text(info=outcomes.info),
-                model=model,
-                # Results that pool measured and simulated trials are not measured results.
-                simulated=kind != "measured",
-                n_participants=outcomes.info.n_participants,
-                n_trials=outcomes.info.n_trials,
-                identification_figure=figure,
-                identification_text=text,
-                timings=dict(timings or {}),
-                questionnaires=answers,
-                trials=trial_list(_trial_rows(store, kept)),
-            )
-            with progress.spinner("writing the report"):
-                document = build_report(inputs, figure_submit=engine.submit)  # drawn while it is built
-                if kind == "mixed":
-                    _label_mixed(document, kept)
-                custom_section(document, beyond)
-                _session_sections(document, facts)
-                if appendix is not None:
-                    appendix(document)
-                document.draw_figures(_figure_mapper(engine))  # collect them
-                report = document.write(report_path)
+        if engine is None:
+            engine = stack.enter_context(study_engine(workers))
+        identification = None if bench_path is None else engine.submit(fit_identification, Path(bench_path))
+        analysed = _analyse_trials(store, trials, facts, repetitions, engine, progress, skipped)
+        outcomes, answers, beyond = _outcomes_and_notes(store, store_path, analysed, skipped)
+        with progress.spinner("fitting the statistics"):
+            statistics = study_statistics(outcomes.outcomes, answers, mapper=_fit_mapper(engine))
+        given: DataKind = "simulated" if simulated else "measured"
+        kind = data_kind(analysed.kept.values()) if simulated is None else given
+        inputs = _report_inputs(store, analysed, outcomes, statistics, answers, identification, kind, timings)
+        with progress.spinner("writing the report"):
+            document = build_report(inputs, figure_submit=engine.submit)  # drawn while it is built
+            if kind == "mixed":
+                _label_mixed(document, analysed.kept)
+            custom_section(document, beyond)
+            _session_sections(document, facts)
+            if appendix is not None:
+                appendix(document)
+            document.draw_figures(_figure_mapper(engine))  # collect them
+            report = document.write(report_path)
     return AnalysisReport(
         report=report,
         outcomes=outcomes,
@@ -229,6 +171,90 @@ def analyze_store(
         participants=facts.participants,
         plans=facts.plans,
     )
+
+
+def _report_inputs(
+    store: StudyStore, analysed: _Analysed, outcomes: StudyOutcomes, statistics: StudyStatistics,
+    answers: pd.DataFrame, identification: Pending[tuple[Any, dict[str, Any], str]] | None, kind: DataKind,
+    timings: dict[str, float] | None,
+) -> ReportInputs:
+    figure, text = _identification_figure(identification)
+    return ReportInputs(
+        outcomes=outcomes,
+        statistics=statistics,
+        methods=methods_text(info=outcomes.info),
+        model=_stored_model(store),
+        # Results that pool measured and simulated trials are not measured results.
+        simulated=kind != "measured",
+        n_participants=outcomes.info.n_participants,
+        n_trials=outcomes.info.n_trials,
+        identification_figure=figure,
+        identification_text=text,
+        timings=dict(timings or {}),
+        questionnaires=answers,
+        trials=trial_list(_trial_rows(store, analysed.kept)),
+    )
+
+
+@dataclass
+class _Analysed:
+    """The trials' outcomes, the metadata of the trials they came from, and how they were analysed."""
+
+    results: list[TrialOutcomes]
+    kept: dict[int, dict[str, Any]]  # trial id → metadata of the trials analysed
+    parameters: AnalysisParameters
+
+
+def _analyse_trials(
+    store: StudyStore, trials: list[StoredTrial], facts: SessionFacts, repetitions: int | None,
+    engine: Engine, progress: StageProgress, skipped: list[str],
+) -> _Analysed:
+    """Each trial's outcomes; the trials set aside or that cannot be analysed go to ``skipped``."""
+    metadata = {trial.trial_id: store.trial_metadata(trial.trial_id) for trial in trials}
+    counts = {trial_id: _expected(meta, repetitions) for trial_id, meta in metadata.items()}
+    # The paper drops each trial's first repetition (adaptation); a study whose trials hold one
+    # repetition each keeps it, and the methods text says so. One rule for every trial.
+    drop_first = 0 if all(n == 1 or isinstance(n, str) for n in counts.values()) else 1
+    parameters = AnalysisParameters(
+        segmentation=SegmentationParameters(expected_repetitions=None, drop_first=drop_first)
+    )
+    jobs = _analysis_jobs(store, trials, facts.set_aside, counts, parameters, engine.shares_files)
+    analysed = _Analysed([], {}, parameters)
+    with progress.bar("analysing trials", len(trials)) as advance:
+        for done, (trial, result) in enumerate(zip(trials, engine.map(_analyse_job, jobs), strict=True), 1):
+            set_aside = facts.set_aside.get(trial.trial_id)
+            if set_aside is not None:
+                skipped.append(f"{_describe(trial)} set aside: {set_aside}")
+            elif isinstance(result, str):
+                skipped.append(f"{_describe(trial)} skipped: {result}")
+                _log.warning("bowden analyze: %s", skipped[-1])
+            elif result is not None:
+                analysed.kept[trial.trial_id] = metadata[trial.trial_id]
+                analysed.results.append(result)
+            advance(done)
+    return analysed
+
+
+def _outcomes_and_notes(
+    store: StudyStore, store_path: Path, analysed: _Analysed, skipped: list[str]
+) -> tuple[StudyOutcomes, pd.DataFrame, Any]:
+    """The study's outcomes (stored, every trial's) with the report's notes, the questionnaire answers,
+    and the table of the lab's own conditions and speeds; both of the first restricted to the paper's
+    when the lab defined its own."""
+    outcomes = _combine(analysed.results, analysed.parameters, store_path, analysed.kept, skipped)
+    # The report's notes say which trials are missing and why, where each trial's EMG came from, and
+    # which conditions and speeds are the lab's own (out of the paper's comparisons).
+    definitions = custom_definitions(store)
+    extra = custom_notes(outcomes.outcomes, definitions)
+    notes = (*skipped, *emg_sources(store, analysed.kept), *extra, *outcomes.info.notes)
+    outcomes = dataclasses.replace(outcomes, info=dataclasses.replace(outcomes.info, notes=notes))
+    store.replace_outcomes(outcomes.outcomes)  # every trial's, the custom ones too
+    answers = store.questionnaires()
+    beyond = custom_table(outcomes.outcomes, answers, definitions)
+    if extra:
+        outcomes = paper_part(outcomes)
+        answers = answers[is_paper(answers)] if not answers.empty else answers
+    return outcomes, answers, beyond
 
 
 def expected_repetitions(metadata: Mapping[str, Any]) -> int | None:

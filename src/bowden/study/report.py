@@ -212,6 +212,15 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
     """Assemble the report document; ``figure_submit`` starts each figure on a worker as it is added
     (:class:`~bowden.study.html.HtmlDocument`)."""
     kind = "simulated" if inputs.simulated else "measured"
+    doc = _front(inputs, kind, figure_submit)
+    for section in (_identification_section, _tracking_section, _kinematics_section, _iemg_section,
+                    _departures_section, _questionnaire_section, _closing_sections):
+        section(doc, inputs, kind)
+    return doc
+
+
+def _front(inputs: ReportInputs, kind: str, figure_submit: FigureSubmit | None) -> HtmlDocument:
+    """The title, the simulated-data banner and the study's size."""
     title = "bowden study report" + (" — SIMULATED cohort" if inputs.simulated else "")
     doc = HtmlDocument(title, caption_label=kind if inputs.simulated else "", figure_submit=figure_submit)
     if inputs.simulated:
@@ -225,8 +234,11 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
         f"{datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')} by bowden {__version__}.",
         "note",
     )
-    outcomes = inputs.outcomes.outcomes
+    return doc
 
+
+def _identification_section(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> None:
+    """The identified lines, the friction factor they imply, the fit and its figure."""
     doc.heading("Transmission identification")
     if inputs.model is not None:
         doc.table(_model_table(inputs.model), f"Identified compensation lines ({kind} bench)", "{:.4g}")
@@ -242,6 +254,10 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
             inputs.identification_figure, "Motor torque against load-cell tension, raising and lowering"
         )
 
+
+def _tracking_section(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> None:
+    """Tension, torque and percent error against the paper's tables; one participant's curves."""
+    outcomes = inputs.outcomes.outcomes
     doc.heading("Tension and torque tracking")
     if inputs.simulated:
         doc.paragraph(
@@ -276,6 +292,10 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
             dpi=80,
         )
 
+
+def _kinematics_section(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> None:
+    """Elevation RMSE and SPARC: figures, effects and pairwise comparisons beside the paper."""
+    outcomes = inputs.outcomes.outcomes
     doc.heading("Trajectory tracking and smoothness")
     kinematic_fits = {fit.name: fit for fit in inputs.statistics.kinematics}
     for measure, label in (("elevation_rmse_rad", "Elevation RMSE (deg)"), ("sparc", "SPARC (sign flipped)")):
@@ -304,6 +324,10 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
             f"Speeds compared, {kind} and the paper (Table S6)",
         )
 
+
+def _iemg_section(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> None:
+    """iEMG per phase: figures, effects, pairwise comparisons and the colour tables beside the paper's."""
+    outcomes = inputs.outcomes.outcomes
     doc.heading("Muscle activity (iEMG)")
     entire_fits = {fit.name: fit for fit in inputs.statistics.iemg.get("entire", [])}
     for muscle in ("anterior_deltoid", "posterior_deltoid"):
@@ -347,8 +371,9 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
             )
         )
 
-    _departures_section(doc, inputs, kind)
 
+def _questionnaire_section(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> None:
+    """Friedman tests, post-hoc comparisons and the questionnaire figures."""
     doc.heading("Questionnaires")
     if inputs.statistics.questionnaires.empty:
         doc.paragraph("No questionnaire answers in this study.")
@@ -396,6 +421,9 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
                 dpi=80,
             )
 
+
+def _closing_sections(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> None:
+    """The trials analysed, the methods, the notes and the time per stage."""
     if not inputs.trials.empty:
         doc.heading("Trials")
         doc.table(
@@ -416,4 +444,3 @@ def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = N
             doc.paragraph(note, "note")
     if inputs.timings:
         doc.table(pd.DataFrame({"seconds": inputs.timings}).rename_axis("stage"), "Time per stage", "{:.1f}")
-    return doc
