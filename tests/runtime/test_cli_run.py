@@ -73,7 +73,7 @@ def test_can_backend_needs_a_model(capsys: pytest.CaptureFixture[str]) -> None:
 @pytest.mark.parametrize(("argument", "message"), [
     (["--support", "half"], "--support must be"),
     (["--support", "0.3", "--record", "x.db"], "no study condition for support 0.3"),
-    (["--rate", "9000"], "rate_hz"),
+    (["--rate", "9000"], "--rate must be 1–2000 Hz, got 9000"),
 ])
 def test_bad_arguments_fail_before_touching_devices(argument: list[str], message: str,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
