@@ -214,7 +214,8 @@ def _serve_config(args: argparse.Namespace) -> ServeConfig:
     from bowden.web.store_catalogue import checked_catalogue
 
     checked_catalogue(args.store, protocol.catalogue)  # a name the store gave another meaning: refused now
-    return ServeConfig(store_path=args.store, model=model, backend=backend, host=args.host, port=args.port,
+    return ServeConfig(store_path=args.store, model=model, model_file=args.model, backend=backend,
+                       host=args.host, port=args.port,
                        rate_hz=args.rate_hz, safety=safety, realtime=realtime, slack=slack,
                        protocol=protocol)
 

@@ -21,6 +21,7 @@ from starlette.applications import Starlette
 
 from bowden.errors import BowdenError, ParameterError
 from bowden.model import CompensationModel
+from bowden.model.model_record import model_record
 from bowden.protocol.session_plan import StudyProtocol
 from bowden.runtime import SafetyConfig
 from bowden.runtime.realtime import RealtimeConfig
@@ -48,6 +49,9 @@ class ServeConfig:
         The study store (SQLite): trials, samples and questionnaires.
     model
         The suit's compensation model.
+    model_file
+        The ``model.json`` it was loaded from (None: built in memory); each trial records its
+        SHA-256 and the model's coefficients (:mod:`bowden.model.model_record`).
     backend
         Where trials get their devices (default: the simulated suit in real time).
     host, port
@@ -70,6 +74,7 @@ class ServeConfig:
 
     store_path: Path
     model: CompensationModel
+    model_file: Path | None = None
     backend: SuitBackend = field(default_factory=SimulatedBackend)
     host: str = "127.0.0.1"
     port: int = 8765
@@ -117,6 +122,8 @@ def build_server(config: ServeConfig) -> WebServer:
     manager = TrialManager(
         backend=config.backend,
         model=config.model,
+        model_metadata={"model": str(config.model_file) if config.model_file else "built in (no model.json)",
+                        **model_record(config.model, config.model_file)},
         store_path=config.store_path,
         hub=LiveHub(),
         rate_hz=config.rate_hz,

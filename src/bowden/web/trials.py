@@ -78,6 +78,8 @@ class TrialManager:
         Where the devices come from (simulated or real suit).
     model
         The compensation model of the suit (controller and tension estimate).
+    model_metadata
+        What each trial's metadata records of the model (its file, SHA-256 and coefficients).
     store_path
         The study store (SQLite) the recorder writes into.
     hub
@@ -102,6 +104,7 @@ class TrialManager:
         backend: SuitBackend,
         model: CompensationModel,
         store_path: str | Path,
+        model_metadata: Mapping[str, object] | None = None,
         hub: LiveHub,
         rate_hz: float = 500.0,
         safety: SafetyConfig | None = None,
@@ -113,6 +116,7 @@ class TrialManager:
     ) -> None:
         self.backend = backend
         self.model = model
+        self.model_metadata = dict(model_metadata or {})
         self.store_path = Path(store_path)
         self.hub = hub
         self.rate_hz = rate_hz
@@ -288,6 +292,8 @@ class TrialManager:
                     "suit": suit.description,
                     "rate_hz": self.rate_hz,
                     "bowden_version": __version__,
+                    "compensation": getattr(controller, "compensation", None),
+                    **self.model_metadata,
                     **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},
                     **extra,
                 },
