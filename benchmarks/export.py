@@ -18,20 +18,20 @@ from pathlib import Path
 from store import write_legacy_copy
 
 BOUND_MB = 500.0
-# The last revision of src/bowden/study/export.py before the export streamed.
+# The last revision of src/bowden/store/export.py before the export streamed.
 BEFORE_REV = "ac507e0"
 REPO = Path(__file__).resolve().parent.parent
 
 _AFTER = """
 import resource, sys
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 with StudyStore(sys.argv[1]) as store:
     store.export(sys.argv[2], file_format=sys.argv[3], include_emg=sys.argv[4] == "1")
 print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 """
 _BEFORE = """
 import resource, sys, types
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 old = types.ModuleType("old_export")
 exec(compile(open(sys.argv[5]).read(), "old_export.py", "exec"), old.__dict__)
 with StudyStore(sys.argv[1]) as store:
@@ -68,7 +68,7 @@ def main() -> None:
         old_export = work / "old_export.py"
         if not args.no_before:
             write_legacy_copy(store, legacy)
-            show = ["git", "-C", str(REPO), "show", f"{args.before_rev}:src/bowden/study/export.py"]
+            show = ["git", "-C", str(REPO), "show", f"{args.before_rev}:src/bowden/store/export.py"]
             source = subprocess.run(show, capture_output=True, text=True, check=True).stdout
             old_export.write_text(source)
         for file_format in ("parquet", "csv"):

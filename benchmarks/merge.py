@@ -20,8 +20,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from bowden.contracts import TRIAL_COLUMNS
-from bowden.runtime.column_codec import decode_columns
-from bowden.runtime.sample_chunks import CHUNK_ROWS, Columns, encode_chunk, faithful_chunk
+from bowden.store.column_codec import decode_columns
+from bowden.store.sample_chunks import CHUNK_ROWS, Columns, encode_chunk, faithful_chunk
 
 
 def best_of(repeat: int, work: Callable[[], object]) -> float:

@@ -20,13 +20,13 @@ from pathlib import Path
 import numpy as np
 
 from bowden.contracts import TRIAL_COLUMNS
-from bowden.runtime.column_codec import column_sizes, decode_columns, encode_columns
-from bowden.runtime.sensor_grids import KNOWN_GRIDS
-from bowden.study.store import StudyStore
+from bowden.store.column_codec import column_sizes, decode_columns, encode_columns
+from bowden.store.sensor_grids import KNOWN_GRIDS
+from bowden.store.study_store import StudyStore
 
 TARGET_MB = 250.0
 
-# Schema 3's sample and EMG tables (with its index), as src/bowden/runtime/store_schema.py had them.
+# Schema 3's sample and EMG tables (with its index), as src/bowden/store/schema.py had them.
 _V3_DDL = (
     "CREATE TABLE trials (id INTEGER PRIMARY KEY, participant TEXT NOT NULL, condition TEXT NOT NULL, "
     "speed TEXT, support REAL, started_utc TEXT NOT NULL, ended_utc TEXT, stop_reason TEXT, "

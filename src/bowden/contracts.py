@@ -145,6 +145,11 @@ QUESTIONNAIRE_BORG_RPE: Final = "borg_rpe"  # Borg rating of perceived exertion 
 QUESTIONNAIRE_FATIGUE: Final = "fatigue"  # perceived fatigue 1-7 per muscle group
 QUESTIONNAIRES: Final = (QUESTIONNAIRE_NORDIC, QUESTIONNAIRE_BORG_RPE, QUESTIONNAIRE_FATIGUE)
 BORG_RPE_ITEM: Final = "rpe"
+# Score ranges (the study store's CHECK, the forms' and the simulation's bounds).
+LIKERT_LOW: Final = 1  # nordic and fatigue: 1 (none) to 7 (extreme)
+LIKERT_HIGH: Final = 7
+BORG_LOW: Final = 6  # Borg RPE 6-20
+BORG_HIGH: Final = 20
 NORDIC_SITES: Final = (
     "upper_neck", "lower_neck", "right_shoulder", "left_shoulder", "upper_back", "right_upper_arm",
     "left_upper_arm", "right_elbow", "left_elbow", "right_forearm", "left_forearm", "right_wrist_hand",

@@ -12,7 +12,7 @@ import pytest
 from bowden.cli import main
 from bowden.contracts import TRIAL_COLUMNS
 from bowden.runtime.recorder import TrialInfo
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 
 
 def digest(path: Path) -> str:

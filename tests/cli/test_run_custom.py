@@ -15,7 +15,7 @@ from bowden.contracts import BACKEND_SIM
 from bowden.model import CompensationModel
 from bowden.model.model_file import save_model
 from bowden.runtime.recorder import TrialInfo
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 
 from ..study.test_analyze_contracts import trial_samples
 

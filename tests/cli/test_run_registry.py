@@ -11,7 +11,7 @@ import pytest
 from bowden.cli import main
 from bowden.model import CompensationModel, Subject
 from bowden.model.model_file import save_model
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 from bowden.web.registry import Participant, Registry
 
 

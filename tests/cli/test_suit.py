@@ -17,8 +17,8 @@ from bowden.cli.serve import serve_config
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
 from bowden.model.model_file import save_model
-from bowden.runtime.sample_chunks import read_samples
 from bowden.sim.parameters import SuitParameters
+from bowden.store.sample_chunks import read_samples
 
 HARDWARE = ["--channel", "can1", "--interface", "virtual", "--motor-id", "3", "--firmware", "peak-9nm",
             "--direction", "-1", "--imu-port", "9001", "--calibration-s", "0.5", "--i2c-bus", "2",

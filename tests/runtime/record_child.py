@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 from bowden.runtime.recorder import Recorder, TrialInfo
-from bowden.runtime.sample_chunks import CHUNK_ROWS
+from bowden.store.sample_chunks import CHUNK_ROWS
 
 
 def row(i: int) -> tuple[float | int, ...]:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from bowden.runtime.sample_chunks import last_sample_times, sample_count
+from bowden.store.sample_chunks import last_sample_times, sample_count
 
 LIMIT_BYTES = 256 * 1024
 

@@ -15,8 +15,8 @@ from bowden.cli._run_plan import run_reference, trial_info
 from bowden.contracts import BACKEND_CAN, BACKEND_SIM, TRIAL_COLUMNS
 from bowden.model import CompensationModel, Subject
 from bowden.model.model_file import save_model
-from bowden.runtime.sample_chunks import read_samples
-from bowden.study.store import StudyStore
+from bowden.store.sample_chunks import read_samples
+from bowden.store.study_store import StudyStore
 from bowden.web.trial_setup import TrialSetup
 
 

@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from bowden.errors import StoreError
-from bowden.runtime.column_codec import decode_columns, encode_columns
+from bowden.store.column_codec import decode_columns, encode_columns
 
 DTYPES = ("<f8", "<f4", "<i8", "<i4", "<i2")
 

@@ -16,9 +16,9 @@ from hypothesis.extra import numpy as hnp
 from bowden.errors import StoreError
 from bowden.hardware.ads1115 import LoadCellCalibration, conversion_to_volts, register_bytes
 from bowden.hardware.ak60_codec import uint_to_float
-from bowden.runtime import lpc
-from bowden.runtime.column_codec import decode_columns, encode_columns
-from bowden.runtime.sensor_grids import ADS1115, AK60, KNOWN_GRIDS, Grid
+from bowden.store import lpc
+from bowden.store.column_codec import decode_columns, encode_columns
+from bowden.store.sensor_grids import ADS1115, AK60, KNOWN_GRIDS, Grid
 
 COEFFICIENT = st.integers(-(1 << 24) + 1, (1 << 24) - 1)  # what lpc.fit may store
 TORQUE = Grid(AK60, (-15.0, 15.0, 12.0, 1.0))  # the AK60-6's torque field (manual V1.0.8)

@@ -21,7 +21,7 @@ import pytest
 pytest.importorskip("pylsl")
 
 from bowden.runtime.sync_events import SYNC_KIND, SyncEvent
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 
 HERE = Path(__file__).parent
 

@@ -22,9 +22,9 @@ import pytest
 
 from bowden.errors import ParameterError, StoreError
 from bowden.runtime import recorder as recorder_module
-from bowden.runtime import sample_chunks
 from bowden.runtime.recorder import Recorder, TrialInfo
-from bowden.runtime.store_schema import SCHEMA_VERSION
+from bowden.store import sample_chunks
+from bowden.store.schema import SCHEMA_VERSION
 
 CHILD = Path(__file__).with_name("record_child.py")
 _spec = importlib.util.spec_from_file_location("record_child", CHILD)

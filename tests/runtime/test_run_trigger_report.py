@@ -12,7 +12,7 @@ from bowden.analysis.emg.sync import RESIDUAL_TOLERANCE_S
 from bowden.cli import main
 from bowden.cli.run import _trigger_report
 from bowden.runtime.sync_events import SYNC_KIND, SyncEvent
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 
 LOGGER = Path(__file__).parent / "trigger_log.py"
 

@@ -13,7 +13,7 @@ from bowden.cli import main
 from bowden.contracts import TRIAL_COLUMNS
 from bowden.errors import StoreError
 from bowden.runtime import Recorder, TrialInfo
-from bowden.runtime.store_schema import (
+from bowden.store.schema import (
     LEGACY_TABLES,
     SCHEMA_VERSION,
     STORE_TABLES,
@@ -21,7 +21,7 @@ from bowden.runtime.store_schema import (
     configure_connection,
     create_schema,
 )
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 from bowden.web.questionnaire_store import QuestionnaireStore
 
 TRIAL = TrialInfo(participant="P01", condition="no_suit", speed="V1")
@@ -171,7 +171,7 @@ def test_an_empty_file_becomes_a_store(tmp_path: Path, opener: str) -> None:
 def test_an_unstamped_store_of_bowden_tables_is_adopted(tmp_path: Path) -> None:
     # A questionnaire-only file (what `bowden serve` made before it stamped versions) is bowden's.
     path = tmp_path / "forms.db"
-    from bowden.web.questionnaire_store import QUESTIONNAIRES_DDL
+    from bowden.store.tables import QUESTIONNAIRES_DDL
 
     with sqlite3.connect(path) as connection:
         connection.execute(QUESTIONNAIRES_DDL)

@@ -10,7 +10,7 @@ import pytest
 from bowden.contracts import is_participant_id
 from bowden.errors import ParameterError
 from bowden.runtime import TrialInfo
-from bowden.web.questionnaire_store import QUESTIONNAIRES_DDL
+from bowden.store.tables import QUESTIONNAIRES_DDL
 
 IDS = ["P07", "P1", "S112", "ABCD1234"]
 NOT_IDS = ["p7", "7", "P07\n", "P07 ", " P07", "Anna Smith", "Anna", "P0P1", "PPPPP1", "P12345", "", "P-01",

@@ -51,7 +51,7 @@ from bowden.runtime import (
 )
 from bowden.runtime import recorder as recorder_module
 from bowden.runtime.clock import MonotonicClock
-from bowden.runtime.sample_chunks import sample_count
+from bowden.store.sample_chunks import sample_count
 
 if TYPE_CHECKING:
     from conftest import Rig

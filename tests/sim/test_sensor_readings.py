@@ -20,11 +20,11 @@ from bowden.hardware.ads1115 import (
     register_bytes,
 )
 from bowden.hardware.ak60_codec import MitReply, pack_reply, unpack_reply
-from bowden.runtime.sample_chunks import chunk_row, columns_from_frame
 from bowden.sim import generate_cohort, simulate_trial
 from bowden.sim.parameters import LoadCellParameters
 from bowden.sim.peers import ADS1115Peer
 from bowden.sim.sensor_readings import MOTOR_REPLY_LIMITS, ak60_torque, ak60_velocity, load_cell_reading
+from bowden.store.sample_chunks import chunk_row, columns_from_frame
 
 from .test_batch import MODEL, SHORT
 

@@ -24,7 +24,7 @@ from bowden.runtime.recorder import Recorder, TrialInfo
 from bowden.runtime.sync_events import SYNC_KIND, SyncEvent
 from bowden.sim import ProtocolSettings, generate_cohort
 from bowden.sim.batch import simulate_trial
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 
 RATE_HZ = 2000.0
 SAGA_LABELS = tuple(f"UNI{i + 1}" for i in range(len(MUSCLES)))

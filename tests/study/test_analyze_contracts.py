@@ -21,8 +21,8 @@ from bowden.contracts import BACKEND_CAN, BACKEND_SIM, TRIAL_COLUMNS
 from bowden.errors import RecordingError, StoreError
 from bowden.protocol import MinimumJerkCycle
 from bowden.runtime.recorder import TrialInfo
+from bowden.store.study_store import StudyStore
 from bowden.study.analyze import analyze_store, data_kind, expected_repetitions
-from bowden.study.store import StudyStore
 
 RATE_HZ = 100.0
 CYCLE = MinimumJerkCycle(peak_speed_rad_s=math.radians(180.0))  # V3: one cycle in 5/3 s

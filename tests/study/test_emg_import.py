@@ -19,9 +19,9 @@ from bowden.analysis import AnalysisParameters, SegmentationParameters, TrialMet
 from bowden.analysis.emg.channels import SAGA_CHANNELS
 from bowden.cli import main
 from bowden.contracts import MUSCLES, TRIAL_TIME
+from bowden.store.study_store import StudyStore
 from bowden.study.emg_import import ImportOptions, import_emg
 from bowden.study.emg_store import emg_imports
-from bowden.study.store import StudyStore
 
 from .emg_session import (
     TRIGGER,

@@ -18,9 +18,9 @@ import pytest
 
 from bowden.analysis.emg.channels import SAGA_CHANNELS
 from bowden.cli import main
-from bowden.study import emg_chunks
+from bowden.store import emg_chunks
+from bowden.store.study_store import StudyStore
 from bowden.study.emg_import import ImportOptions, import_emg
-from bowden.study.store import StudyStore
 
 from .emg_session import TRIGGER, Session, simulate_session, write_saga_file
 

@@ -11,8 +11,8 @@ import pytest
 from bowden.contracts import MUSCLES, TRIAL_COLUMNS
 from bowden.errors import OutputFileError, StoreError
 from bowden.runtime.recorder import TrialInfo
-from bowden.study.export import export_paths
-from bowden.study.store import StudyStore
+from bowden.store.export import export_paths
+from bowden.store.study_store import StudyStore
 
 TABLES = ("participants", "trials", "samples", "events", "questionnaires", "outcomes", "artifacts")
 

@@ -12,7 +12,7 @@ import pytest
 
 from bowden.contracts import MUSCLES, TRIAL_COLUMNS
 from bowden.runtime.recorder import TrialInfo
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 
 ROWS = 32768  # two chunks' worth of samples per trial (65 s at 500 Hz)
 EMG_SAMPLES = 40000  # 20 s at 2 kHz
@@ -20,7 +20,7 @@ EMG_SAMPLES = 40000  # 20 s at 2 kHz
 # Export in a fresh interpreter and print its peak resident memory (kB on Linux).
 CHILD = """
 import resource, sys
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 with StudyStore(sys.argv[1]) as store:
     store.export(sys.argv[2], file_format=sys.argv[3], include_emg=True)
 print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)

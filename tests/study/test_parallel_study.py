@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 
 from bowden.errors import ClusterError, ParameterError
+from bowden.store.study_store import StudyStore
 from bowden.study.pipeline import StudyResult, StudySettings, run_study
-from bowden.study.store import StudyStore
 
 SMALL = StudySettings(participants=3, repetitions=2, quick_bench=True, seed=3)
 

@@ -13,9 +13,9 @@ import pytest
 
 from bowden.cli import main
 from bowden.errors import ParameterError
-from bowden.study.ownership import FILES_MANIFEST, files_not_written_by_study
+from bowden.store.ownership import FILES_MANIFEST, files_not_written_by_study
+from bowden.store.study_store import StudyStore
 from bowden.study.pipeline import StudySettings, run_study
-from bowden.study.store import StudyStore
 
 SETTINGS = StudySettings(participants=2, repetitions=1, quick_bench=True, seed=4)
 

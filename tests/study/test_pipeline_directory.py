@@ -21,9 +21,7 @@ from bowden.errors import OutputFileError, StoreError
 from bowden.model import CompensationModel
 from bowden.model.model_file import save_model
 from bowden.runtime.recorder import TrialInfo
-from bowden.runtime.sample_chunks import sample_count
-from bowden.study import pipeline
-from bowden.study.ownership import (
+from bowden.store.ownership import (
     FILES_MANIFEST,
     RECORDED_BY_KEY,
     STUDY_PIPELINE,
@@ -32,8 +30,10 @@ from bowden.study.ownership import (
     note_written,
     read_trial_origins,
 )
+from bowden.store.sample_chunks import sample_count
+from bowden.store.study_store import StudyStore
+from bowden.study import pipeline
 from bowden.study.pipeline import StudySettings, run_study
-from bowden.study.store import StudyStore
 
 SETTINGS = StudySettings(participants=2, repetitions=1, quick_bench=True, seed=4)
 PIPELINE = {"backend": BACKEND_SIM, RECORDED_BY_KEY: STUDY_PIPELINE}

@@ -8,8 +8,8 @@ from bowden.contracts import MUSCLES, TRIAL_COLUMNS
 from bowden.errors import StoreError
 from bowden.model import Subject
 from bowden.runtime.recorder import TrialInfo
-from bowden.runtime.sample_chunks import sample_count
-from bowden.study.store import StudyStore, check_participant_id
+from bowden.store.sample_chunks import sample_count
+from bowden.store.study_store import StudyStore, check_participant_id
 
 
 def samples(n=500, tension=True):

@@ -12,7 +12,7 @@ import pytest
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES, is_participant_id
 from bowden.errors import StoreError
 from bowden.model import Subject
-from bowden.study.store import StudyStore, check_participant_id
+from bowden.store.study_store import StudyStore, check_participant_id
 from bowden.web.questionnaire_store import QuestionnaireStore
 
 SUBJECT = Subject(height_m=1.70, mass_kg=63.0, sex="female")

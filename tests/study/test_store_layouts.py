@@ -13,12 +13,12 @@ import pytest
 from bowden.contracts import MUSCLES, TRIAL_COLUMNS
 from bowden.errors import StoreError
 from bowden.runtime import Recorder, TrialInfo
-from bowden.runtime.sample_chunks import CHUNK_ROWS, sample_count
-from bowden.runtime.store_schema import SCHEMA_VERSION
-from bowden.study.emg_chunks import EMG_CHUNK_SAMPLES
+from bowden.store.emg_chunks import EMG_CHUNK_SAMPLES
+from bowden.store.sample_chunks import CHUNK_ROWS, sample_count
+from bowden.store.schema import SCHEMA_VERSION
+from bowden.store.study_store import StudyStore
+from bowden.store.trial_encoding import encode_trial
 from bowden.study.emg_store import trial_syncs
-from bowden.study.store import StudyStore
-from bowden.study.trial_encoding import encode_trial
 
 INFO = TrialInfo(participant="P01", condition="support_50", speed="V2", support=0.5)
 

@@ -13,10 +13,11 @@ import pytest
 
 from bowden.contracts import TRIAL_COLUMNS
 from bowden.errors import StoreError
-from bowden.runtime import TrialInfo, sample_chunks
-from bowden.runtime.column_codec import decode_columns
-from bowden.study.store import StudyStore
-from bowden.study.trial_encoding import encode_trial
+from bowden.runtime import TrialInfo
+from bowden.store import sample_chunks
+from bowden.store.column_codec import decode_columns
+from bowden.store.study_store import StudyStore
+from bowden.store.trial_encoding import encode_trial
 
 INFO = TrialInfo(participant="P01", condition="support_50", speed="V2", support=0.5)
 

@@ -20,8 +20,8 @@ from bowden.model.model_file import save_model
 from bowden.model.model_record import model_coefficients, model_sha256
 from bowden.protocol import MinimumJerkCycle
 from bowden.runtime.recorder import TrialInfo
+from bowden.store.study_store import StudyStore
 from bowden.study.analyze import analyze_store
-from bowden.study.store import StudyStore
 from bowden.study.trial_list import id_ranges, trial_list
 
 RATE_HZ = 100.0

@@ -19,11 +19,11 @@ from bowden.model import CompensationModel
 from bowden.model.model_file import save_model
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.protocol.session_plan import StudyProtocol
-from bowden.runtime.store_schema import STORE_FILE_NAME
 from bowden.sim.arm import PrescribedArm
 from bowden.sim.peers import AK60Peer, NgimuPeer, WallTimePlant
 from bowden.sim.peers.ak60_peer import COMMAND, EXIT, ReceivedFrame
 from bowden.sim.suit import SimulatedSuit
+from bowden.store.schema import STORE_FILE_NAME
 from bowden.web.server import ServeConfig, WebServer, build_server
 from bowden.web.suits import SimulatedBackend
 

@@ -12,7 +12,7 @@ from starlette.websockets import WebSocketDisconnect
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.control import Fault
 from bowden.runtime import LoopState
-from bowden.runtime.sample_chunks import read_samples
+from bowden.store.sample_chunks import read_samples
 from bowden.web.app import STATIC_DIR
 
 from .conftest import AUTH, BASE, TOKEN, store_snapshot, trial_request

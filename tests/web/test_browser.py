@@ -22,7 +22,7 @@ from bowden.cli import build_parser
 from bowden.cli.serve import serve_config, synced
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.model import CompensationModel
-from bowden.runtime.sample_chunks import read_samples
+from bowden.store.sample_chunks import read_samples
 from bowden.web.server import ServeConfig, ServerThread
 from bowden.web.suits import SimulatedBackend
 from bowden.web.trial_setup import parse_setup

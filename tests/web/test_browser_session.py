@@ -15,7 +15,7 @@ import pytest
 from bowden.cli import main
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.model import CompensationModel
-from bowden.runtime.store_schema import STORE_FILE_NAME
+from bowden.store.schema import STORE_FILE_NAME
 from bowden.web.server import ServeConfig, ServerThread
 from bowden.web.suits import SimulatedBackend
 

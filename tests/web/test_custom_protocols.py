@@ -18,9 +18,9 @@ from bowden.cli.serve import session_protocol
 from bowden.errors import ParameterError
 from bowden.protocol.catalogue import Catalogue, catalogue_of
 from bowden.protocol.session_plan import StudyProtocol
-from bowden.runtime.sample_chunks import read_samples
-from bowden.runtime.store_schema import SCHEMA_VERSION
-from bowden.study.store import StudyStore
+from bowden.store.sample_chunks import read_samples
+from bowden.store.schema import SCHEMA_VERSION
+from bowden.store.study_store import StudyStore
 from bowden.web.questionnaire_store import QuestionnaireStore
 
 from .conftest import AUTH, BASE, TOKEN, make_server, registration, trial_request

@@ -19,7 +19,7 @@ import pytest
 import websockets
 
 from bowden.model import CompensationModel
-from bowden.runtime.store_schema import STORE_FILE_NAME
+from bowden.store.schema import STORE_FILE_NAME
 from bowden.web.server import ServeConfig, ServerThread
 
 from .conftest import AUTH, TOKEN, store_snapshot

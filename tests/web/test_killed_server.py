@@ -16,9 +16,9 @@ from pathlib import Path
 import httpx2 as httpx  # what the dev extra installs (starlette's TestClient uses it too)
 
 from bowden.cli import build_parser, main
-from bowden.runtime.sample_chunks import sample_count
-from bowden.runtime.store_schema import STORE_FILE_NAME
-from bowden.web.session_store import LEFT_OPEN
+from bowden.store.sample_chunks import sample_count
+from bowden.store.schema import STORE_FILE_NAME
+from bowden.store.sessions import LEFT_OPEN
 
 from .conftest import registration
 

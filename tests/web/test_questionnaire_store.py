@@ -5,7 +5,7 @@ import pytest
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
 from bowden.errors import ConflictError
 from bowden.runtime import Recorder, TrialInfo
-from bowden.runtime.sample_chunks import sample_count
+from bowden.store.sample_chunks import sample_count
 from bowden.web.questionnaire_store import QuestionnaireStore
 from bowden.web.questionnaires import QuestionnaireResponse
 

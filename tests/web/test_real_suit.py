@@ -31,8 +31,8 @@ from bowden.control import Fault
 from bowden.model import CompensationModel
 from bowden.model.model_file import save_model
 from bowden.runtime import LoopState
-from bowden.runtime.sample_chunks import read_samples
 from bowden.sim.peers.ak60_peer import COMMAND, ENTER, EXIT
+from bowden.store.sample_chunks import read_samples
 from bowden.web.server import ServerThread
 
 from .conftest import (

@@ -30,7 +30,7 @@ pylsl = pytest.importorskip("pylsl")
 httpx = pytest.importorskip("httpx2")
 
 from bowden.runtime.sync_events import SYNC_KIND, SyncEvent  # noqa: E402
-from bowden.study.store import StudyStore  # noqa: E402
+from bowden.store.study_store import StudyStore  # noqa: E402
 
 TRIGGER_LOG = HERE.parent / "runtime" / "trigger_log.py"
 

@@ -12,7 +12,7 @@ from starlette.testclient import TestClient
 
 from bowden.model import CompensationModel
 from bowden.model.model_file import load_model, save_model
-from bowden.runtime.store_schema import STORE_FILE_NAME
+from bowden.store.schema import STORE_FILE_NAME
 from bowden.web.server import ServeConfig, build_server
 from bowden.web.suits import SimulatedBackend
 

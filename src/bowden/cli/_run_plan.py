@@ -199,7 +199,7 @@ def record_participant(path: Path, participant: str, subject: Subject, hand_load
     A participant stored with other anthropometrics is refused rather than overwritten: the
     defaults of --height/--mass/--sex must never replace what a study recorded.
     """
-    from bowden.study.store import StudyStore  # cli wires study and runtime together
+    from bowden.store.study_store import StudyStore  # cli wires study and runtime together
     from bowden.web.registry import Participant, Registry
 
     with StudyStore(path, synchronous="FULL") as store:

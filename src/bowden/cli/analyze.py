@@ -7,9 +7,9 @@ from pathlib import Path
 
 from bowden.cli._outputs import check_output_directory, check_output_file, refuse_overwriting_inputs
 from bowden.errors import ParameterError, StoreError
-from bowden.runtime.store_schema import STORE_FILE_NAME
+from bowden.store.export import export_paths
+from bowden.store.schema import STORE_FILE_NAME
 from bowden.study.analyze import analyze_store
-from bowden.study.export import export_paths
 from bowden.study.html import check_report_path
 from bowden.study.progress import StageProgress
 
@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
             refuse_overwriting_inputs("--export", path, written)
     result = analyze_store(store, report, bench_path=bench, progress=StageProgress(enabled=not args.quiet))
     if args.export is not None:
-        from bowden.study.store import StudyStore
+        from bowden.store.study_store import StudyStore
 
         with StudyStore(store) as opened:
             files = opened.export(args.export, file_format=args.format, include_emg=args.export_emg)

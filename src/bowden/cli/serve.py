@@ -37,7 +37,7 @@ from bowden.errors import ParameterError
 from bowden.model.model_file import load_model
 from bowden.protocol.catalogue import catalogue_of
 from bowden.protocol.session_plan import MAX_BREAK_S, ORDERS, PAPER_BREAK_S, StudyProtocol
-from bowden.runtime.store_schema import STORE_FILE_NAME
+from bowden.store.schema import STORE_FILE_NAME
 
 if TYPE_CHECKING:
     from bowden.runtime import Recorder

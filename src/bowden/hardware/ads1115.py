@@ -98,7 +98,7 @@ def code_to_volts(code: Any, full_scale_v: float) -> Any:
     """A signed 16-bit conversion code (an int or an integer array) → volts, code × FS/32768.
 
     The one formula the driver reads with; the simulation and the store's grid filter
-    (:mod:`bowden.runtime.sensor_grids`) use it too, so their values equal the driver's bit for bit.
+    (:mod:`bowden.store.sensor_grids`) use it too, so their values equal the driver's bit for bit.
     """
     return code * full_scale_v / 32768.0
 

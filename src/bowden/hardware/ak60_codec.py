@@ -171,7 +171,7 @@ def uint_to_float(code: Any, low: float, high: float, bits: int) -> Any:
     """Inverse of :func:`float_to_uint` (exact at the field's grid points).
 
     ``code`` may be an integer array: element-wise the same arithmetic, so the simulation and the
-    store's grid filter (:mod:`bowden.runtime.sensor_grids`) decode as the driver does, bit for bit.
+    store's grid filter (:mod:`bowden.store.sensor_grids`) decode as the driver does, bit for bit.
     """
     return low + code * (high - low) / ((1 << bits) - 1)
 

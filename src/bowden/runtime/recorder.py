@@ -4,11 +4,11 @@ The control loop never touches the database: :meth:`Recorder.record` only append
 ``queue.SimpleQueue`` (a lock-free C append, well under a microsecond). A writer thread
 batches what arrived and commits at least every ``commit_interval_s`` (default 0.1 s, so with the
 time a commit takes, well inside the 0.2 s of docs/design.md) into the SQLite store of
-:mod:`bowden.runtime.store_schema` (WAL journal, ``synchronous=FULL``). A ``kill -9`` therefore loses
+:mod:`bowden.store.schema` (WAL journal, ``synchronous=FULL``). A ``kill -9`` therefore loses
 only rows not yet committed and never corrupts what was (tested by killing a recording process).
 
 Each commit adds the rows since the last one as a small chunk of ``sample_chunks``. The writer keeps
-the rows of the trial's small chunks in memory (at most :data:`~bowden.runtime.sample_chunks.CHUNK_ROWS`)
+the rows of the trial's small chunks in memory (at most :data:`~bowden.store.sample_chunks.CHUNK_ROWS`)
 and, once they fill a full chunk and when the trial closes, replaces them by full chunks in the
 same transaction as that commit's rows: a crash leaves either the small chunks or the full ones,
 never both or neither. Each full chunk is decoded and compared with the rows bit for bit before the
@@ -30,95 +30,45 @@ when the file lets it, and everything committed before the failure stays in the 
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 import queue
 import sqlite3
 import threading
 import time
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from datetime import UTC, datetime
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Any, Final, Self
+from typing import Final, Self
 
 from bowden.contracts import (
-    PROTOCOL_NAME_RULE,
     TRIAL_COLUMNS,
     TRIAL_TIME,
-    is_participant_id,
-    is_protocol_name,
 )
 from bowden.errors import ParameterError, StoreError
-from bowden.runtime.sample_chunks import (
+from bowden.store.sample_chunks import (
     CHUNK_ROWS,
-    INSERT_CHUNK_SQL,
     Columns,
     EncodedChunk,
     ScreenedRows,
     chunk_row,
     concat_columns,
+    delete_chunks,
     faithful_chunk,
+    insert_chunk,
+    insert_chunks,
     screen_rows,
     split_columns,
 )
-from bowden.runtime.store_schema import configure_connection, create_schema
+from bowden.store.schema import configure_connection, create_schema
+from bowden.store.trials import TrialInfo, end_trial, insert_events, insert_trial
+
+__all__ = ["Recorder", "RecorderStats", "TrialInfo"]
 
 _log = logging.getLogger(__name__)
 _STOP: Final = object()
 _MAX_BATCH: Final = 5000
-
-
-def utc_now_iso() -> str:
-    """Current UTC time, ISO 8601 with microseconds."""
-    return datetime.now(UTC).isoformat(timespec="microseconds")
-
-
-@dataclass(frozen=True, kw_only=True)
-class TrialInfo:
-    """What identifies a trial in the store.
-
-    Parameters
-    ----------
-    participant
-        Pseudonymous participant id (never a name): :func:`bowden.contracts.is_participant_id`.
-    condition
-        One of ``bowden.contracts.CONDITIONS``, or a lab's own condition
-        (:mod:`bowden.protocol.catalogue`, named by :func:`bowden.contracts.is_protocol_name`).
-    speed
-        One of ``bowden.contracts.SPEEDS``, a lab's own speed (the same rule), or None for a free run.
-    support
-        Gravity-support fraction 0–1, or None (pretension, no suit).
-    metadata
-        JSON-serialisable details (rate, backend, model file, versions...).
-    """
-
-    participant: str
-    condition: str
-    speed: str | None = None
-    support: float | None = None
-    metadata: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        if not is_participant_id(self.participant):
-            raise ParameterError(
-                f"TrialInfo.participant must be a pseudonymous id (1–4 capital letters then 1–4 digits, "
-                f"e.g. P07; never a name), got {self.participant!r}"
-            )
-        # What a name means (support, peak speed) is the protocol's business; the store takes any
-        # name by the one rule, and the trial records the support it ran.
-        if not is_protocol_name(self.condition):
-            raise ParameterError(f"TrialInfo.condition must be {PROTOCOL_NAME_RULE}, got {self.condition!r}")
-        if self.speed is not None and not is_protocol_name(self.speed):
-            raise ParameterError(f"TrialInfo.speed must be {PROTOCOL_NAME_RULE} or None, got {self.speed!r}")
-        if self.support is not None and not (math.isfinite(self.support) and 0.0 <= self.support <= 1.0):
-            raise ParameterError(f"TrialInfo.support must be in [0, 1] or None, got {self.support!r}")
-        try:
-            json.dumps(dict(self.metadata), allow_nan=False)
-        except (TypeError, ValueError) as error:
-            raise ParameterError(f"TrialInfo.metadata must be JSON-serialisable: {error}") from None
 
 
 @dataclass
@@ -156,7 +106,7 @@ class Recorder:
         10 s at 500 Hz, where a healthy writer keeps fewer than a hundred).
     chunk_rows
         Rows of a full chunk of ``sample_chunks`` (default
-        :data:`~bowden.runtime.sample_chunks.CHUNK_ROWS`; tests make it small to merge often).
+        :data:`~bowden.store.sample_chunks.CHUNK_ROWS`; tests make it small to merge often).
     """
 
     def __init__(
@@ -264,10 +214,7 @@ class Recorder:
             connection = sqlite3.connect(self.path, timeout=1.0)
             try:
                 with connection:
-                    connection.execute(
-                        "UPDATE trials SET ended_utc = ?, stop_reason = ? WHERE id = ?",
-                        (utc_now_iso(), f"{reason}recording failed: {self.error}", self.trial_id),
-                    )
+                    end_trial(connection, self.trial_id, f"{reason}recording failed: {self.error}")
             finally:
                 connection.close()
         except (sqlite3.Error, OSError) as error:
@@ -293,13 +240,7 @@ class Recorder:
             configure_connection(connection, synchronous=self.synchronous)
             create_schema(connection)
             with connection:
-                cursor = connection.execute(
-                    "INSERT INTO trials (participant, condition, speed, support, started_utc, metadata) "
-                    "VALUES (?, ?, ?, ?, ?, ?)",
-                    (self.trial.participant, self.trial.condition, self.trial.speed, self.trial.support,
-                     utc_now_iso(), json.dumps(dict(self.trial.metadata), allow_nan=False)),
-                )
-            self.trial_id = cursor.lastrowid
+                self.trial_id = insert_trial(connection, self.trial)
         except BaseException:
             connection.close()
             raise
@@ -385,14 +326,9 @@ class Recorder:
                 with connection:
                     chunks.commit(connection, batch, final=stopping)
                     if events:
-                        connection.executemany(
-                            "INSERT INTO events (trial_id, time_s, kind, message) VALUES (?, ?, ?, ?)", events
-                        )
+                        insert_events(connection, events)
                     if stopping:
-                        connection.execute(
-                            "UPDATE trials SET ended_utc = ?, stop_reason = ? WHERE id = ?",
-                            (utc_now_iso(), self._stop_reason, self.trial_id),
-                        )
+                        end_trial(connection, self.trial_id, self._stop_reason)
                 stats = self.stats
                 rejected = screened.rejected if screened is not None else 0
                 stats.committed_rows += len(samples) - rejected
@@ -432,9 +368,9 @@ class _TrialChunks:
         rows = 0 if batch is None else len(batch[TRIAL_TIME])
         if batch is not None and not final and self._pending_rows + rows < self.chunk_rows:
             # Small chunks live until the merge: stored raw, so the commit stays short.
-            cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, batch, compress=False))
             self._pending.append(batch)
-            self._pending_ids.append(int(cursor.lastrowid or 0))
+            row = chunk_row(self.trial_id, batch, compress=False)
+            self._pending_ids.append(insert_chunk(connection, row))
             self._pending_rows += rows
             return
         if batch is None and not (final and len(self._pending) > 1):
@@ -446,14 +382,12 @@ class _TrialChunks:
         # Each new chunk is decoded and compared before the small chunks (the rows' other copy in the
         # store) are deleted.
         full = [(self.trial_id, *self._verified(connection, block)) for block in keep]
-        connection.executemany(
-            "DELETE FROM sample_chunks WHERE rowid = ?", ((rowid,) for rowid in self._pending_ids)
-        )
-        connection.executemany(INSERT_CHUNK_SQL, full)
+        delete_chunks(connection, self._pending_ids)
+        insert_chunks(connection, full)
         self._pending, self._pending_ids, self._pending_rows = [], [], 0
         for rest in merged[len(keep):]:  # a partial chunk stays small until it fills
-            cursor = connection.execute(INSERT_CHUNK_SQL, chunk_row(self.trial_id, rest, compress=False))
-            self._pending, self._pending_ids = [rest], [int(cursor.lastrowid or 0)]
+            self._pending = [rest]
+            self._pending_ids = [insert_chunk(connection, chunk_row(self.trial_id, rest, compress=False))]
             self._pending_rows = len(rest[TRIAL_TIME])
 
     def _verified(self, connection: sqlite3.Connection, block: Columns) -> EncodedChunk:
@@ -463,10 +397,7 @@ class _TrialChunks:
         if problem is not None:
             message = f"{problem}; these {chunk[2]} rows are stored uncompressed instead"
             _log.error("recorder: %s", message)
-            connection.execute(
-                "INSERT INTO events (trial_id, time_s, kind, message) VALUES (?, ?, ?, ?)",
-                (self.trial_id, chunk[0], "codec_fault", message),
-            )
+            insert_events(connection, [(self.trial_id, chunk[0], "codec_fault", message)])
         return chunk
 
 

@@ -13,7 +13,7 @@ The real suit's signals arrive as integer codes or float32, and so do the batch 
   compiled trial (:func:`bowden.sim._batch_kernel.run_trial`), where the controller reads them.
 
 So a simulated trial holds the values the wire path (``bowden run --backend sim``) and a real
-recording can hold, and the store keeps them as codes (:mod:`bowden.runtime.sensor_grids`).
+recording can hold, and the store keeps them as codes (:mod:`bowden.store.sensor_grids`).
 Arrays in, arrays out; NaN (no suit) stays NaN.
 """
 

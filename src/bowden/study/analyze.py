@@ -51,6 +51,7 @@ from bowden.errors import ModelFileError, ParameterError, RecordingError, StoreE
 from bowden.identify import TransmissionIdentifier, plot_identification
 from bowden.model import CompensationModel
 from bowden.model.model_file import model_from_dict
+from bowden.store.study_store import StoredTrial, StudyStore
 from bowden.study.custom_protocols import (
     custom_definitions,
     custom_notes,
@@ -65,7 +66,6 @@ from bowden.study.progress import StageProgress
 from bowden.study.report import ReportInputs, build_report
 from bowden.study.sessions import SessionFacts, left_open_notes, session_facts
 from bowden.study.statistics import FitJob, FitMapper, FitResult, StudyStatistics, study_statistics
-from bowden.study.store import StoredTrial, StudyStore
 from bowden.study.trial_analysis import LoadedTrialTask, StoredTrialTask, TrialJob, analyse_task
 from bowden.study.trial_list import trial_list
 

@@ -20,8 +20,8 @@ import pandas as pd
 from bowden.analysis import StudyOutcomes
 from bowden.analysis.trial_outcomes import ELEVATION_RMSE, SPARC, TENSION_RMSE
 from bowden.contracts import BORG_RPE_ITEM, CONDITIONS, QUESTIONNAIRE_BORG_RPE, SPEEDS
+from bowden.store.study_store import StudyStore
 from bowden.study.html import HtmlDocument
-from bowden.study.store import StudyStore
 
 
 @dataclass(frozen=True)

@@ -41,9 +41,9 @@ from bowden.analysis.emg.xdf import read_emg_xdf
 from bowden.contracts import EMG_RATE_HZ, MUSCLES
 from bowden.errors import BowdenError, ParameterError, RecordingError, StoreError, SyncError
 from bowden.runtime.sync_events import MARKER_EDGES, parse_marker
-from bowden.study.emg_chunks import EncodedEmgChunk, encode_verified_emg
+from bowden.store.emg_chunks import EncodedEmgChunk, encode_verified_emg
+from bowden.store.study_store import StudyStore
 from bowden.study.emg_store import TrialSync, emg_imports, trial_syncs, trials_with_emg, write_imported_emg
-from bowden.study.store import StudyStore
 
 SUFFIXES = (".edf", ".bdf", ".xdf", ".csv")
 

@@ -16,8 +16,8 @@ import pandas as pd
 
 from bowden.errors import RecordingError
 from bowden.runtime.sync_events import SYNC_KIND, SyncEvent
-from bowden.study.emg_chunks import EncodedEmgChunk
-from bowden.study.store import StudyStore
+from bowden.store.emg_chunks import EncodedEmgChunk
+from bowden.store.study_store import StudyStore
 
 EMG_IMPORT_KIND: Final = "emg_import"
 
@@ -94,7 +94,7 @@ def write_imported_emg(
 ) -> None:
     """Store (or replace) the EMG of several trials with its provenance, in one transaction.
 
-    ``emg`` holds each trial's chunks as :func:`~bowden.study.emg_chunks.encode_verified_emg` made and
+    ``emg`` holds each trial's chunks as :func:`~bowden.store.emg_chunks.encode_verified_emg` made and
     checked them. A trial's previous EMG and import events are replaced. Every trial is written, or none.
     """
     events = {

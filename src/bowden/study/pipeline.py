@@ -35,14 +35,14 @@ from bowden.sim.batch import ProtocolSettings
 from bowden.sim.bench import BenchProtocol, run_bench
 from bowden.sim.parameters import SuitParameters, check_seed
 from bowden.sim.participants import VirtualParticipant, generate_cohort
+from bowden.store.ownership import files_not_written_by_study, note_written, read_trial_origins
+from bowden.store.study_store import StudyStore
 from bowden.study.analyze import AnalysisReport, analyze_store
 from bowden.study.compensation_comparison import ComparisonSettings
 from bowden.study.compensation_report import compensation_section
 from bowden.study.html import HtmlDocument
-from bowden.study.ownership import files_not_written_by_study, note_written, read_trial_origins
 from bowden.study.progress import StageProgress
 from bowden.study.stage_clock import StageClock
-from bowden.study.store import StudyStore
 from bowden.study.trial_runner import TrialRecord, run_trials, study_tasks, warm_up
 
 
@@ -229,7 +229,7 @@ def _run_stages(
 
 # What a run leaves in its directory besides settings.json (--force deletes these).
 _RESULT_FILES = ("bench.parquet", "model.json", "study.db", "study.db-wal", "study.db-shm", "report.html")
-# Those it writes whole, listed with their hashes (bowden.study.ownership); the store's trials say
+# Those it writes whole, listed with their hashes (bowden.store.ownership); the store's trials say
 # whose it is.
 _OWN_FILES = ("bench.parquet", "model.json", "report.html")
 

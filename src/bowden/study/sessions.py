@@ -7,7 +7,7 @@
   the analysis leaves them out and names them;
 * the trials **left open**: no end recorded (the recording was cut, e.g. a killed server), named too.
 
-Plain SQL on the store's tables (:mod:`bowden.web.registry`, :mod:`bowden.web.session_store`); a
+Plain SQL on the store's tables (:mod:`bowden.web.registry`, :mod:`bowden.store.sessions`); a
 store written before these tables existed gets empty answers.
 """
 
@@ -19,7 +19,7 @@ from typing import Final
 
 import pandas as pd
 
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 
 _PARTICIPANTS: Final = (
     "SELECT id AS participant, sex, height_m, mass_kg, arm_side, hand_load_kg, age_years FROM participants "

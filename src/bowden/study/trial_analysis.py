@@ -25,7 +25,7 @@ from bowden.analysis import (
 )
 from bowden.analysis.outcomes import TrialMetadata
 from bowden.errors import RecordingError
-from bowden.study.store import StudyStore
+from bowden.store.study_store import StudyStore
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -4,7 +4,7 @@ A :class:`TrialTask` is everything one trial needs (participant, condition, spee
 model, the protocol and the trial's own seed, :func:`bowden.sim.batch.trial_seed`), so any worker —
 a local process or a Dask worker elsewhere — computes the same trial. It sends back a
 :class:`TrialRecord`: the samples and raw sEMG already encoded as the store keeps them
-(:mod:`bowden.study.trial_encoding`: the compression runs on the workers, not in the one writer), and
+(:mod:`bowden.store.trial_encoding`: the compression runs on the workers, not in the one writer), and
 the few numbers the questionnaires need (:class:`bowden.sim.questionnaires.TrialLoad`), never the
 whole simulation.
 
@@ -28,9 +28,9 @@ from bowden.runtime.recorder import TrialInfo
 from bowden.sim.batch import ProtocolSettings, condition_order, session_trial, simulate_trial, trial_seed
 from bowden.sim.participants import VirtualParticipant
 from bowden.sim.questionnaires import TrialLoad, answers_from_loads, trial_load
-from bowden.study.ownership import RECORDED_BY_KEY, STUDY_PIPELINE
-from bowden.study.store import StudyStore
-from bowden.study.trial_encoding import EncodedTrial, encode_trial
+from bowden.store.ownership import RECORDED_BY_KEY, STUDY_PIPELINE
+from bowden.store.study_store import StudyStore
+from bowden.store.trial_encoding import EncodedTrial, encode_trial
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -16,7 +16,9 @@ submission for the same participant and condition is refused unless it explicitl
 (a typo can be corrected, an accidental double submission cannot silently overwrite).
 
 Stores written before custom protocols limited ``condition`` to the paper's four by a CHECK; opening
-one rebuilds the table with the name rule (:func:`migrate_questionnaires`, every answer kept).
+one rebuilds the table with the name rule (:func:`bowden.store.tables.migrate_questionnaires`, every
+answer kept). The table, its migration and its writes belong to :mod:`bowden.store`; this is the
+browser forms' door to it (a second submission refused unless it replaces the first).
 
 The file uses the runtime's connection settings (WAL, ``synchronous=FULL``), so questionnaires can be
 written while a trial is being recorded into the same file.
@@ -29,75 +31,14 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Final
 
-from bowden.contracts import QUESTIONNAIRES
 from bowden.errors import ConflictError, StoreError
-from bowden.runtime.store_schema import configure_connection, create_schema
-from bowden.web.questionnaires import (
-    BORG_HIGH,
-    BORG_LOW,
-    BORG_RPE,
-    LIKERT_HIGH,
-    LIKERT_LOW,
-    QuestionnaireResponse,
-)
+from bowden.store.questionnaires import answer_count, answers, replace_submission, submissions
+from bowden.store.schema import configure_connection, create_schema
+from bowden.store.sessions import insert_note
+from bowden.store.tables import QUESTIONNAIRE_COLUMNS, migrate_questionnaires
+from bowden.web.questionnaires import QuestionnaireResponse
 
-# The participant CHECK is contracts.is_participant_id in SQL (only capitals and digits, no capital
-# after a digit, 1–4 capitals then 1–4 digits), so the database refuses what bowden refuses.
-_CAPITALS: Final = "ABCDEFGHIJKLMNOPQRSTUVWXYZ"
-_QUESTIONNAIRE_LIST: Final = ", ".join(f"'{q}'" for q in QUESTIONNAIRES)
-
-QUESTIONNAIRES_DDL: Final = f"""
-CREATE TABLE IF NOT EXISTS questionnaires (
-    participant TEXT NOT NULL
-        CHECK (participant NOT GLOB '*[^A-Z0-9]*' AND participant NOT GLOB '*[0-9]*[A-Z]*'
-               AND length(rtrim(participant, '0123456789')) BETWEEN 1 AND 4
-               AND length(ltrim(participant, '{_CAPITALS}')) BETWEEN 1 AND 4),
-    condition TEXT NOT NULL CHECK (condition GLOB '[A-Za-z]*' AND condition NOT GLOB '*[^A-Za-z0-9_]*'
-                                   AND length(condition) <= 24),
-    questionnaire TEXT NOT NULL CHECK (questionnaire IN ({_QUESTIONNAIRE_LIST})),
-    item TEXT NOT NULL,
-    score INTEGER NOT NULL CHECK (
-        CASE questionnaire WHEN '{BORG_RPE}' THEN score BETWEEN {BORG_LOW} AND {BORG_HIGH}
-        ELSE score BETWEEN {LIKERT_LOW} AND {LIKERT_HIGH} END),
-    submitted_utc TEXT NOT NULL,
-    PRIMARY KEY (participant, condition, questionnaire, item)
-) STRICT
-"""
-
-COLUMNS: Final = ("participant", "condition", "questionnaire", "item", "score", "submitted_utc")
-# The CHECK of stores written before custom protocols: the paper's four conditions only.
-_PAPER_ONLY_CHECK: Final = "CHECK (condition IN ("
-
-
-def migrate_questionnaires(connection: sqlite3.Connection) -> None:
-    """Create the table, or rebuild an older one whose CHECK allows only the paper's conditions.
-
-    SQLite cannot change a CHECK in place: the answers are copied into a table of the new layout,
-    which then takes the old one's name (SQLite's documented procedure), inside the caller's
-    transaction, so a failure leaves the old table as it was.
-    """
-    row = connection.execute(
-        "SELECT sql FROM sqlite_master WHERE type = 'table' AND name = 'questionnaires'"
-    ).fetchone()
-    if row is None or _PAPER_ONLY_CHECK not in str(row[0]):
-        connection.execute(QUESTIONNAIRES_DDL)
-        return
-    columns = ", ".join(COLUMNS)
-    connection.execute("SAVEPOINT migrate_questionnaires")  # all or nothing, even outside a transaction
-    try:
-        connection.execute(QUESTIONNAIRES_DDL.replace(
-            "CREATE TABLE IF NOT EXISTS questionnaires", "CREATE TABLE questionnaires_migrated"
-        ))
-        connection.execute(
-            f"INSERT INTO questionnaires_migrated ({columns}) SELECT {columns} FROM questionnaires"
-        )
-        connection.execute("DROP TABLE questionnaires")
-        connection.execute("ALTER TABLE questionnaires_migrated RENAME TO questionnaires")
-    except BaseException:
-        connection.execute("ROLLBACK TO migrate_questionnaires")
-        connection.execute("RELEASE migrate_questionnaires")
-        raise
-    connection.execute("RELEASE migrate_questionnaires")
+COLUMNS: Final = QUESTIONNAIRE_COLUMNS
 
 
 class QuestionnaireStore:
@@ -146,7 +87,7 @@ class QuestionnaireStore:
         """Store every answer of ``response`` in one transaction; return the number of rows written.
 
         ``exception``: the operator's reason for answers after a condition the participant did not
-        run, noted in ``session_notes`` (:mod:`bowden.web.session_store`) in the same transaction.
+        run, noted in ``session_notes`` (:mod:`bowden.store.sessions`) in the same transaction.
 
         Raises
         ------
@@ -164,26 +105,15 @@ class QuestionnaireStore:
         key = (response.participant, response.condition)
         try:
             with self._connect() as connection, connection:
-                existing = connection.execute(
-                    "SELECT count(*) FROM questionnaires WHERE participant = ? AND condition = ?", key
-                ).fetchone()[0]
+                existing = answer_count(connection, *key)
                 if existing and not replace:
                     raise ConflictError(
                         f"answers of {response.participant} after {response.condition} are already "
                         "stored; tick 'replace' to correct them"
                     )
-                connection.execute(
-                    "DELETE FROM questionnaires WHERE participant = ? AND condition = ?", key
-                )
-                connection.executemany(
-                    f"INSERT INTO questionnaires ({', '.join(COLUMNS)}) VALUES (?, ?, ?, ?, ?, ?)", rows
-                )
+                replace_submission(connection, *key, rows)
                 if exception is not None:
-                    connection.execute(
-                        "INSERT INTO session_notes (participant, condition, kind, reason, noted_utc) "
-                        "VALUES (?, ?, 'questionnaire_exception', ?, ?)",
-                        (*key, exception, stamp),
-                    )
+                    insert_note(connection, *key, "questionnaire_exception", exception, stamp)
         except sqlite3.Error as error:
             raise StoreError(f"cannot write questionnaires into {self.path}: {error}") from None
         return len(rows)
@@ -192,30 +122,13 @@ class QuestionnaireStore:
         self, participant: str | None = None, condition: str | None = None
     ) -> list[tuple[str, str, str, str, int, str]]:
         """Stored answers (``COLUMNS`` order), optionally of one participant and/or condition."""
-        clauses, parameters = [], []
-        if participant is not None:
-            clauses.append("participant = ?")
-            parameters.append(participant)
-        if condition is not None:
-            clauses.append("condition = ?")
-            parameters.append(condition)
-        where = f" WHERE {' AND '.join(clauses)}" if clauses else ""
         with self._connect() as connection:
-            cursor = connection.execute(
-                f"SELECT {', '.join(COLUMNS)} FROM questionnaires{where} "
-                "ORDER BY participant, condition, questionnaire, item",
-                parameters,
-            )
-            return [tuple(row) for row in cursor.fetchall()]
+            return answers(connection, participant, condition)
 
     def submissions(self) -> list[tuple[str, str, str]]:
         """``(participant, condition, submitted_utc)`` of every stored submission."""
         with self._connect() as connection:
-            cursor = connection.execute(
-                "SELECT participant, condition, max(submitted_utc) FROM questionnaires "
-                "GROUP BY participant, condition ORDER BY participant, condition"
-            )
-            return [tuple(row) for row in cursor.fetchall()]
+            return submissions(connection)
 
 
 class _Connection:

@@ -21,8 +21,12 @@ from dataclasses import dataclass
 from typing import Any, Final
 
 from bowden.contracts import (
+    BORG_HIGH,
+    BORG_LOW,
     BORG_RPE_ITEM,
     FATIGUE_SITES,
+    LIKERT_HIGH,
+    LIKERT_LOW,
     NORDIC_SITES,
     PROTOCOL_NAME_RULE,
     QUESTIONNAIRE_BORG_RPE,
@@ -41,10 +45,6 @@ BORG_RPE: Final = QUESTIONNAIRE_BORG_RPE
 FATIGUE: Final = QUESTIONNAIRE_FATIGUE
 BORG_ITEM: Final = BORG_RPE_ITEM
 
-LIKERT_LOW: Final = 1
-LIKERT_HIGH: Final = 7
-BORG_LOW: Final = 6
-BORG_HIGH: Final = 20
 
 NORDIC_SITE_LABELS: Final = {
     "upper_neck": "Upper neck",

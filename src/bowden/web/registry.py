@@ -6,13 +6,13 @@ hand and, optionally, the age in years — never a name. The console registers a
 ``bowden serve`` and ``bowden run --participant P07`` take the anthropometrics from here, so they are
 never typed twice and cannot differ between trials.
 
-Stores written before the registry lack the last four columns: :func:`migrate_participants` adds
+Stores written before the registry lack the last four columns:
+:func:`bowden.store.tables.migrate_participants` adds
 them (NULL: not recorded), so older stores stay readable and gain the registry when next opened.
 """
 
 from __future__ import annotations
 
-import sqlite3
 from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -21,42 +21,14 @@ from typing import Final, Literal
 
 from bowden.errors import ConflictError, ParameterError, RequestError
 from bowden.model import Subject
-from bowden.web.store_file import connect
+from bowden.store.connection import connect
+from bowden.store.participants import Registration, all_registrations, find_registration, insert_registration
+from bowden.store.tables import migrate_participants
 from bowden.web.validation import choice, integer_in, no_unknown_fields, number_in, participant_id
 
-PARTICIPANTS_DDL: Final = """
-CREATE TABLE IF NOT EXISTS participants (
-    id TEXT PRIMARY KEY,
-    sex TEXT NOT NULL CHECK (sex IN ('female', 'male')),
-    height_m REAL NOT NULL,
-    mass_kg REAL NOT NULL,
-    metadata TEXT NOT NULL DEFAULT '{}',
-    arm_side TEXT CHECK (arm_side IS NULL OR arm_side IN ('left', 'right')),
-    hand_load_kg REAL CHECK (hand_load_kg IS NULL OR hand_load_kg BETWEEN 0.0 AND 5.0),
-    age_years INTEGER CHECK (age_years IS NULL OR age_years BETWEEN 16 AND 100),
-    registered_utc TEXT
-) STRICT
-"""
-# Columns the registry added to the table; older stores lack them until migrated.
-ADDED_COLUMNS: Final = {
-    "arm_side": "TEXT CHECK (arm_side IS NULL OR arm_side IN ('left', 'right'))",
-    "hand_load_kg": "REAL CHECK (hand_load_kg IS NULL OR hand_load_kg BETWEEN 0.0 AND 5.0)",
-    "age_years": "INTEGER CHECK (age_years IS NULL OR age_years BETWEEN 16 AND 100)",
-    "registered_utc": "TEXT",
-}
 _FIELDS: Final = ("participant", "height_m", "mass_kg", "sex", "arm_side", "hand_load_kg", "age_years")
-_SELECT: Final = "SELECT id, sex, height_m, mass_kg, arm_side, hand_load_kg, age_years FROM participants"
 
 ArmSide = Literal["left", "right"]
-
-
-def migrate_participants(connection: sqlite3.Connection) -> None:
-    """Create the table, or add the registry's columns to an older one (inside the caller's transaction)."""
-    connection.execute(PARTICIPANTS_DDL)
-    present = {str(row[1]) for row in connection.execute("PRAGMA table_info(participants)")}
-    for column, definition in ADDED_COLUMNS.items():
-        if column not in present:
-            connection.execute(f"ALTER TABLE participants ADD COLUMN {column} {definition}")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -123,15 +95,15 @@ def parse_participant(payload: Mapping[str, object]) -> Participant:
     )
 
 
-def _row(row: tuple[object, ...]) -> Participant:
+def _row(row: Registration) -> Participant:
     ident, sex, height, mass, side, load, age = row
     return Participant(
         participant=str(ident),
-        subject=Subject(height_m=float(height), mass_kg=float(mass),  # type: ignore[arg-type]
+        subject=Subject(height_m=float(height), mass_kg=float(mass),
                         sex="female" if sex == "female" else "male"),
         arm_side="left" if side == "left" else "right" if side == "right" else None,
-        hand_load_kg=None if load is None else float(load),  # type: ignore[arg-type]
-        age_years=None if age is None else int(age),  # type: ignore[call-overload]
+        hand_load_kg=None if load is None else float(load),
+        age_years=None if age is None else int(age),
     )
 
 
@@ -163,18 +135,18 @@ class Registry:
             )
         stamp = datetime.now(UTC).isoformat(timespec="seconds")
         with connect(self.path) as connection, connection:
-            connection.execute(
-                "INSERT INTO participants (id, sex, height_m, mass_kg, arm_side, hand_load_kg, age_years, "
-                "registered_utc) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+            insert_registration(
+                connection,
                 (participant.participant, participant.subject.sex, participant.subject.height_m,
                  participant.subject.mass_kg, participant.arm_side, participant.hand_load_kg,
-                 participant.age_years, stamp),
+                 participant.age_years),
+                stamp,
             )
         return True
 
     def find(self, participant: str) -> Participant | None:
         with connect(self.path) as connection:
-            row = connection.execute(f"{_SELECT} WHERE id = ?", (participant,)).fetchone()
+            row = find_registration(connection, participant)
         return None if row is None else _row(row)
 
     def get(self, participant: str) -> Participant:
@@ -195,5 +167,5 @@ class Registry:
 
     def all(self) -> list[Participant]:
         with connect(self.path) as connection:
-            rows = connection.execute(f"{_SELECT} ORDER BY id").fetchall()
+            rows = all_registrations(connection)
         return [_row(row) for row in rows]

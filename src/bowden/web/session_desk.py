@@ -15,10 +15,10 @@ from typing import Any
 
 from bowden.errors import ConflictError, RequestError
 from bowden.protocol.session_plan import StudyProtocol
+from bowden.store.sessions import Session, SessionStore
 from bowden.web.labels import condition_label
 from bowden.web.live import ROLE_CONSOLE, LiveHub
 from bowden.web.registry import Participant, Registry
-from bowden.web.session_store import Session, SessionStore
 from bowden.web.store_catalogue import checked_catalogue
 from bowden.web.trial_setup import TrialSetup, condition_support, parse_setup
 from bowden.web.trials import TrialManager

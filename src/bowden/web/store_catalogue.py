@@ -16,7 +16,7 @@ from pathlib import Path
 from bowden.contracts import CONDITIONS, SPEEDS
 from bowden.errors import ParameterError
 from bowden.protocol.catalogue import PAPER, Catalogue
-from bowden.web.store_file import connect
+from bowden.store.connection import connect
 
 
 def stored_catalogue(connection: sqlite3.Connection) -> Catalogue:

@@ -52,7 +52,7 @@ class SourceChannel:
     ``codes`` are the file's own numbers: EDF's 16-bit and BDF's 24-bit digital codes (int16, int32)
     with the header's physical/digital scaling folded into ``gain_v`` and ``offset_v``, or the float32 /
     float64 values of an XDF stream or a CSV column with their unit's factor. The study store keeps
-    them as they are, so an imported recording loses no resolution (:mod:`bowden.study.emg_chunks`).
+    them as they are, so an imported recording loses no resolution (:mod:`bowden.store.emg_chunks`).
     """
 
     codes: NDArray[Any]

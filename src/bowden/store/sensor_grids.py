@@ -5,7 +5,7 @@ The AK60-6 replies with 12-bit velocity and torque codes and the ADS1115 load ce
 (:func:`bowden.hardware.ak60_codec.uint_to_float`, :func:`bowden.hardware.ads1115.code_to_volts` and
 :meth:`bowden.hardware.ads1115.LoadCellCalibration.tension_n`). A column of such readings lies exactly
 on a grid — every value is ``decode(code)`` for an integer code, bit for bit — and the store keeps the
-codes instead of the float64 values (:mod:`bowden.runtime.column_codec`, filter ``grid``): a grid is
+codes instead of the float64 values (:mod:`bowden.store.column_codec`, filter ``grid``): a grid is
 named in a chunk's header by its formula and parameters, and decoding calls the same functions.
 
 :data:`KNOWN_GRIDS` lists, per recorded column, the grids of the devices this toolkit configures; the

@@ -1,7 +1,7 @@
 """A trial's control samples in the store: chunks of encoded columns, or the rows of an old store.
 
-Schema 4 stores samples in ``sample_chunks`` (:mod:`bowden.runtime.store_schema`): each row a block
-of consecutive control cycles, its columns encoded losslessly by :mod:`bowden.runtime.column_codec`
+Schema 4 stores samples in ``sample_chunks`` (:mod:`bowden.store.schema`): each row a block
+of consecutive control cycles, its columns encoded losslessly by :mod:`bowden.store.column_codec`
 (sensor readings on a known grid as their integer codes, float32 readings as float32).
 Stores of schema 3 and older hold one row per cycle in ``samples``; every reader here reads both, so
 an old store opens as it is and a new trial in it goes to the chunks.
@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import math
 import sqlite3
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Final
 
@@ -21,8 +21,8 @@ import pandas as pd
 
 from bowden.contracts import TRIAL_COLUMNS, TRIAL_FAULT, TRIAL_STATE, TRIAL_TIME
 from bowden.errors import StoreError
-from bowden.runtime.column_codec import decode_columns, encode_columns, round_trip_problem
-from bowden.runtime.sensor_grids import KNOWN_GRIDS
+from bowden.store.column_codec import decode_columns, encode_columns, round_trip_problem
+from bowden.store.sensor_grids import KNOWN_GRIDS
 
 _log = logging.getLogger(__name__)
 
@@ -155,8 +155,8 @@ def _typed(columns: Columns) -> Columns:
 
 def encode_chunk(columns: ColumnsView, *, compress: bool = True) -> EncodedChunk:
     """A block of columns (at least one row) as a chunk without its trial; ``compress`` as in
-    :func:`bowden.runtime.column_codec.encode_columns`. The motor's and the load cell's readings are
-    kept as codes where they lie on a known sensor grid (:data:`~bowden.runtime.sensor_grids.KNOWN_GRIDS`)."""
+    :func:`bowden.store.column_codec.encode_columns`. The motor's and the load cell's readings are
+    kept as codes where they lie on a known sensor grid (:data:`~bowden.store.sensor_grids.KNOWN_GRIDS`)."""
     time = columns[TRIAL_TIME]
     blob = encode_columns(columns, compress=compress, grids=KNOWN_GRIDS)
     return float(time[0]), float(time[-1]), int(time.size), blob
@@ -234,6 +234,25 @@ def insert_encoded_samples(
 ) -> None:
     """Insert chunks of :func:`encode_samples` as the trial's (inside the caller's transaction)."""
     connection.executemany(INSERT_CHUNK_SQL, ((trial_id, *chunk) for chunk in chunks))
+
+
+ChunkRow = tuple[int, float, float, int, bytes]  # a sample_chunks row: trial_id, then an EncodedChunk
+
+
+def insert_chunk(connection: sqlite3.Connection, row: ChunkRow) -> int:
+    """Insert one :func:`chunk_row` (inside the caller's transaction); return its rowid."""
+    cursor = connection.execute(INSERT_CHUNK_SQL, row)
+    return int(cursor.lastrowid or 0)
+
+
+def insert_chunks(connection: sqlite3.Connection, rows: Iterable[ChunkRow]) -> None:
+    """Insert :func:`chunk_row` rows (inside the caller's transaction)."""
+    connection.executemany(INSERT_CHUNK_SQL, rows)
+
+
+def delete_chunks(connection: sqlite3.Connection, rowids: Iterable[int]) -> None:
+    """Delete chunks by rowid (the recorder's small chunks, once merged)."""
+    connection.executemany("DELETE FROM sample_chunks WHERE rowid = ?", ((rowid,) for rowid in rowids))
 
 
 def insert_samples(connection: sqlite3.Connection, trial_id: int, columns: ColumnsView) -> None:

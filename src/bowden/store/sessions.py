@@ -32,56 +32,24 @@ from typing import Final
 
 from bowden.errors import ConflictError, RequestError
 from bowden.protocol.session_plan import PlanStep, StudyProtocol, condition_order, make_plan
-from bowden.web.store_file import connect
+from bowden.store.connection import connect
+from bowden.store.tables import create_session_tables
 
-SESSION_DDL: Final = (
-    """
-CREATE TABLE IF NOT EXISTS sessions (
-    id INTEGER PRIMARY KEY,
-    participant TEXT NOT NULL REFERENCES participants(id),
-    protocol TEXT NOT NULL CHECK (json_valid(protocol)),
-    order_rule TEXT NOT NULL,
-    seed INTEGER NOT NULL,
-    sequence INTEGER NOT NULL,
-    condition_order TEXT NOT NULL CHECK (json_valid(condition_order)),
-    created_utc TEXT NOT NULL
-) STRICT
-""",
-    """
-CREATE TABLE IF NOT EXISTS plan_steps (
-    session_id INTEGER NOT NULL REFERENCES sessions(id),
-    position INTEGER NOT NULL,
-    condition TEXT NOT NULL,
-    speed TEXT NOT NULL,
-    repetitions INTEGER NOT NULL,
-    skip_reason TEXT,
-    PRIMARY KEY (session_id, position)
-) STRICT
-""",
-    """
-CREATE TABLE IF NOT EXISTS session_trials (
-    trial_id INTEGER PRIMARY KEY REFERENCES trials(id),
-    session_id INTEGER NOT NULL REFERENCES sessions(id),
-    position INTEGER NOT NULL,
-    status TEXT NOT NULL CHECK (status IN ('running', 'completed', 'stopped', 'redone')),
-    reason TEXT,
-    updated_utc TEXT NOT NULL
-) STRICT
-""",
-    """
-CREATE TABLE IF NOT EXISTS session_notes (
-    session_id INTEGER REFERENCES sessions(id),
-    participant TEXT NOT NULL,
-    condition TEXT,
-    position INTEGER,
-    kind TEXT NOT NULL,
-    reason TEXT NOT NULL,
-    noted_utc TEXT NOT NULL
-) STRICT
-""",
-)
 LEFT_OPEN: Final = "left open: the server stopped during the trial (its samples up to then are kept)"
 SET_ASIDE: Final = ("stopped", "redone")  # trials of a session that the analysis leaves out
+
+
+def insert_note(
+    connection: sqlite3.Connection, participant: str, condition: str | None, kind: str, reason: str,
+    noted_utc: str, *, session_id: int | None = None, position: int | None = None,
+) -> None:
+    """Note an operator's decision without a trial of its own (inside the caller's transaction): a
+    skipped step (``skip``), answers for a condition not run (``questionnaire_exception``)."""
+    connection.execute(
+        "INSERT INTO session_notes (session_id, participant, condition, position, kind, reason, "
+        "noted_utc) VALUES (?, ?, ?, ?, ?, ?, ?)",
+        (session_id, participant, condition, position, kind, reason, noted_utc),
+    )
 
 
 def _now() -> str:
@@ -148,8 +116,7 @@ class SessionStore:
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         with connect(self.path) as connection, connection:
-            for ddl in SESSION_DDL:
-                connection.execute(ddl)
+            create_session_tables(connection)
             connection.execute(
                 "UPDATE session_trials SET status = 'stopped', reason = ?, updated_utc = ? "
                 "WHERE status = 'running'",
@@ -270,10 +237,9 @@ class SessionStore:
                 "UPDATE plan_steps SET skip_reason = ? WHERE session_id = ? AND position = ?",
                 (reason, session_id, position),
             )
-            connection.execute(
-                "INSERT INTO session_notes (session_id, participant, condition, position, kind, reason, "
-                "noted_utc) VALUES (?, ?, ?, ?, 'skip', ?, ?)",
-                (session_id, session.participant, state.step.condition, position, reason, _now()),
+            insert_note(
+                connection, session.participant, state.step.condition, "skip", reason, _now(),
+                session_id=session_id, position=position,
             )
         return self.get(session_id)
 

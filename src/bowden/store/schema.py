@@ -19,9 +19,9 @@ Tables (``STRICT``: a wrong type is an error, not a silent conversion):
     the control cycles in blocks: ``trial_id``; ``start_time_s`` / ``end_time_s`` (the block's first
     and last loop time); ``row_count``; ``data``, the columns of ``contracts.TRIAL_COLUMNS`` (SI
     units as named; float64, the state and fault codes int64; NaN kept, e.g. no load cell) encoded
-    losslessly by :mod:`bowden.runtime.column_codec`. The recorder commits a block every 0.1 s and
-    merges a trial's blocks into blocks of up to :data:`~bowden.runtime.sample_chunks.CHUNK_ROWS`
-    rows as it goes (:mod:`bowden.runtime.sample_chunks` reads and writes them).
+    losslessly by :mod:`bowden.store.column_codec`. The recorder commits a block every 0.1 s and
+    merges a trial's blocks into blocks of up to :data:`~bowden.store.sample_chunks.CHUNK_ROWS`
+    rows as it goes (:mod:`bowden.store.sample_chunks` reads and writes them).
 ``events``
     things that happened during a trial, in loop time: ``trial_id``, ``time_s``, ``kind``
     (``start``, ``safe_stop``, ``fault``, ...), ``message``.
@@ -51,9 +51,9 @@ from bowden.errors import StoreError
 # The study store's file name wherever bowden makes or looks for one (serve, run, study, analyze).
 STORE_FILE_NAME: Final = "study.db"
 
-# 2: the participant registry's columns and the session plans (bowden.web.registry, .session_store).
+# 2: the participant registry's columns and the session plans (bowden.store.tables).
 # 3: custom protocols: conditions and speeds named by contracts.is_protocol_name; the questionnaires
-#    table's CHECK follows that rule (bowden.web.questionnaire_store.migrate_questionnaires).
+#    table's CHECK follows that rule (bowden.store.tables.migrate_questionnaires).
 # 4: samples and EMG in compressed chunks (sample_chunks, emg_chunks); samples and emg are legacy.
 # 5: emg_chunks.offset_v: imported EMG keeps its file's codes and scaling (volts = code × gain +
 #    offset_v); an older bowden would ignore the offset, so it must refuse such a store.
@@ -99,7 +99,7 @@ CREATE TABLE IF NOT EXISTS events (
 """
 
 # Every table a bowden store may hold, with the columns bowden reads from it. The runtime makes
-# trials, sample_chunks and events; the study store (bowden.study.store), the questionnaire forms,
+# trials, sample_chunks and events; the study store (bowden.store.study_store), the questionnaire forms,
 # the participant registry and the session plans (bowden.web) add the others; older stores may hold
 # the LEGACY_TABLES. They are listed here, below the runtime's, so whichever opens a file first can
 # tell a bowden store from another program's file before changing anything.
@@ -134,12 +134,12 @@ STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
 # Tables of version 3 and older stores: read, never created (their data moved to the chunk tables).
 LEGACY_TABLES: Final = frozenset({"samples", "emg"})
 # Columns added to a table after its first release. A store written before lacks them until the
-# module owning the table adds them (bowden.web.registry.migrate_participants), so their absence
+# migration adds them (bowden.store.tables.migrate_participants), so their absence
 # does not make the file unreadable.
 ADDED_COLUMNS: Final[Mapping[str, frozenset[str]]] = {
     "participants": frozenset({"arm_side", "hand_load_kg", "age_years", "registered_utc"}),
-    "emg_chunks": frozenset({"offset_v"}),  # schema 5 (bowden.study.emg_chunks.migrate_emg_chunks)
-    "outcomes": frozenset({"trial_id"}),  # schema 6 (bowden.study.store.migrate_outcomes)
+    "emg_chunks": frozenset({"offset_v"}),  # schema 5 (bowden.store.tables.migrate_emg_chunks)
+    "outcomes": frozenset({"trial_id"}),  # schema 6 (bowden.store.tables.migrate_outcomes)
 }
 
 

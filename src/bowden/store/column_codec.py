@@ -8,10 +8,10 @@ Every value comes back bit for bit (NaN payloads included): nothing is rounded. 
    - ``delta`` (integers): the difference from the previous value, wrapping, so a cumulative sum
      inverts it;
    - ``lpc`` (16-bit codes, compressed blocks): the residual of an exact integer linear prediction
-     (:mod:`bowden.runtime.lpc`), about 6 % smaller than ``delta`` on sEMG;
+     (:mod:`bowden.store.lpc`), about 6 % smaller than ``delta`` on sEMG;
    - ``grid`` (float64 readings of a sensor that reports integer codes, e.g. the AK60's 12-bit
      torque, the ADS1115's 16-bit load cell): the codes, delta-filtered, with the sensor's decode
-     formula and parameters in the header (:mod:`bowden.runtime.sensor_grids`); NaN is one spare code;
+     formula and parameters in the header (:mod:`bowden.store.sensor_grids`); NaN is one spare code;
    - ``f32xor`` (float64 values that are all exactly float32, e.g. the NGIMU's OSC floats): the
      float32 bits, XOR-ed with the previous value's;
    - ``xor`` (any other float): the XOR of the bits with the previous value's bits (sign, exponent
@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING, Any, Final
 import numpy as np
 
 from bowden.errors import StoreError
-from bowden.runtime.sensor_grids import Grid
+from bowden.store.sensor_grids import Grid
 
 if TYPE_CHECKING:
     import pyarrow as pa
@@ -248,7 +248,7 @@ def _filter_best(
             entry["filter"] = "f32xor"
             return _filter(narrow, "xor")
     if array.dtype == np.int16:
-        from bowden.runtime import lpc  # numba: only where a block has 16-bit codes
+        from bowden.store import lpc  # numba: only where a block has 16-bit codes
 
         coefficients = lpc.fit(array)
         if coefficients is not None:
@@ -331,7 +331,7 @@ def _unfilter(
     if kind == "lpc":
         if dtype not in (np.dtype("<i2"), np.dtype("<i4")):
             raise StoreError(f"a stored chunk has an lpc column of dtype {dtype.str}")
-        from bowden.runtime import lpc
+        from bowden.store import lpc
 
         spec = column["lpc"]
         coefficients = np.asarray(spec["coefficients"], dtype=np.int64)

@@ -12,8 +12,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
-from bowden.runtime import sample_chunks
-from bowden.study import emg_chunks
+from bowden.store import emg_chunks, sample_chunks
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ Each chunk holds one muscle's samples as codes with a scaling, ``volts = code ×
   trial and muscle (the trial's peak / 32767), the resolution of EDF files.
 
 Schema 4 and later store them in ``emg_chunks``, one row per muscle and block of
-:data:`EMG_CHUNK_SAMPLES` samples, the codes encoded losslessly by :mod:`bowden.runtime.column_codec`
+:data:`EMG_CHUNK_SAMPLES` samples, the codes encoded losslessly by :mod:`bowden.store.column_codec`
 (16-bit codes: the residual of an exact integer linear prediction; other codes: differences or XOR;
 byte planes, zstd). ``offset_v`` came with schema 5; a schema-4 store gains it as 0 when opened.
 Where imported EMG replaces a trial's stored EMG, every new chunk is decoded and compared with its
@@ -31,8 +31,8 @@ import pandas as pd
 from bowden.analysis.emg.read import SourceChannel, decode_source
 from bowden.contracts import MUSCLES, TRIAL_TIME
 from bowden.errors import StoreError
-from bowden.runtime.column_codec import decode_columns, encode_columns
-from bowden.runtime.sample_chunks import has_table
+from bowden.store.column_codec import decode_columns, encode_columns
+from bowden.store.sample_chunks import has_table
 
 # Samples of a chunk per muscle: about 33 s at 2 kHz, 128 kB of codes. Compresses 0.5 % better than
 # 32768 (fewer headers and zstd tables; the predictor needs no shorter blocks) at 0.5 MB of a reader's
@@ -40,22 +40,6 @@ from bowden.runtime.sample_chunks import has_table
 EMG_CHUNK_SAMPLES: Final = 65536
 _CODES: Final = "codes"
 _LEGACY_TABLE: Final = "emg"
-
-EMG_CHUNKS_DDL: Final = """
-CREATE TABLE IF NOT EXISTS emg_chunks (
-    trial_id INTEGER NOT NULL REFERENCES trials(id),
-    muscle TEXT NOT NULL,
-    first_sample INTEGER NOT NULL CHECK (first_sample >= 0),
-    sample_count INTEGER NOT NULL CHECK (sample_count > 0),
-    rate_hz REAL NOT NULL,
-    start_time_s REAL NOT NULL,
-    gain REAL NOT NULL,
-    data BLOB NOT NULL,
-    offset_v REAL NOT NULL DEFAULT 0.0,
-    PRIMARY KEY (trial_id, muscle, first_sample)
-) STRICT
-"""
-
 
 # A chunk's row without its trial: muscle, first sample, samples, rate, start time, gain, BLOB, offset.
 EncodedEmgChunk = tuple[str, int, int, float, float, float, bytes, float]
@@ -72,13 +56,6 @@ def _storable(codes: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
     array = np.ascontiguousarray(codes)
     key = array.dtype.str[1:]
     return array.astype(_WIDER[key]) if key in _WIDER else array
-
-
-def migrate_emg_chunks(connection: sqlite3.Connection) -> None:
-    """Give a schema-4 store's ``emg_chunks`` the ``offset_v`` column (0: its codes had none)."""
-    columns = {str(row[1]) for row in connection.execute("PRAGMA table_info(emg_chunks)")}
-    if columns and "offset_v" not in columns:
-        connection.execute("ALTER TABLE emg_chunks ADD COLUMN offset_v REAL NOT NULL DEFAULT 0.0")
 
 
 def encode_trial_emg(emg: pd.DataFrame) -> list[EncodedEmgChunk]:

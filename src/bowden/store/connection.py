@@ -12,7 +12,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from bowden.errors import StoreError
-from bowden.runtime.store_schema import configure_connection
+from bowden.store.schema import configure_connection
 
 
 @contextmanager

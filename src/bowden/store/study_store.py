@@ -1,6 +1,6 @@
 """The study store: one SQLite file per study.
 
-It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``trials``, ``samples``,
+It extends the runtime's trial store (:mod:`bowden.store.schema`: ``trials``, ``samples``,
 ``events``) — so a trial recorded live on the suit and a simulated one land in the same tables — with
 
 ``participants``
@@ -9,7 +9,7 @@ It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``tria
 ``emg_chunks``
     the raw sEMG: per trial and muscle, blocks of 16-bit codes (the resolution of EDF/BDF-16 files)
     with the gain, rate and start time on the controller time base, compressed losslessly
-    (:mod:`bowden.study.emg_chunks`; stores of schema 3 and older keep one raw ``emg`` row per trial
+    (:mod:`bowden.store.emg_chunks`; stores of schema 3 and older keep one raw ``emg`` row per trial
     and muscle, still read);
 ``questionnaires``
     one row per answered item: participant, condition, questionnaire, item, score (the table of
@@ -20,12 +20,12 @@ It extends the runtime's trial store (:mod:`bowden.runtime.store_schema`: ``tria
     named text documents of the study (the identified ``model.json``, the identification summary,
     the settings the study ran with);
 ``sessions``, ``plan_steps``, ``session_trials``, ``session_notes``
-    the session plans of :mod:`bowden.web.session_store` (``bowden serve``).
+    the session plans of :mod:`bowden.store.sessions` (``bowden serve``).
 
 Why SQLite over DuckDB: the recorder must commit every 0.1 s from a small ARM board and survive
 ``kill -9``; SQLite's WAL gives that from the standard library. Analyses read whole trials into
 pandas, where DuckDB's column engine would buy little; the signals are stored as compressed column
-chunks (:mod:`bowden.runtime.column_codec`), so SQLite holds a few rows per trial, not one per sample.
+chunks (:mod:`bowden.store.column_codec`), so SQLite holds a few rows per trial, not one per sample.
 """
 
 from __future__ import annotations
@@ -43,8 +43,12 @@ import numpy as np
 import pandas as pd
 
 from bowden.contracts import (
+    BORG_HIGH,
+    BORG_LOW,
     BORG_RPE_ITEM,
     FATIGUE_SITES,
+    LIKERT_HIGH,
+    LIKERT_LOW,
     NORDIC_SITES,
     PROTOCOL_NAME_RULE,
     QUESTIONNAIRE_BORG_RPE,
@@ -55,19 +59,22 @@ from bowden.contracts import (
 )
 from bowden.errors import StoreError
 from bowden.model import Subject
-from bowden.runtime import sample_chunks
-from bowden.runtime.recorder import TrialInfo, utc_now_iso
-from bowden.runtime.store_schema import configure_connection, create_schema
-from bowden.study import emg_chunks
-from bowden.study.export import export_store
-from bowden.study.ownership import made_by_study_pipeline, metadata_object
-from bowden.study.trial_encoding import EncodedTrial, encode_trial
-
-# One definition of the questionnaire, registry and session tables, shared with the server.
-from bowden.web.questionnaire_store import migrate_questionnaires
-from bowden.web.questionnaires import BORG_HIGH, BORG_LOW, LIKERT_HIGH, LIKERT_LOW
-from bowden.web.registry import migrate_participants
-from bowden.web.session_store import SESSION_DDL
+from bowden.store import emg_chunks, sample_chunks
+from bowden.store.export import export_store
+from bowden.store.ownership import made_by_study_pipeline, metadata_object
+from bowden.store.participants import upsert_anthropometrics
+from bowden.store.questionnaires import upsert_answers
+from bowden.store.schema import configure_connection, create_schema
+from bowden.store.tables import create_study_tables
+from bowden.store.trial_encoding import EncodedTrial, encode_trial
+from bowden.store.trials import (
+    TrialInfo,
+    delete_trial_row,
+    end_trial,
+    insert_trial,
+    replace_event,
+    utc_now_iso,
+)
 
 # The items and score range of each questionnaire (what the browser forms and the simulation write).
 _QUESTIONNAIRE_ITEMS: Final = {
@@ -76,43 +83,11 @@ _QUESTIONNAIRE_ITEMS: Final = {
     QUESTIONNAIRE_FATIGUE: (FATIGUE_SITES, LIKERT_LOW, LIKERT_HIGH),
 }
 
-_STUDY_DDL: Final = (
-    emg_chunks.EMG_CHUNKS_DDL,
-    """
-CREATE TABLE IF NOT EXISTS outcomes (
-    participant TEXT NOT NULL,
-    condition TEXT NOT NULL,
-    speed TEXT NOT NULL,
-    repetition INTEGER NOT NULL,
-    phase TEXT NOT NULL,
-    measure TEXT NOT NULL,
-    value REAL,
-    trial_id INTEGER
-) STRICT
-""",
-    """
-CREATE TABLE IF NOT EXISTS artifacts (
-    name TEXT PRIMARY KEY,
-    content TEXT NOT NULL,
-    updated_utc TEXT NOT NULL
-) STRICT
-""",
-)
-
-
 # The outcome table's columns as read and exported: the analysis's, with each row's trial after its
 # speed (stored last in the table: stores before schema 6 gained the column at the end).
 OUTCOME_TABLE_COLUMNS: Final = (
     "participant", "condition", "speed", "trial_id", "repetition", "phase", "measure", "value",
 )
-
-
-def migrate_outcomes(connection: sqlite3.Connection) -> None:
-    """Give an outcome table of a store before schema 6 its ``trial_id`` column (inside the caller's
-    transaction; its rows keep NULL until the study is analysed again)."""
-    columns = {row[1] for row in connection.execute("PRAGMA table_info(outcomes)")}
-    if columns and "trial_id" not in columns:
-        connection.execute("ALTER TABLE outcomes ADD COLUMN trial_id INTEGER")
 
 
 def check_participant_id(participant: str) -> str:
@@ -186,12 +161,7 @@ class StudyStore:
             configure_connection(self._db, synchronous=synchronous)
             create_schema(self._db)
             with self._db:
-                migrate_participants(self._db)  # older stores gain the registry's columns
-                migrate_questionnaires(self._db)  # and lose the paper-only CHECK on conditions
-                migrate_outcomes(self._db)  # and gain the trial of each outcome row
-                for ddl in (*_STUDY_DDL, *SESSION_DDL):
-                    self._db.execute(ddl)
-                emg_chunks.migrate_emg_chunks(self._db)  # schema 4's EMG chunks gain offset_v
+                create_study_tables(self._db)  # older stores migrated (bowden.store.tables)
         except sqlite3.Error as error:
             raise StoreError(f"cannot open the study store {self.path}: {error}") from None
         except OSError as error:  # its folder cannot be made (under a file, /proc, no permission)
@@ -215,17 +185,9 @@ class StudyStore:
         """Insert or update a participant's anthropometrics."""
         check_participant_id(participant)
         with self._db:
-            self._db.execute(
-                "INSERT INTO participants (id, sex, height_m, mass_kg, metadata) VALUES (?, ?, ?, ?, ?) "
-                "ON CONFLICT(id) DO UPDATE SET sex=excluded.sex, height_m=excluded.height_m, "
-                "mass_kg=excluded.mass_kg, metadata=excluded.metadata",
-                (
-                    participant,
-                    subject.sex,
-                    subject.height_m,
-                    subject.mass_kg,
-                    json.dumps(dict(metadata or {}), allow_nan=False),
-                ),
+            upsert_anthropometrics(
+                self._db, participant, sex=subject.sex, height_m=subject.height_m, mass_kg=subject.mass_kg,
+                metadata_json=json.dumps(dict(metadata or {}), allow_nan=False),
             )
 
     def participants(self) -> pd.DataFrame:
@@ -259,30 +221,15 @@ class StudyStore:
     def write_encoded_trial(
         self, info: TrialInfo, trial: EncodedTrial, *, stop_reason: str = "completed"
     ) -> int:
-        """Store a trial encoded by :func:`~bowden.study.trial_encoding.encode_trial` (in a worker,
+        """Store a trial encoded by :func:`~bowden.store.trial_encoding.encode_trial` (in a worker,
         perhaps) in one transaction; return its id."""
         check_participant_id(info.participant)
         try:
             with self._db:
-                cursor = self._db.execute(
-                    "INSERT INTO trials (participant, condition, speed, support, started_utc, metadata) "
-                    "VALUES (?, ?, ?, ?, ?, ?)",
-                    (
-                        info.participant,
-                        info.condition,
-                        info.speed,
-                        info.support,
-                        utc_now_iso(),
-                        json.dumps(dict(info.metadata), allow_nan=False),
-                    ),
-                )
-                trial_id = int(cursor.lastrowid or 0)
+                trial_id = insert_trial(self._db, info)
                 sample_chunks.insert_encoded_samples(self._db, trial_id, trial.samples)
                 emg_chunks.insert_encoded_emg(self._db, trial_id, trial.emg)
-                self._db.execute(
-                    "UPDATE trials SET ended_utc = ?, stop_reason = ? WHERE id = ?",
-                    (utc_now_iso(), stop_reason, trial_id),
-                )
+                end_trial(self._db, trial_id, stop_reason)
         except sqlite3.Error as error:
             raise StoreError(f"cannot write the trial into {self.path}: {error}") from None
         return trial_id
@@ -293,7 +240,7 @@ class StudyStore:
         events: Mapping[int, tuple[str, str]],
     ) -> None:
         """Replace the EMG of several trials by chunks already encoded and checked
-        (:func:`bowden.study.emg_chunks.encode_verified_emg`), each trial with one event ``(kind,
+        (:func:`bowden.store.emg_chunks.encode_verified_emg`), each trial with one event ``(kind,
         message)`` replacing its events of the same kind, in one transaction: every trial is written,
         or none.
 
@@ -308,11 +255,7 @@ class StudyStore:
                     emg_chunks.delete_trial_emg(self._db, trial_id)
                     emg_chunks.insert_encoded_emg(self._db, trial_id, chunks)
                     kind, message = events[trial_id]
-                    self._db.execute("DELETE FROM events WHERE trial_id = ? AND kind = ?", (trial_id, kind))
-                    self._db.execute(
-                        "INSERT INTO events (trial_id, time_s, kind, message) VALUES (?, NULL, ?, ?)",
-                        (trial_id, kind, message),
-                    )
+                    replace_event(self._db, trial_id, kind, message)
         except sqlite3.Error as error:
             raise StoreError(f"cannot write the EMG into {self.path}: {error}") from None
 
@@ -338,7 +281,7 @@ class StudyStore:
     def discard_unfinished_trials(self) -> int:
         """Delete the study pipeline's trials a crash left open (with their samples, EMG and events).
 
-        Only trials ``bowden study`` recorded (:func:`bowden.study.ownership.made_by_study_pipeline`)
+        Only trials ``bowden study`` recorded (:func:`bowden.store.ownership.made_by_study_pipeline`)
         are deleted: an unfinished trial recorded on the suit keeps every sample committed before the
         crash, and those are data. Returns how many trials were deleted.
         """
@@ -348,8 +291,7 @@ class StudyStore:
             for trial_id in ids:
                 sample_chunks.delete_trial_samples(self._db, trial_id)
                 emg_chunks.delete_trial_emg(self._db, trial_id)
-                self._db.execute("DELETE FROM events WHERE trial_id = ?", (trial_id,))
-                self._db.execute("DELETE FROM trials WHERE id = ?", (trial_id,))
+                delete_trial_row(self._db, trial_id)
         return len(ids)
 
     def trial_samples(self, trial_id: int) -> pd.DataFrame:
@@ -419,12 +361,7 @@ class StudyStore:
             )
         try:
             with self._db:
-                self._db.executemany(
-                    "INSERT OR REPLACE INTO questionnaires "
-                    "(participant, condition, questionnaire, item, score, submitted_utc) "
-                    "VALUES (?, ?, ?, ?, ?, ?)",
-                    rows,
-                )
+                upsert_answers(self._db, rows)
         except sqlite3.Error as error:
             raise StoreError(f"cannot write the questionnaire answers into {self.path}: {error}") from None
 
@@ -477,5 +414,5 @@ class StudyStore:
     def export(
         self, directory: str | Path, *, file_format: str = "parquet", include_emg: bool = False
     ) -> list[Path]:
-        """Write the tables for R, SPSS and MATLAB users (:func:`bowden.study.export.export_store`)."""
+        """Write the tables for R, SPSS and MATLAB users (:func:`bowden.store.export.export_store`)."""
         return export_store(self, directory, file_format=file_format, include_emg=include_emg)

@@ -2,7 +2,7 @@
 MATLAB users.
 
 The export streams: the samples and the raw sEMG go out a stored chunk at a time
-(:meth:`~bowden.study.store.StudyStore.trial_sample_chunks`), gathered into row groups of at most
+(:meth:`~bowden.store.study_store.StudyStore.trial_sample_chunks`), gathered into row groups of at most
 :data:`BATCH_ROWS` rows, so its memory stays bounded whatever the store's size (benchmarks/export.py
 measures it); the other tables are small.
 """
@@ -25,7 +25,7 @@ from bowden.errors import OutputFileError, StoreError
 
 
 class ExportSource(Protocol):
-    """What an export reads from a store (:class:`bowden.study.store.StudyStore` is one).
+    """What an export reads from a store (:class:`bowden.store.study_store.StudyStore` is one).
 
     A protocol rather than the store class, so this module does not import the store that calls it.
     """
