@@ -39,6 +39,20 @@ def test_pure_layers_never_import_the_outer_layers(layer):
     assert not offenders, "\n".join(offenders)
 
 
+# The study store sits below everything that reads or writes it (docs/design.md).
+STORE_FORBIDDEN = ("runtime", "sim", "web", "study", "sweep", "engine", "identify", "cli")
+
+
+def test_the_store_never_imports_the_layers_above_it():
+    offenders = []
+    for path in sorted((PACKAGE / "store").rglob("*.py")):
+        for module in imported_modules(path):
+            parts = module.split(".")
+            if parts[0] == "bowden" and len(parts) > 1 and parts[1] in STORE_FORBIDDEN:
+                offenders.append(f"{path.relative_to(PACKAGE)} imports {module}")
+    assert not offenders, "\n".join(offenders)
+
+
 def test_controller_contract_of_design_md(tmp_path):
     # The controller contract of docs/design.md, run as written.
     from bowden.control import build_controller
