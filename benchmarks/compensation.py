@@ -22,7 +22,7 @@ import time
 import pandas as pd
 
 from bowden.sim.plant_family import DEVELOPMENT_PLANT, named_plants, random_plants
-from bowden.study.compensation_comparison import ComparisonSettings, compare_compensations, summarise
+from bowden.study.compensation.comparison import ComparisonSettings, compare_compensations, summarise
 
 
 def main() -> None:

@@ -11,7 +11,7 @@ from bowden import contracts as c
 from bowden.errors import ParameterError
 from bowden.protocol.bench import BenchProtocol
 from bowden.sim.plant_family import DEVELOPMENT_PLANT, named_plants, random_plants
-from bowden.study.compensation_comparison import ComparisonSettings, compare_on_plant, summarise
+from bowden.study.compensation.comparison import ComparisonSettings, compare_on_plant, summarise
 
 QUICK = ComparisonSettings(
     participants=1,

@@ -9,12 +9,12 @@ import pandas as pd
 
 from bowden import contracts as c
 from bowden.analysis.outcomes import ELEVATION_RMSE, IEMG_PREFIX, TENSION_RMSE
-from bowden.study.calibration import CALIBRATED, calibration_table
-from bowden.study.departure_rows import Tolerance, comparison_row
-from bowden.study.departures import all_departures, departure_summary, family_summary, iemg_departures
-from bowden.study.departures_kinematics import kinematics_departures
-from bowden.study.departures_questionnaires import questionnaire_departures
-from bowden.study.departures_tracking import tracking_departures
+from bowden.study.departures.calibration import CALIBRATED, calibration_table
+from bowden.study.departures.kinematics import kinematics_departures
+from bowden.study.departures.questionnaires import questionnaire_departures
+from bowden.study.departures.rows import Tolerance, comparison_row
+from bowden.study.departures.table import all_departures, departure_summary, family_summary, iemg_departures
+from bowden.study.departures.tracking import tracking_departures
 from bowden.study.paper_values import P
 from bowden.study.paper_values.iemg_data import IEMG, IEMG_P
 from bowden.study.paper_values.kinematics_data import KINEMATICS

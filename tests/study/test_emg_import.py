@@ -20,8 +20,8 @@ from bowden.analysis.emg.channels import SAGA_CHANNELS
 from bowden.cli import main
 from bowden.contracts import MUSCLES, TRIAL_TIME
 from bowden.store.study_store import StudyStore
-from bowden.study.emg_import import ImportOptions, import_emg
-from bowden.study.emg_store import emg_imports
+from bowden.study.emg.importer import ImportOptions, import_emg
+from bowden.study.emg.stored import emg_imports
 
 from .emg_session import (
     TRIGGER,

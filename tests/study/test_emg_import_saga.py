@@ -20,7 +20,7 @@ from bowden.analysis.emg.channels import SAGA_CHANNELS
 from bowden.cli import main
 from bowden.store import emg_chunks
 from bowden.store.study_store import StudyStore
-from bowden.study.emg_import import ImportOptions, import_emg
+from bowden.study.emg.importer import ImportOptions, import_emg
 
 from .emg_session import TRIGGER, Session, simulate_session, write_saga_file
 

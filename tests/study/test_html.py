@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from bowden.study.html import HtmlDocument
+from bowden.study.report.html import HtmlDocument
 
 
 def _header_rows(document: HtmlDocument) -> list[str]:

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from bowden.errors import OutputFileError
-from bowden.study.html import HtmlDocument
+from bowden.study.report.html import HtmlDocument
 
 
 @pytest.fixture

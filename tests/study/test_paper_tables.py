@@ -7,14 +7,14 @@ import re
 import pandas as pd
 
 from bowden.analysis.outcomes import IEMG_PREFIX, SPARC
-from bowden.study.figures import condition_boxplots
-from bowden.study.paper_tables import (
+from bowden.study.report.build import _beside
+from bowden.study.report.figures import condition_boxplots
+from bowden.study.report.paper_tables import (
     paper_effects_table,
     paper_means,
     paper_pairwise_table,
     paper_significance_html,
 )
-from bowden.study.report import _beside
 
 
 def test_the_papers_tables_in_the_reports_shapes() -> None:

@@ -9,8 +9,8 @@ from matplotlib.figure import Figure
 from matplotlib.patches import FancyBboxPatch
 
 from bowden import contracts as c
-from bowden.study.figures import significance_brackets
-from bowden.study.questionnaire_figures import nordic_body_map, questionnaire_boxplots
+from bowden.study.report.figures import significance_brackets
+from bowden.study.report.questionnaire_figures import nordic_body_map, questionnaire_boxplots
 
 
 def answers() -> pd.DataFrame:

@@ -18,7 +18,7 @@ from bowden.store.sample_chunks import CHUNK_ROWS, sample_count
 from bowden.store.schema import SCHEMA_VERSION
 from bowden.store.study_store import StudyStore
 from bowden.store.trial_encoding import encode_trial
-from bowden.study.emg_store import trial_syncs
+from bowden.study.emg.stored import trial_syncs
 
 INFO = TrialInfo(participant="P01", condition="support_50", speed="V2", support=0.5)
 

@@ -10,8 +10,8 @@ from bowden.errors import ParameterError, StoreError
 from bowden.store.export import export_paths
 from bowden.store.schema import STORE_FILE_NAME
 from bowden.study.analyze import analyze_store
-from bowden.study.html import check_report_path
 from bowden.study.progress import StageProgress
+from bowden.study.report.html import check_report_path
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

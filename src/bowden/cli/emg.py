@@ -17,7 +17,7 @@ from pathlib import Path
 from bowden.analysis.emg.channels import BUILT_IN_MAPPINGS, load_channel_map
 from bowden.analysis.emg.sync import DRIFT_TOLERANCE_PPM, POLARITIES, RESIDUAL_TOLERANCE_S
 from bowden.contracts import EMG_RATE_HZ
-from bowden.study.emg_import import ImportOptions, import_emg
+from bowden.study.emg.importer import ImportOptions, import_emg
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -21,7 +21,7 @@ registered and the session plans with their condition order (:mod:`bowden.study.
 
 Conditions and speeds a lab defined itself (``support_70``, ``V4``) are analysed and kept in the
 outcome table, described in a section of their own and named in the notes; the paper's comparisons
-take the paper's conditions and speeds only (:mod:`bowden.study.custom_protocols`).
+take the paper's conditions and speeds only (:mod:`bowden.study.report.custom_protocols`).
 """
 
 from __future__ import annotations
@@ -52,7 +52,10 @@ from bowden.identify import TransmissionIdentifier, plot_identification
 from bowden.model import CompensationModel
 from bowden.model.model_file import model_from_dict
 from bowden.store.study_store import StoredTrial, StudyStore
-from bowden.study.custom_protocols import (
+from bowden.study.emg.stored import emg_imports, trials_with_emg
+from bowden.study.progress import StageProgress
+from bowden.study.report.build import ReportInputs, build_report
+from bowden.study.report.custom_protocols import (
     custom_definitions,
     custom_notes,
     custom_section,
@@ -60,10 +63,7 @@ from bowden.study.custom_protocols import (
     is_paper,
     paper_part,
 )
-from bowden.study.emg_store import emg_imports, trials_with_emg
-from bowden.study.html import FigureJob, FigureMapper, HtmlDocument
-from bowden.study.progress import StageProgress
-from bowden.study.report import ReportInputs, build_report
+from bowden.study.report.html import FigureJob, FigureMapper, HtmlDocument
 from bowden.study.sessions import SessionFacts, left_open_notes, session_facts
 from bowden.study.statistics import FitJob, FitMapper, FitResult, StudyStatistics, study_statistics
 from bowden.study.trial_analysis import LoadedTrialTask, StoredTrialTask, TrialJob, analyse_task

@@ -38,10 +38,10 @@ from bowden.sim.participants import VirtualParticipant, generate_cohort
 from bowden.store.ownership import files_not_written_by_study, note_written, read_trial_origins
 from bowden.store.study_store import StudyStore
 from bowden.study.analyze import AnalysisReport, analyze_store
-from bowden.study.compensation_comparison import ComparisonSettings
-from bowden.study.compensation_report import compensation_section
-from bowden.study.html import HtmlDocument
+from bowden.study.compensation.comparison import ComparisonSettings
+from bowden.study.compensation.report import compensation_section
 from bowden.study.progress import StageProgress
+from bowden.study.report.html import HtmlDocument
 from bowden.study.stage_clock import StageClock
 from bowden.study.trial_runner import TrialRecord, run_trials, study_tasks, warm_up
 

@@ -37,17 +37,18 @@ from bowden.model import CompensationModel
 from bowden.model.transmission import friction_from_slopes
 from bowden.stats import effects_table, pairwise_table, significance_html, significance_table
 from bowden.stats.analysis import OutcomeAnalysis
-from bowden.study import figures, paper_values, questionnaire_figures
-from bowden.study.calibration import CALIBRATED, calibration_table
-from bowden.study.departures import all_departures, departure_summary, family_summary
-from bowden.study.html import FigureSubmit, HtmlDocument
-from bowden.study.paper_tables import (
+from bowden.study import paper_values
+from bowden.study.departures.calibration import CALIBRATED, calibration_table
+from bowden.study.departures.table import all_departures, departure_summary, family_summary
+from bowden.study.paper_values.iemg import TABLE_LABELS as IEMG_TABLE_LABELS
+from bowden.study.report import figures, questionnaire_figures
+from bowden.study.report.html import FigureSubmit, HtmlDocument
+from bowden.study.report.paper_tables import (
     paper_effects_table,
     paper_means,
     paper_pairwise_table,
     paper_significance_html,
 )
-from bowden.study.paper_values.iemg import TABLE_LABELS as IEMG_TABLE_LABELS
 from bowden.study.statistics import KINEMATIC_LABELS, MUSCLE_LABELS, StudyStatistics, outcome_data
 
 
@@ -210,7 +211,7 @@ def _departures_section(doc: HtmlDocument, inputs: ReportInputs, kind: str) -> N
 
 def build_report(inputs: ReportInputs, *, figure_submit: FigureSubmit | None = None) -> HtmlDocument:
     """Assemble the report document; ``figure_submit`` starts each figure on a worker as it is added
-    (:class:`~bowden.study.html.HtmlDocument`)."""
+    (:class:`~bowden.study.report.html.HtmlDocument`)."""
     kind = "simulated" if inputs.simulated else "measured"
     doc = _front(inputs, kind, figure_submit)
     for section in (_identification_section, _tracking_section, _kinematics_section, _iemg_section,

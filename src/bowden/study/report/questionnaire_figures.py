@@ -22,7 +22,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Ellipse, FancyBboxPatch
 
 from bowden import contracts as c
-from bowden.study.figures import CONDITION_COLOURS, significance_brackets
+from bowden.study.report.figures import CONDITION_COLOURS, significance_brackets
 
 # Site centres and half sizes on a back view 0–10 wide, 0–20 high (head at the top); the wearer's left
 # is on the viewer's left because the body is seen from behind.

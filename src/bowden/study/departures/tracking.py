@@ -3,7 +3,7 @@
 Levels are compared in size; the growth with support (50 % minus pretension) and with speed (V3 minus
 V1) in direction and size; the peak percent errors in sign and size, their times in size. Every
 tracking row is marked calibrated (the simulator's friction was tuned to Table 1,
-:mod:`bowden.study.calibration`).
+:mod:`bowden.study.departures.calibration`).
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from bowden.analysis.outcomes import (
     TENSION_RMSE,
     TORQUE_RMSE,
 )
-from bowden.study.departure_rows import Tolerance, comparison_row, frame
+from bowden.study.departures.rows import Tolerance, comparison_row, frame
 from bowden.study.paper_values.tracking_data import (
     PEAK_PERCENT_ERROR as PAPER_PEAKS,
 )

@@ -21,7 +21,7 @@ from bowden.analysis import StudyOutcomes
 from bowden.analysis.trial_outcomes import ELEVATION_RMSE, SPARC, TENSION_RMSE
 from bowden.contracts import BORG_RPE_ITEM, CONDITIONS, QUESTIONNAIRE_BORG_RPE, SPEEDS
 from bowden.store.study_store import StudyStore
-from bowden.study.html import HtmlDocument
+from bowden.study.report.html import HtmlDocument
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ Per outcome: the significance of the condition and speed effects (S4); the chang
 suit condition, in percent of the no-suit mean averaged over the speeds (S4's means); the pairwise
 condition comparisons of SPARC (S5) and the speed comparisons (S6), in direction, size and
 significance. The elevation RMSE's level per speed is what the participants' visuomotor lag was tuned
-to (calibrated, :mod:`bowden.study.calibration`).
+to (calibrated, :mod:`bowden.study.departures.calibration`).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import pandas as pd
 from bowden import contracts as c
 from bowden.analysis.outcomes import ELEVATION_RMSE, SPARC
 from bowden.stats.analysis import OutcomeAnalysis
-from bowden.study.departure_rows import Tolerance, comparison_row, frame
+from bowden.study.departures.rows import Tolerance, comparison_row, frame
 from bowden.study.paper_values.kinematics_data import (
     KINEMATICS,
     KINEMATICS_CONDITION_PAIRS,

@@ -43,7 +43,7 @@ from bowden.errors import BowdenError, ParameterError, RecordingError, StoreErro
 from bowden.runtime.sync_events import MARKER_EDGES, parse_marker
 from bowden.store.emg_chunks import EncodedEmgChunk, encode_verified_emg
 from bowden.store.study_store import StudyStore
-from bowden.study.emg_store import TrialSync, emg_imports, trial_syncs, trials_with_emg, write_imported_emg
+from bowden.study.emg.stored import TrialSync, emg_imports, trial_syncs, trials_with_emg, write_imported_emg
 
 SUFFIXES = (".edf", ".bdf", ".xdf", ".csv")
 

@@ -3,7 +3,7 @@
 A row is flagged where the direction differs (both values farther from zero than the family's dead
 zone), where the size differs by more than the family's tolerance, or where one finds the effect
 significant (p < 0.05) and the other does not. Rows of outcomes the simulator was tuned to are marked
-:data:`~bowden.study.calibration.CALIBRATED` (:mod:`bowden.study.calibration`).
+:data:`~bowden.study.departures.calibration.CALIBRATED` (:mod:`bowden.study.departures.calibration`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from bowden.study.calibration import CALIBRATED, calibrated
+from bowden.study.departures.calibration import CALIBRATED, calibrated
 from bowden.study.paper_values import P
 
 ALPHA = 0.05

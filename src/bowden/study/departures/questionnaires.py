@@ -14,7 +14,7 @@ import math
 import pandas as pd
 
 from bowden import contracts as c
-from bowden.study.departure_rows import Tolerance, comparison_row, frame
+from bowden.study.departures.rows import Tolerance, comparison_row, frame
 from bowden.study.paper_values.questionnaire_data import NORDIC_PAIRS, QUESTIONNAIRE_P
 from bowden.study.statistics import StudyStatistics
 

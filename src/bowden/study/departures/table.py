@@ -1,9 +1,9 @@
 """Where a study departs from the paper: every outcome the paper reports, side by side with the study's.
 
 :func:`all_departures` gathers the families — tension and torque tracking and peak errors
-(:mod:`bowden.study.departures_tracking`), elevation RMSE and SPARC
-(:mod:`bowden.study.departures_kinematics`), iEMG (here) and the questionnaires
-(:mod:`bowden.study.departures_questionnaires`) — as rows of :mod:`bowden.study.departure_rows`.
+(:mod:`bowden.study.departures.tracking`), elevation RMSE and SPARC
+(:mod:`bowden.study.departures.kinematics`), iEMG (here) and the questionnaires
+(:mod:`bowden.study.departures.questionnaires`) — as rows of :mod:`bowden.study.departures.rows`.
 
 iEMG: for every muscle and phase of the paper's Tables S7-S12, the significance of the condition
 effect, and for every pair of conditions the change in percent (the study's GLMM pairwise estimate, or
@@ -21,11 +21,11 @@ import pandas as pd
 from bowden import contracts as c
 from bowden.analysis.outcomes import IEMG_PREFIX
 from bowden.stats.analysis import OutcomeAnalysis
-from bowden.study.calibration import CALIBRATED
-from bowden.study.departure_rows import Tolerance, comparison_row, frame
-from bowden.study.departures_kinematics import kinematics_departures
-from bowden.study.departures_questionnaires import questionnaire_departures
-from bowden.study.departures_tracking import tracking_departures
+from bowden.study.departures.calibration import CALIBRATED
+from bowden.study.departures.kinematics import kinematics_departures
+from bowden.study.departures.questionnaires import questionnaire_departures
+from bowden.study.departures.rows import Tolerance, comparison_row, frame
+from bowden.study.departures.tracking import tracking_departures
 from bowden.study.paper_values.iemg_data import IEMG_P, IEMG_PAIRS
 from bowden.study.statistics import MUSCLE_LABELS, StudyStatistics, outcome_data
 

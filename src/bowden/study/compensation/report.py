@@ -18,7 +18,7 @@ from bowden import contracts as c
 from bowden.model import CompensationModel
 from bowden.sim.parameters import SuitParameters
 from bowden.sim.results import TRUE_ELEVATION, TRUE_TENSION, phase_masks
-from bowden.study.compensation_comparison import (
+from bowden.study.compensation.comparison import (
     COMPENSATIONS,
     ONSET_WINDOW,
     ComparedTrial,
@@ -26,7 +26,7 @@ from bowden.study.compensation_comparison import (
     compared_trials,
     trial_errors,
 )
-from bowden.study.html import HtmlDocument
+from bowden.study.report.html import HtmlDocument
 
 _BINS = 100
 _COLOURS = {"paper": "#d7191c", "dynamic": "#2b83ba"}
