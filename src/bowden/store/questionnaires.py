@@ -9,16 +9,73 @@ transaction.
 
 from __future__ import annotations
 
+import math
 import sqlite3
 from collections.abc import Iterable
 from typing import Final
 
+import numpy as np
+
+from bowden.contracts import (
+    BORG_HIGH,
+    BORG_LOW,
+    BORG_RPE_ITEM,
+    FATIGUE_SITES,
+    LIKERT_HIGH,
+    LIKERT_LOW,
+    NORDIC_SITES,
+    PROTOCOL_NAME_RULE,
+    QUESTIONNAIRE_BORG_RPE,
+    QUESTIONNAIRE_FATIGUE,
+    QUESTIONNAIRE_NORDIC,
+    is_participant_id,
+    is_protocol_name,
+)
+from bowden.errors import StoreError
 from bowden.store.tables import QUESTIONNAIRE_COLUMNS
+
+# The items and score range of each questionnaire (what the browser forms and the simulation write).
+_QUESTIONNAIRE_ITEMS: Final = {
+    QUESTIONNAIRE_NORDIC: (NORDIC_SITES, LIKERT_LOW, LIKERT_HIGH),
+    QUESTIONNAIRE_BORG_RPE: ((BORG_RPE_ITEM,), BORG_LOW, BORG_HIGH),
+    QUESTIONNAIRE_FATIGUE: (FATIGUE_SITES, LIKERT_LOW, LIKERT_HIGH),
+}
 
 # participant, condition, questionnaire, item, score, submitted_utc
 Answer = tuple[str, str, str, str, int, str]
 
 _INSERT: Final = f"INTO questionnaires ({', '.join(QUESTIONNAIRE_COLUMNS)}) VALUES (?, ?, ?, ?, ?, ?)"
+
+
+def checked_answer(
+    label: object, participant: object, condition: object, questionnaire: object, item: object, score: object
+) -> tuple[str, str, str, str, int]:
+    """One answer row of the simulated study, checked (the forms check theirs in
+    :mod:`bowden.web.questionnaires`); a problem is a :class:`StoreError` naming the row (index label)."""
+    where = f"questionnaire answers, row {label!r}"
+    if not is_participant_id(participant):
+        raise StoreError(
+            f"{where}: participant {participant!r} is not a pseudonymous id (1–4 capital letters then "
+            "1–4 digits, e.g. P07; never a name)"
+        )
+    if not is_protocol_name(condition):
+        raise StoreError(f"{where}: condition {condition!r} is not a condition name ({PROTOCOL_NAME_RULE})")
+    if questionnaire not in _QUESTIONNAIRE_ITEMS:
+        raise StoreError(
+            f"{where}: unknown questionnaire {questionnaire!r} (known: {', '.join(_QUESTIONNAIRE_ITEMS)})"
+        )
+    items, low, high = _QUESTIONNAIRE_ITEMS[str(questionnaire)]
+    if item not in items:
+        raise StoreError(f"{where}: {questionnaire} has no item {item!r} (items: {', '.join(items)})")
+    if isinstance(score, bool | np.bool_) or not isinstance(score, int | float | np.integer | np.floating):
+        raise StoreError(f"{where}: score {score!r} of {questionnaire}.{item} is not a number")
+    if not math.isfinite(score):
+        raise StoreError(f"{where}: score of {questionnaire}.{item} is missing ({score!r})")
+    if not float(score).is_integer() or not low <= score <= high:
+        raise StoreError(
+            f"{where}: score {score!r} of {questionnaire}.{item} must be a whole number from {low} to {high}"
+        )
+    return str(participant), str(condition), str(questionnaire), str(item), int(score)
 
 
 def replace_submission(

@@ -43,19 +43,7 @@ import numpy as np
 import pandas as pd
 
 from bowden.contracts import (
-    BORG_HIGH,
-    BORG_LOW,
-    BORG_RPE_ITEM,
-    FATIGUE_SITES,
-    LIKERT_HIGH,
-    LIKERT_LOW,
-    NORDIC_SITES,
-    PROTOCOL_NAME_RULE,
-    QUESTIONNAIRE_BORG_RPE,
-    QUESTIONNAIRE_FATIGUE,
-    QUESTIONNAIRE_NORDIC,
     is_participant_id,
-    is_protocol_name,
 )
 from bowden.errors import StoreError
 from bowden.model import Subject
@@ -63,7 +51,7 @@ from bowden.store import emg_chunks, sample_chunks
 from bowden.store.export import export_store
 from bowden.store.ownership import made_by_study_pipeline, metadata_object
 from bowden.store.participants import upsert_anthropometrics
-from bowden.store.questionnaires import upsert_answers
+from bowden.store.questionnaires import checked_answer, upsert_answers
 from bowden.store.schema import configure_connection, create_schema
 from bowden.store.tables import create_study_tables
 from bowden.store.trial_encoding import EncodedTrial, encode_trial
@@ -75,13 +63,6 @@ from bowden.store.trials import (
     replace_event,
     utc_now_iso,
 )
-
-# The items and score range of each questionnaire (what the browser forms and the simulation write).
-_QUESTIONNAIRE_ITEMS: Final = {
-    QUESTIONNAIRE_NORDIC: (NORDIC_SITES, LIKERT_LOW, LIKERT_HIGH),
-    QUESTIONNAIRE_BORG_RPE: ((BORG_RPE_ITEM,), BORG_LOW, BORG_HIGH),
-    QUESTIONNAIRE_FATIGUE: (FATIGUE_SITES, LIKERT_LOW, LIKERT_HIGH),
-}
 
 # The outcome table's columns as read and exported: the analysis's, with each row's trial after its
 # speed (stored last in the table: stores before schema 6 gained the column at the end).
@@ -103,36 +84,6 @@ def check_participant_id(participant: str) -> str:
             "digits (e.g. P07); never store names"
         )
     return participant
-
-
-def _questionnaire_answer(
-    label: object, participant: object, condition: object, questionnaire: object, item: object, score: object
-) -> tuple[str, str, str, str, int]:
-    """One checked answer row; a problem is a :class:`StoreError` naming the row (index label)."""
-    where = f"questionnaire answers, row {label!r}"
-    if not is_participant_id(participant):
-        raise StoreError(
-            f"{where}: participant {participant!r} is not a pseudonymous id (1–4 capital letters then "
-            "1–4 digits, e.g. P07; never a name)"
-        )
-    if not is_protocol_name(condition):
-        raise StoreError(f"{where}: condition {condition!r} is not a condition name ({PROTOCOL_NAME_RULE})")
-    if questionnaire not in _QUESTIONNAIRE_ITEMS:
-        raise StoreError(
-            f"{where}: unknown questionnaire {questionnaire!r} (known: {', '.join(_QUESTIONNAIRE_ITEMS)})"
-        )
-    items, low, high = _QUESTIONNAIRE_ITEMS[str(questionnaire)]
-    if item not in items:
-        raise StoreError(f"{where}: {questionnaire} has no item {item!r} (items: {', '.join(items)})")
-    if isinstance(score, bool | np.bool_) or not isinstance(score, int | float | np.integer | np.floating):
-        raise StoreError(f"{where}: score {score!r} of {questionnaire}.{item} is not a number")
-    if not math.isfinite(score):
-        raise StoreError(f"{where}: score of {questionnaire}.{item} is missing ({score!r})")
-    if not float(score).is_integer() or not low <= score <= high:
-        raise StoreError(
-            f"{where}: score {score!r} of {questionnaire}.{item} must be a whole number from {low} to {high}"
-        )
-    return str(participant), str(condition), str(questionnaire), str(item), int(score)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -357,7 +308,7 @@ class StudyStore:
             answers.index, answers.loc[:, list(needed)].itertuples(index=False, name=None), strict=True
         ):
             rows.append(
-                (*_questionnaire_answer(label, participant, condition, questionnaire, item, score), now)
+                (*checked_answer(label, participant, condition, questionnaire, item, score), now)
             )
         try:
             with self._db:
