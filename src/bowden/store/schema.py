@@ -1,4 +1,7 @@
-"""Schema of the trial-sample store (SQLite), the base the full study store builds on.
+"""Schema of the study store (SQLite): its version, the check every opener runs, and the trial tables.
+
+The other tables and their migrations are in :mod:`bowden.store.tables`; each table's rows have one
+writer in :mod:`bowden.store` (docs/design.md, "Packages and the rules between them").
 
 Why SQLite: it is in the standard library (nothing to install on the BeagleBone), one file per study,
 and its write-ahead log makes every committed transaction survive a crash or ``kill -9`` of the
@@ -98,11 +101,11 @@ CREATE TABLE IF NOT EXISTS events (
 ) STRICT
 """
 
-# Every table a bowden store may hold, with the columns bowden reads from it. The runtime makes
-# trials, sample_chunks and events; the study store (bowden.store.study_store), the questionnaire forms,
-# the participant registry and the session plans (bowden.web) add the others; older stores may hold
-# the LEGACY_TABLES. They are listed here, below the runtime's, so whichever opens a file first can
-# tell a bowden store from another program's file before changing anything.
+# Every table a bowden store may hold, with the columns bowden reads from it. create_schema makes
+# trials, sample_chunks and events; bowden.store.tables lays out the others (the study store, the
+# questionnaire forms, the participant registry and the session plans make them as they open a file);
+# older stores may hold the LEGACY_TABLES. Whichever opens a file first can tell a bowden store from
+# another program's file before changing anything.
 # tests/runtime/test_store_schema.py checks this list against the tables those modules create.
 STORE_TABLES: Final[Mapping[str, tuple[str, ...]]] = {
     "trials": (
