@@ -11,7 +11,7 @@ from __future__ import annotations
 import sys
 
 from bowden.protocol.bench import BenchProtocol
-from bowden.runtime.bench import PHASE_STROKE, BenchDevices, BenchRun, BenchRunConfig
+from bowden.runtime.bench import PHASE_STROKE, BenchDevices, BenchRun, BenchRunConfig, BenchSafety
 from bowden.runtime.bench_recording import BenchRecordingWriter
 from bowden.sim.backend import open_sim_bench
 
@@ -40,7 +40,7 @@ class AnnouncingClock:
 def main(path: str, speeds: str, loads: str, repetitions: str, resume: bool) -> None:
     protocol = BenchProtocol(spool_speeds_rad_s=tuple(map(float, speeds.split(","))),
                              loads_nm=tuple(map(float, loads.split(","))), repetitions=int(repetitions))
-    config = BenchRunConfig(protocol=protocol)
+    config = BenchRunConfig(protocol=protocol, safety=BenchSafety().on_shared_host())
     with open_sim_bench() as backend:
         clock = AnnouncingClock(backend.clock)
         devices = BenchDevices(tdu=backend.motor, mannequin=backend.mannequin, imu=backend.imu,

@@ -54,8 +54,10 @@ def bench_config(args: argparse.Namespace) -> BenchRunConfig:
     protocol = bench_protocol(args)
     _check_loads(protocol, args.mannequin_motor)
     slack = SlackTakeUp(pretension_n=args.pretension, pulley_radius_m=args.spool_radius)
-    return BenchRunConfig(protocol=protocol, spool_radius_m=args.spool_radius, slack=slack,
-                          safety=BenchSafety(max_tension_n=args.max_tension))
+    safety = BenchSafety(max_tension_n=args.max_tension)
+    if getattr(args, "backend", "can") == "sim":  # its devices share this host's CPUs
+        safety = safety.on_shared_host()
+    return BenchRunConfig(protocol=protocol, spool_radius_m=args.spool_radius, slack=slack, safety=safety)
 
 
 def _check_loads(protocol: BenchProtocol, motor: str) -> None:
@@ -156,6 +158,9 @@ def run_bench_on_backend(args: argparse.Namespace) -> int:
             print(file=sys.stderr)
         for error in report.exit_errors:
             _say(f"warning: {error}")
+        if report.data_gaps:
+            _say(f"warning: the load cell's reader was starved {report.data_gaps} times (a busy host); "
+                 "the strokes recorded then were run again")
         if report.complete:
             path = writer.finish()
             print(f"wrote {report.strokes_total} strokes to {path}; identify them with "

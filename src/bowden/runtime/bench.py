@@ -39,6 +39,7 @@ import numpy as np
 from bowden.errors import BowdenError, HardwareError, OutputFileError, TransmitError
 from bowden.hardware.protocols import MotorState
 from bowden.protocol.bench import BenchStroke
+from bowden.runtime.bench_cell import LoadCellWatch
 from bowden.runtime.bench_config import (
     BenchDevices,
     BenchFault,
@@ -56,6 +57,7 @@ _log = logging.getLogger(__name__)
 PHASE_HOLD, PHASE_STROKE, PHASE_POSITION, PHASE_TAKE_UP, PHASE_SETTLE = 0, 1, 2, 3, 4
 _FIRST_SAMPLE_WAIT_S = 0.5
 _STROKE_ATTEMPTS = 3  # a stroke that rests short of its end is run again, learning where it rested
+_GAP_RETRIES = 3  # a stroke recorded with a gap in the load cell's data is run again this often
 # The arm is at rest when its elevation's speed stays below _REST_SPEED_RAD_S for _REST_WINDOW_S: the
 # speed is the difference of two running means of the IMU's elevation (time constants _REST_FAST_S
 # and _REST_SLOW_S) over the difference of their lags. (Not the gyroscope: with the arm hanging
@@ -84,6 +86,7 @@ _HOST_STALL_S = 0.01  # a cycle this late is a stall of the host
 # The spool target advances by the clock, but by at most this much time per cycle: after a stall of
 # the host the motor held its last target, and a jump of the whole stall would jerk the cable.
 _MAX_ADVANCE_S = _HOST_STALL_S
+_JOINT_REFERENCE_S = 1.0  # the time constant of the mannequin joint's offset to the IMU, at rest
 _TAKE_UP_STALL_S = 0.5  # a stalled spool pulling this long with a silent load cell: the load cell
 
 
@@ -110,7 +113,9 @@ class BenchRun:
         self._log_rows: list[tuple[float, ...]] = []
         self._target_rad = math.nan  # the TDU's position target (multi-turn spool, rad)
         self._velocity_rad_s = 0.0  # the TDU's velocity target
-        self._load_command_nm = 0.0
+        self._load_command_nm = 0.0  # the load (ramped), without the wall's
+        self._mannequin_command_nm = 0.0  # what the mannequin's motor is told: the load and the wall
+        self._joint_offset_rad = math.nan  # the mannequin's joint angle minus the IMU's elevation, at rest
         self._load_from_nm = 0.0
         self._load_to_nm = 0.0
         self._load_ramp_start_s = -math.inf
@@ -133,6 +138,9 @@ class BenchRun:
         self._rest_since = math.nan
         self.scouting_moves = 0  # slow moves to learn an end before a fast stroke
         self._furthest_rad = math.nan  # the furthest elevation of the stroke under way
+        self._cell_watch = LoadCellWatch(config.safety.load_cell_max_age_s,
+                                         config.safety.load_cell_reader_max_idle_s)
+        self._gap_in_attempt = False  # the load cell's reader starved while this attempt was recorded
 
     @property
     def phase(self) -> int:
@@ -178,16 +186,19 @@ class BenchRun:
             report.fault = str(fault)
             report.fault_at_s = self.devices.clock.now()
             report.safe_at_s = self._safe_stop(report.exit_errors)
+            report.data_gaps = self._cell_watch.gaps
             self._keep_partial_log()
             return report
         except BaseException as error:  # a bug, Ctrl-C, a full disk: the motors first
             report.safe_at_s = self._safe_stop(report.exit_errors)
+            report.data_gaps = self._cell_watch.gaps
             self._keep_partial_log()
             if isinstance(error, KeyboardInterrupt):
                 report.fault = "interrupted"
                 return report
             raise
         report.safe_at_s = self._safe_stop(report.exit_errors)
+        report.data_gaps = self._cell_watch.gaps
         return report
 
     def _keep_partial_log(self) -> None:
@@ -261,12 +272,24 @@ class BenchRun:
         """Run ``stroke`` until it covers the range (its rows in ``self._rows``), or fault saying so."""
         p = self.config.protocol
         end = p.high_rad if stroke.raising else p.low_rad
-        for _ in range(_STROKE_ATTEMPTS):
+        short = gaps = 0
+        while short < _STROKE_ATTEMPTS:
             self._rows = []
             self._position_for(stroke)
+            self._gap_in_attempt = False
             self._dwell(p.hold_s, PHASE_HOLD)
-            if self._run_stroke(stroke):
+            covered = self._run_stroke(stroke)
+            if self._gap_in_attempt:
+                gaps += 1
+                if gaps > _GAP_RETRIES:
+                    raise BenchFault(f"stroke {stroke.index + 1}: the load cell's reader was starved in "
+                                     f"{gaps} attempts in a row: the host is too busy")
+                _log.warning("bench: stroke %d is run again (a gap in the load cell's data)",
+                             stroke.index + 1)
+                continue
+            if covered:
                 return
+            short += 1
         raise BenchFault(f"stroke {stroke.index + 1} ({stroke.spool_velocity_rad_s:+g} rad/s, load "
                          f"{stroke.load_nm:g} Nm) came to rest at {math.degrees(self._elevation_rad):.1f}°, "
                          f"short of {math.degrees(end):.0f}°, in {_STROKE_ATTEMPTS} attempts: the arm does "
@@ -511,6 +534,7 @@ class BenchRun:
         self._cycle_dt_s = min(max(now - self._last_cycle_s, 0.0), _MAX_ADVANCE_S)
         self._last_cycle_s = now
         self._sense(now)
+        self._reference_joint()
         if self._phase in (PHASE_STROKE, PHASE_SETTLE) and self._stroke is not None:
             direction = 1.0 if self._stroke.raising else -1.0
             self._furthest_rad = direction * max(direction * self._furthest_rad,
@@ -521,8 +545,9 @@ class BenchRun:
         if abs(velocity) > 0.05:
             self._arrival = 1.0 if velocity > 0.0 else -1.0
         self._load_command_nm = self._load_now(now)
+        self._mannequin_command_nm = self._load_command_nm + self._wall_torque_nm()
         try:
-            state = self.devices.mannequin.command_torque(self._load_command_nm)
+            state = self.devices.mannequin.command_torque(self._mannequin_command_nm)
             self._mannequin_state = state or self._mannequin_state
             if kp is not None and kp == 0.0:
                 state = self.devices.tdu.command_mit(0.0, velocity, 0.0, kd or 0.0)
@@ -576,10 +601,16 @@ class BenchRun:
             raise BenchFault(f"load cell lost: {failure}")
         reading = cell.read()
         # Its age counts from the end of a host stall too, as the IMU's: the reader could not run.
-        cell_age = now - max(reading.time_s if reading is not None else -math.inf, self._stall_end_s)
-        if cell_age > safety.load_cell_max_age_s:
-            raise BenchFault(f"load cell: no reading for {1e3 * cell_age:.0f} ms "
-                             f"(limit {1e3 * safety.load_cell_max_age_s:.0f} ms)")
+        # A reader the host starves (no attempt either) is a gap in the data (bench_cell).
+        taken_s = reading.time_s if reading is not None else -math.inf
+        if not self._cell_watch.fresh(cell, taken_s, now, self._stall_end_s):
+            if self._phase in (PHASE_HOLD, PHASE_STROKE, PHASE_SETTLE):
+                self._gap_in_attempt = True  # its rows would hold a stale tension: run it again
+            pull = self._pull_n()
+            if pull > safety.max_tension_n:  # the tension limit, from the TDU's torque meanwhile
+                raise BenchFault(f"tension about {pull:.0f} N (from the TDU's torque, the load cell's "
+                                 f"reader starved) over the limit ({safety.max_tension_n:.0f} N)")
+            return
         if reading is None:  # none yet, and the clock started less than the limit ago
             return
         self._tension_n = reading.tension_n
@@ -643,7 +674,7 @@ class BenchRun:
             if state is not None and state.temperature_c > safety.max_temperature_c:
                 raise BenchFault(f"{name} at {state.temperature_c:.0f} °C "
                                  f"(limit {safety.max_temperature_c:.0f})")
-        command = self._load_command_nm
+        command = self._mannequin_command_nm
         held = self._mannequin_state.torque_nm if self._mannequin_state is not None else 0.0
         ramping = now - self._load_ramp_start_s < self.config.load_ramp_s + safety.load_hold_window_s
         if command > 0.2 and not ramping and held < safety.load_hold_fraction * command:
@@ -668,7 +699,7 @@ class BenchRun:
                                trial))
         self._log_rows.append((
             t, trial, self._phase, self._target_rad, velocity, tdu.position_rad if tdu else nan,
-            self._load_command_nm, man.torque_nm if man else nan, man.position_rad if man else nan,
+            self._mannequin_command_nm, man.torque_nm if man else nan, man.position_rad if man else nan,
             man.velocity_rad_s if man else nan,
         ))
 
@@ -684,6 +715,40 @@ class BenchRun:
         fraction = min(max((now - self._load_ramp_start_s) / self.config.load_ramp_s, 0.0), 1.0)
         return self._load_from_nm + fraction * (self._load_to_nm - self._load_from_nm)
 
+    def _wall_torque_nm(self) -> float:
+        """The soft wall above the range: the mannequin's motor brakes an arm past the protocol's high
+        end by half the range margin (the positioning tolerance: no rest is inside the wall) with a
+        spring and a damper on top of its load, as a lab bench uses it. A fast raising stroke under a
+        light load flings the arm (the cable goes slack as the spool brakes; the load alone decelerates
+        it); the wall stops it before the range guard. The rows inside it are a stroke's end, which
+        the identification's steady-state selection leaves out. The damper uses the joint's own
+        velocity (the mannequin motor's, in elevation's sign as its position)."""
+        config = self.config
+        wall = config.protocol.high_rad + config.safety.range_margin_rad / 2.0
+        state = self._mannequin_state
+        elevation = self._elevation_rad
+        if state is not None and math.isfinite(self._joint_offset_rad):
+            # The joint's encoder, referenced to the IMU at rest: the IMU's elevation trails a flung
+            # arm (3° at 1.4 rad/s on the simulated bench), so a wall on it engages late.
+            elevation = state.position_rad - self._joint_offset_rad
+        depth = elevation - wall
+        if not depth > 0.0:
+            return 0.0
+        velocity = state.velocity_rad_s if state is not None else 0.0
+        return max(config.wall_stiffness_nm_rad * depth + config.wall_damping_nms_rad * velocity, 0.0)
+
+    def _reference_joint(self) -> None:
+        """Follow the offset between the mannequin's joint angle and the IMU's elevation while the arm
+        is still (a running mean over about a second of rest; the IMU's noise averages out)."""
+        state = self._mannequin_state
+        if state is None or self._rest_speed_rad_s > _REST_SPEED_RAD_S:
+            return
+        offset = state.position_rad - self._elevation_rad
+        if not math.isfinite(self._joint_offset_rad):
+            self._joint_offset_rad = offset
+        self._joint_offset_rad += min(self._cycle_dt_s / _JOINT_REFERENCE_S, 1.0) * (
+            offset - self._joint_offset_rad)
+
     def _spool_position(self) -> float:
         return self._tdu_state.position_rad if self._tdu_state is not None else 0.0
 
@@ -697,7 +762,7 @@ class BenchRun:
         clock, tdu, mannequin = self.devices.clock, self.devices.tdu, self.devices.mannequin
         ramp = self.config.safety.ramp_down_s
         tdu_from = self._tdu_state.torque_nm if self._tdu_state is not None else 0.0
-        load_from = self._load_command_nm
+        load_from = self._mannequin_command_nm
         start = clock.now()
         deadline = start
         while True:
