@@ -525,9 +525,12 @@ class BenchRun:
         clock.sleep_until(self._deadline)
         now = clock.now()
         if now - self._deadline > _HOST_STALL_S:
-            # The host stalled (a stroke's fsync, the scheduler): no burst of catch-up cycles, and
-            # replies missing across the stall are not the motors' fault.
+            # Behind (a stall, or cycles late one after another): no burst of catch-up cycles.
             self._deadline = now
+        if now - self._last_cycle_s > self.period_s + _HOST_STALL_S:
+            # The host stalled (a stroke's fsync, the scheduler): replies and samples missing across
+            # the stall are not the devices' fault. Only a gap between two cycles is a stall: a loop
+            # that merely falls behind would otherwise discount every age for good.
             self._stall_end_s = now
         # The target advances with the time that passed, not with the cycles: a loop that falls
         # behind (cycles late, no stall) would otherwise run the stroke slow.
