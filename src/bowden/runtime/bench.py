@@ -719,26 +719,34 @@ class BenchRun:
         return self._load_from_nm + fraction * (self._load_to_nm - self._load_from_nm)
 
     def _wall_torque_nm(self) -> float:
-        """The soft wall above the range: the mannequin's motor brakes an arm past the protocol's high
-        end by half the range margin (the positioning tolerance: no rest is inside the wall) with a
-        spring and a damper on top of its load, as a lab bench uses it. A fast raising stroke under a
-        light load flings the arm (the cable goes slack as the spool brakes; the load alone decelerates
-        it); the wall stops it before the range guard. The rows inside it are a stroke's end, which
-        the identification's steady-state selection leaves out. The damper uses the joint's own
-        velocity (the mannequin motor's, in elevation's sign as its position)."""
+        """The soft walls beyond the range: the mannequin's motor brakes an arm past a range end by
+        half the range margin (the positioning tolerance: no rest is inside a wall) with a spring and
+        a damper on top of its load, as a lab bench uses it. Above the range always: a fast raising
+        stroke under a light load flings the arm (the cable goes slack as the spool brakes; the load
+        alone decelerates it). Below it only during a lowering stroke (its momentum stretches the
+        cable; 9.8° at −4 rad/s under 1 Nm after a resume): elsewhere an arm may rest low (a raising
+        stroke's start under a heavy load, the slack's take-up), and the load must be the load there.
+        The rows inside a wall are a stroke's end, which the identification's steady-state selection
+        leaves out. Returns the torque to add to the load (> 0 pulls the arm down)."""
         config = self.config
-        wall = config.protocol.high_rad + config.safety.range_margin_rad / 2.0
+        margin = config.safety.range_margin_rad / 2.0
         state = self._mannequin_state
         elevation = self._elevation_rad
         if state is not None and math.isfinite(self._joint_offset_rad):
             # The joint's encoder, referenced to the IMU at rest: the IMU's elevation trails a flung
             # arm (3° at 1.4 rad/s on the simulated bench), so a wall on it engages late.
             elevation = state.position_rad - self._joint_offset_rad
-        depth = elevation - wall
-        if not depth > 0.0:
-            return 0.0
+        # The damper on the joint's own velocity (the mannequin motor's, in elevation's sign).
         velocity = state.velocity_rad_s if state is not None else 0.0
-        return max(config.wall_stiffness_nm_rad * depth + config.wall_damping_nms_rad * velocity, 0.0)
+        k, d = config.wall_stiffness_nm_rad, config.wall_damping_nms_rad
+        above = elevation - (config.protocol.high_rad + margin)
+        if above > 0.0:
+            return max(k * above + d * velocity, 0.0)
+        below = (config.protocol.low_rad - margin) - elevation
+        lowering = self._stroke is not None and not self._stroke.raising
+        if below > 0.0 and lowering and self._phase in (PHASE_STROKE, PHASE_SETTLE):
+            return min(-k * below + d * velocity, 0.0)
+        return 0.0
 
     def _reference_joint(self) -> None:
         """Follow the offset between the mannequin's joint angle and the IMU's elevation while the arm

@@ -151,9 +151,10 @@ class BenchRunConfig:
         The cuff's geometry on the bench (the cable's lever about the shoulder): the spool's travel
         per degree, and the tension a load implies with the arm at rest (the load-cell check).
     wall_stiffness_nm_rad, wall_damping_nms_rad
-        The soft wall the mannequin's motor puts above the range (from the protocol's high end plus
-        half ``safety.range_margin_rad``): a spring and a damper on top of the load, braking an arm
-        flung past the end by a fast stroke under a light load before the range guard. 60 Nm/rad and
+        The soft walls the mannequin's motor puts beyond the range (half ``safety.range_margin_rad``
+        past the protocol's high end; past its low end during a lowering stroke): a spring and a
+        damper on top of the load, braking an arm flung past an end by a fast stroke before the
+        range guard. 60 Nm/rad and
         1 Nm·s/rad stop the simulated mannequin arm (0.08 kg·m²) arriving at 2 rad/s within about
         4°, with 6 Nm at most (the AK80-9's peak is 18 Nm).
     stroke_timeout_factor
