@@ -3,7 +3,8 @@
 Every statement that makes or changes a table of the study store (``CREATE TABLE``, ``ALTER TABLE``,
 ``DROP TABLE``; ``INSERT``, ``UPDATE``, ``DELETE``, ``REPLACE``) is written in ``bowden/store``: the
 tables' layout in :mod:`bowden.store.schema` and :mod:`bowden.store.tables`, each table's rows in the
-one module that owns them. Runtime, web and study call those functions. The SQL is found in the
+one module that owns them. Queries of the tables are the store's too (typed reads). Runtime, web and
+study call those functions. The SQL is found in the
 source's string literals (f-strings included), so a write hidden in another module fails here.
 """
 
@@ -39,6 +40,8 @@ ROW_OWNERS = {
 _SCHEMA_STATEMENT = re.compile(
     r"\b(?:CREATE TABLE(?: IF NOT EXISTS)?|ALTER TABLE|DROP TABLE(?: IF EXISTS)?)\s+\"?(\w+)"
 )
+# A query of a store table (reads belong to the store too: typed, so its callers never write SQL).
+_READ_STATEMENT = re.compile(r"(?<!DELETE )\b(?:FROM|JOIN)\s+\"?(\w+)")
 _ROW_STATEMENT = re.compile(
     r"\b(?:INSERT(?: OR \w+)? INTO|REPLACE INTO|UPDATE(?: OR \w+)?|DELETE FROM)\s+\"?(\w+)"
 )
@@ -71,6 +74,11 @@ def misplaced_writes(source: str, module: str) -> list[str]:
             if table in STORE_TABLES and module not in SCHEMA_OWNERS:
                 owners = ", ".join(sorted(SCHEMA_OWNERS))
                 problems.append(f"{module} lays out table {table!r} (only {owners})")
+        if not module.startswith("bowden.store."):
+            problems += [
+                f"{module} queries table {table!r} (read it through bowden.store)"
+                for table in _READ_STATEMENT.findall(text) if table in STORE_TABLES
+            ]
         for table in _ROW_STATEMENT.findall(text):
             owner = ROW_OWNERS.get(table)
             if owner is not None and module != owner:
@@ -112,6 +120,7 @@ def close(connection, trial_id, reason):
         "(its one writer is bowden.store.questionnaires)",
         "bowden.runtime.recorder writes rows of 'events' (its one writer is bowden.store.trials)",
         "bowden.runtime.recorder lays out table 'artifacts' (only bowden.store.schema, bowden.store.tables)",
+        "bowden.runtime.recorder queries table 'trials' (read it through bowden.store)",
     ]
     # In the owner of trials and events, only the other tables' statements are wrong.
     assert [problem.split(" (")[0] for problem in misplaced_writes(source, "bowden.store.trials")] == [

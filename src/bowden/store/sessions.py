@@ -52,6 +52,11 @@ def insert_note(
     )
 
 
+def session_protocols(connection: sqlite3.Connection) -> list[str]:
+    """The protocol (JSON) of every stored session, oldest first."""
+    return [str(row[0]) for row in connection.execute("SELECT protocol FROM sessions ORDER BY id")]
+
+
 def _now() -> str:
     return datetime.now(UTC).isoformat(timespec="seconds")
 

@@ -57,10 +57,12 @@ from bowden.store.tables import create_study_tables
 from bowden.store.trial_encoding import EncodedTrial, encode_trial
 from bowden.store.trials import (
     TrialInfo,
+    condition_supports,
     delete_trial_row,
     end_trial,
     insert_trial,
     replace_event,
+    speed_peaks,
     utc_now_iso,
 )
 
@@ -220,6 +222,29 @@ class StudyStore:
             StoredTrial(trial_id=r[0], participant=r[1], condition=r[2], speed=r[3], support=r[4])
             for r in rows
         ]
+
+    def trial_table(self) -> pd.DataFrame:
+        """Every trial's row: id, participant, condition, speed, stop_reason, metadata (JSON text)."""
+        return pd.read_sql_query(
+            "SELECT id, participant, condition, speed, stop_reason, metadata FROM trials ORDER BY id",
+            self._db,
+        )
+
+    def condition_supports(self) -> list[tuple[str, float]]:
+        """Each condition recorded with a support, and that support (:func:`trials.condition_supports`)."""
+        return condition_supports(self._db)
+
+    def speed_peaks(self) -> list[tuple[str, float]]:
+        """Each speed recorded with its peak in °/s (:func:`trials.speed_peaks`)."""
+        return speed_peaks(self._db)
+
+    def events(self, kind: str) -> pd.DataFrame:
+        """The events of one kind: trial_id, time_s, message, by trial in recording order."""
+        return pd.read_sql_query(
+            "SELECT trial_id, time_s, message FROM events WHERE kind = ? ORDER BY trial_id, rowid",
+            self._db,
+            params=(kind,),
+        )
 
     def trial_metadata(self, trial_id: int) -> dict[str, Any]:
         """The JSON metadata recorded with a trial (backend, seed, versions...)."""

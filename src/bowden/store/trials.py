@@ -109,3 +109,21 @@ def delete_trial_row(connection: sqlite3.Connection, trial_id: int) -> None:
     """Delete a trial's row and its events (its samples and EMG go first, through their modules)."""
     connection.execute("DELETE FROM events WHERE trial_id = ?", (trial_id,))
     connection.execute("DELETE FROM trials WHERE id = ?", (trial_id,))
+
+
+def condition_supports(connection: sqlite3.Connection) -> list[tuple[str, float]]:
+    """Each condition recorded with a support, and that support (a pair once, in recording order)."""
+    rows = connection.execute(
+        "SELECT DISTINCT condition, support FROM trials WHERE support IS NOT NULL ORDER BY id"
+    )
+    return [(str(name), float(support)) for name, support in rows]
+
+
+def speed_peaks(connection: sqlite3.Connection) -> list[tuple[str, float]]:
+    """Each speed recorded with its peak (°/s, the trial's ``speed_peak_deg_s``), in recording order."""
+    rows = connection.execute(
+        "SELECT DISTINCT speed, json_extract(metadata, '$.speed_peak_deg_s') FROM trials "
+        "WHERE speed IS NOT NULL AND json_extract(metadata, '$.speed_peak_deg_s') IS NOT NULL "
+        "ORDER BY id"
+    )
+    return [(str(name), float(peak)) for name, peak in rows]

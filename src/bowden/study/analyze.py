@@ -17,7 +17,7 @@ A trial that cannot be analysed (no samples, fewer or more repetitions than it s
 skipped; the report's notes and :attr:`AnalysisReport.skipped` name it and say why. So are trials a
 session set aside (stopped early, or redone by the operator, with the reason) and trials left open
 (no end recorded: a recording cut off by a killed server). The report lists the participants as
-registered and the session plans with their condition order (:mod:`bowden.study.sessions`).
+registered and the session plans with their condition order (:mod:`bowden.store.session_facts`).
 
 Conditions and speeds a lab defined itself (``support_70``, ``V4``) are analysed and kept in the
 outcome table, described in a section of their own and named in the notes; the paper's comparisons
@@ -51,6 +51,7 @@ from bowden.errors import ModelFileError, ParameterError, RecordingError, StoreE
 from bowden.identify import TransmissionIdentifier, plot_identification
 from bowden.model import CompensationModel
 from bowden.model.model_file import model_from_dict
+from bowden.store.session_facts import SessionFacts, left_open_notes, session_facts
 from bowden.store.study_store import StoredTrial, StudyStore
 from bowden.study.emg.stored import emg_imports, trials_with_emg
 from bowden.study.progress import StageProgress
@@ -64,7 +65,6 @@ from bowden.study.report.custom_protocols import (
     paper_part,
 )
 from bowden.study.report.html import FigureJob, FigureMapper, HtmlDocument
-from bowden.study.sessions import SessionFacts, left_open_notes, session_facts
 from bowden.study.statistics import FitJob, FitMapper, FitResult, StudyStatistics, study_statistics
 from bowden.study.trial_analysis import LoadedTrialTask, StoredTrialTask, TrialJob, analyse_task
 from bowden.study.trial_list import trial_list
@@ -94,7 +94,7 @@ class AnalysisReport:
     n_trials: int
     skipped: tuple[str, ...] = ()
     data_kind: DataKind = "measured"
-    participants: pd.DataFrame | None = None  # the registry (bowden.study.sessions)
+    participants: pd.DataFrame | None = None  # the registry (bowden.store.session_facts)
     plans: pd.DataFrame | None = None  # the session plans, with their condition order
 
 
@@ -372,9 +372,7 @@ def _identification_figure(pending: Pending[tuple[Any, dict[str, Any], str]] | N
 
 def _trial_rows(store: StudyStore, trial_ids: Iterable[int]) -> pd.DataFrame:
     """The ``trials`` rows of ``trial_ids`` that the report's trial list reads."""
-    rows = store.read_sql(
-        "SELECT id, participant, condition, speed, stop_reason, metadata FROM trials ORDER BY id"
-    )
+    rows = store.trial_table()
     return rows[rows["id"].isin(list(trial_ids))]
 
 

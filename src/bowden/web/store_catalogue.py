@@ -17,6 +17,8 @@ from bowden.contracts import CONDITIONS, SPEEDS
 from bowden.errors import ParameterError
 from bowden.protocol.catalogue import PAPER, Catalogue
 from bowden.store.connection import connect
+from bowden.store.sessions import session_protocols
+from bowden.store.trials import condition_supports, speed_peaks
 
 
 def stored_catalogue(connection: sqlite3.Connection) -> Catalogue:
@@ -24,25 +26,13 @@ def stored_catalogue(connection: sqlite3.Connection) -> Catalogue:
     tables = {str(r[0]) for r in connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
     catalogue = PAPER
     if "sessions" in tables:
-        for (protocol,) in connection.execute("SELECT protocol FROM sessions ORDER BY id"):
+        for protocol in session_protocols(connection):
             catalogue = catalogue.merged(Catalogue.from_json(json.loads(protocol).get("catalogue")))
     if "trials" in tables:
         conditions = [
-            (str(name), float(support))
-            for name, support in connection.execute(
-                "SELECT DISTINCT condition, support FROM trials WHERE support IS NOT NULL ORDER BY id"
-            )
-            if name not in CONDITIONS
+            (name, support) for name, support in condition_supports(connection) if name not in CONDITIONS
         ]
-        speeds = [
-            (str(name), float(peak))
-            for name, peak in connection.execute(
-                "SELECT DISTINCT speed, json_extract(metadata, '$.speed_peak_deg_s') FROM trials "
-                "WHERE speed IS NOT NULL AND json_extract(metadata, '$.speed_peak_deg_s') IS NOT NULL "
-                "ORDER BY id"
-            )
-            if name not in SPEEDS
-        ]
+        speeds = [(name, peak) for name, peak in speed_peaks(connection) if name not in SPEEDS]
         for name, support in conditions:
             catalogue = catalogue.merged(Catalogue(conditions=((name, support),)))
         for name, peak in speeds:

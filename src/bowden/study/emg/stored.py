@@ -36,12 +36,6 @@ class TrialSync:
         return self.start.zero_host_time_s
 
 
-def _events(store: StudyStore, kind: str) -> pd.DataFrame:
-    return store.read_sql(
-        "SELECT trial_id, time_s, message FROM events WHERE kind = ? ORDER BY trial_id, rowid", (kind,)
-    )
-
-
 def trial_syncs(store: StudyStore) -> dict[int, TrialSync]:
     """The completed trials that carry both sync edges, by id (recording order).
 
@@ -52,7 +46,7 @@ def trial_syncs(store: StudyStore) -> dict[int, TrialSync]:
     """
     completed = {trial.trial_id for trial in store.completed_trials()}
     edges: dict[int, dict[str, SyncEvent]] = {}
-    for trial_id, time_s, message in _events(store, SYNC_KIND).itertuples(index=False, name=None):
+    for trial_id, time_s, message in store.events(SYNC_KIND).itertuples(index=False, name=None):
         if int(trial_id) not in completed:
             continue
         try:
@@ -73,7 +67,7 @@ def trial_syncs(store: StudyStore) -> dict[int, TrialSync]:
 def emg_imports(store: StudyStore) -> dict[int, dict[str, Any]]:
     """Per trial id, the provenance of its imported EMG (file, sha256, fit...)."""
     imports: dict[int, dict[str, Any]] = {}
-    for trial_id, _time, message in _events(store, EMG_IMPORT_KIND).itertuples(index=False, name=None):
+    for trial_id, _time, message in store.events(EMG_IMPORT_KIND).itertuples(index=False, name=None):
         try:
             content = json.loads(message)
         except ValueError:

@@ -34,17 +34,9 @@ class CustomDefinitions:
 
 def custom_definitions(store: StudyStore) -> CustomDefinitions:
     """The support of each custom condition and the peak (°/s) of each custom speed, as recorded."""
-    conditions = store.read_sql("SELECT DISTINCT condition, support FROM trials")
-    speeds = store.read_sql(
-        "SELECT DISTINCT speed, json_extract(metadata, '$.speed_peak_deg_s') AS peak FROM trials "
-        "WHERE speed IS NOT NULL"
-    )
-    pairs = zip(conditions["condition"], conditions["support"], strict=True)
     return CustomDefinitions(
-        supports={str(c): float(s) for c, s in pairs
-                  if c not in CONDITIONS and s is not None and not pd.isna(s)},
-        peaks_deg_s={str(v): float(p) for v, p in zip(speeds["speed"], speeds["peak"], strict=True)
-                     if v not in SPEEDS and p is not None and not pd.isna(p)},
+        supports={name: support for name, support in store.condition_supports() if name not in CONDITIONS},
+        peaks_deg_s={name: peak for name, peak in store.speed_peaks() if name not in SPEEDS},
     )
 
 

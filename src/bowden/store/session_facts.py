@@ -7,7 +7,7 @@
   the analysis leaves them out and names them;
 * the trials **left open**: no end recorded (the recording was cut, e.g. a killed server), named too.
 
-Plain SQL on the store's tables (:mod:`bowden.web.registry`, :mod:`bowden.store.sessions`); a
+Plain SQL on the store's tables (:mod:`bowden.store.tables` lays them out); a
 store written before these tables existed gets empty answers.
 """
 
