@@ -28,7 +28,9 @@ from bowden.sim.backend import open_sim_bench
 
 CHILD = Path(__file__).with_name("bench_child.py")
 LOW_DEG, HIGH_DEG = 20.0, 110.0
-TOLERANCE_DEG = 5.0  # half the range margin: how close a stroke must come to its end
+# How close a stroke must come to its end: half the range margin, as the bench judges it on its 1 kHz
+# samples, and a degree for the recording's 200 Hz ones (the IMU's noise is 0.3°).
+TOLERANCE_DEG = 6.0
 
 
 def run(protocol: BenchProtocol, path: Path, *, clock_wrapper=None, inject=None, **config: object):
@@ -65,9 +67,11 @@ def assert_every_stroke_covers_the_range(path: Path, protocol: BenchProtocol) ->
 
 
 def test_every_load_step_holds_the_arm_at_the_next_strokes_start(tmp_path):
-    # Item 1: the load ramps 0.5 → 1 → 2 → 3 → 4 Nm with the arm at the low end, where it sagged below
-    # the range guard at 2 → 3 Nm. (A short range keeps the test quick; the sag is at the low end.)
-    protocol = BenchProtocol(spool_speeds_rad_s=(2.0,), repetitions=1, high_rad=math.radians(60.0))
+    # Item 1: the load ramps 2 → 3 → 4 Nm with the arm at the low end, where it sagged below the range
+    # guard at 2 → 3 Nm. (The heavy steps and a short range keep the test quick; the sag is at the low
+    # end under a heavy load.)
+    protocol = BenchProtocol(spool_speeds_rad_s=(2.0,), loads_nm=(2.0, 3.0, 4.0), repetitions=1,
+                             high_rad=math.radians(60.0))
     report, _ = run(protocol, tmp_path / "steps.csv", position_speed_rad_s=2.0)
     assert report.complete, report.fault
     assert_every_stroke_covers_the_range(tmp_path / "steps.csv", protocol)
@@ -115,7 +119,10 @@ def test_a_run_killed_and_interrupted_at_fast_lowering_strokes_resumes_to_the_sa
     # Item 3 and "Done when": SIGKILL during the −4 rad/s lowering at 1 Nm (stroke 4 of 8), then Ctrl-C
     # during the −4 rad/s lowering at 3 Nm (stroke 8); each resume completes what it can, as informed
     # as the run it continues (no slow move to learn an end again), and the lines identified agree
-    # with `bowden bench simulate` within 2 %. Item 9: the device log stays in time order.
+    # with `bowden bench simulate` within 2 % (measured uninterrupted: slopes within 0.1 %, torque
+    # within 1 % over 20–80 N, intercepts within 0.006 Nm). Item 9: the device log stays in time
+    # order. (The first resume's −4 rad/s lowering reached 9.8°, past the guard, before the low
+    # soft wall; the child said so, and the test's reader, waiting for stroke 7, swallowed it.)
     path = tmp_path / "wire.csv"
     options = ["1,4", "1,3", "1"]
     killed = child(path, options)
@@ -124,9 +131,10 @@ def test_a_run_killed_and_interrupted_at_fast_lowering_strokes_resumes_to_the_sa
     interrupted = child(path, options, resume=True)
     said = interrupt_at(interrupted, 7, signal.SIGINT, 0.3)
     assert "done False interrupted scouted 0" in said, said
-    finished = child(path, options, resume=True)
-    out, _ = finished.communicate(timeout=120)
-    assert "done True None scouted 0" in out, out
+    # The last resume through the command line (its path to a complete recording, exit 0).
+    assert main(["bench", "run", "--backend", "sim", "-o", str(path), "--resume", "--speeds", "1", "4",
+                 "--loads", "1", "3", "--repetitions", "1"]) == 0, capsys.readouterr().err
+    assert "wrote 8 strokes" in capsys.readouterr().out
     protocol = BenchProtocol(spool_speeds_rad_s=(1.0, 4.0), loads_nm=(1.0, 3.0), repetitions=1)
     assert_every_stroke_covers_the_range(path, protocol)
     assert pd.read_csv(tmp_path / "wire.log.csv")["time_s"].is_monotonic_increasing
@@ -144,6 +152,7 @@ def test_a_run_killed_and_interrupted_at_fast_lowering_strokes_resumes_to_the_sa
         for tension in (20.0, 40.0, 80.0):
             assert a.intercept_nm + a.slope_m * tension == pytest.approx(
                 b.intercept_nm + b.slope_m * tension, rel=0.02), (direction, tension)
+        assert a.intercept_nm == pytest.approx(b.intercept_nm, abs=0.015), direction
 
 
 class StarvedReader:

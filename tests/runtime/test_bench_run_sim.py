@@ -1,6 +1,7 @@
 """``bowden bench run`` on the simulated bench over its wire peers (the suit's own process, both AK
-motors on one CAN bus, the NGIMU over UDP, the ADS1115 over I²C): the protocol end to end, the
-identification it gives, resuming, and each fault reaching the safe state.
+motors on one CAN bus, the NGIMU over UDP, the ADS1115 over I²C): resuming after a fault, and each
+fault reaching the safe state (the identification it gives, killed, interrupted and resumed:
+tests/runtime/test_bench_protocol.py).
 
 Fault timing is judged on the run's own clock (``time.monotonic``, shared with the suit's process):
 from the injection (or, for faults that need a window to be seen, from the moment the watchdog fired)
@@ -17,9 +18,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from bowden.cli import main
 from bowden.hardware.ak60 import AK60Config, AK60Motor
-from bowden.model.model_file import load_model
 from bowden.protocol.bench import BenchProtocol, BenchStroke
 from bowden.runtime.bench import BenchDevices, BenchReport, BenchRun, BenchRunConfig
 from bowden.runtime.bench_recording import BenchRecordingWriter
@@ -64,26 +63,6 @@ def exited(backend, since_s: float) -> dict[str, float]:
         if frames:
             times[device] = frames[0]
     return times
-
-
-def test_bench_run_identifies_the_lines_bench_simulate_gives(tmp_path, capsys):
-    options = ["--speeds", "1", "4", "--loads", "1", "3", "--repetitions", "1"]
-    wire, batch = tmp_path / "wire.csv", tmp_path / "batch.csv"
-    assert main(["bench", "run", "--backend", "sim", "-o", str(wire), *options]) == 0
-    assert main(["bench", "simulate", "-o", str(batch), "--quiet", *options]) == 0
-    for path in (wire, batch):
-        assert main(["identify", str(path), "-o", str(path.with_suffix(".json"))]) in (0, 3)
-    capsys.readouterr()
-    models = {path: load_model(path.with_suffix(".json")) for path in (wire, batch)}
-    for direction in ("raising", "lowering"):
-        a = getattr(models[wire], direction)
-        b = getattr(models[batch], direction)
-        # Measured: slopes within 0.1 %, torque within 1 % over 20–80 N, intercepts within 0.006 Nm.
-        assert a.slope_m == pytest.approx(b.slope_m, rel=0.02)
-        for tension in (20.0, 40.0, 80.0):
-            assert a.intercept_nm + a.slope_m * tension == pytest.approx(
-                b.intercept_nm + b.slope_m * tension, rel=0.02)
-        assert a.intercept_nm == pytest.approx(b.intercept_nm, abs=0.015)
 
 
 def test_a_stopped_run_resumes_where_it_stopped(bench, tmp_path):

@@ -602,11 +602,10 @@ class BenchRun:
         failure = getattr(cell, "failure", None)
         if failure is not None:
             raise BenchFault(f"load cell lost: {failure}")
-        reading = cell.read()
         # Its age counts from the end of a host stall too, as the IMU's: the reader could not run.
         # A reader the host starves (no attempt either) is a gap in the data (bench_cell).
-        taken_s = reading.time_s if reading is not None else -math.inf
-        if not self._cell_watch.fresh(cell, taken_s, now, self._stall_end_s):
+        reading, fresh = self._cell_watch.read(cell, now, self._stall_end_s)
+        if not fresh:
             if self._phase in (PHASE_HOLD, PHASE_STROKE, PHASE_SETTLE):
                 self._gap_in_attempt = True  # its rows would hold a stale tension: run it again
             pull = self._pull_n()

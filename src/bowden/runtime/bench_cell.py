@@ -6,7 +6,7 @@ counts its read attempts (readings, I²C errors, malformed replies). On a busy h
 go unscheduled for a quarter second while the bench's loop runs on (measured: a 251 ms old reading
 with no I²C error, load average 6.7 on 2 cores). The reader's attempts are its heartbeat:
 
-* the reading is old but the reader kept trying (its attempts advanced within the age limit): the
+* the reading is old but the reader kept trying (three attempts or more since the reading): the
   sensor does not answer, which stops the bench (the reader also gives up on repeated I²C errors,
   ``failure``, which the bench reads first);
 * the reading is old and the reader made no attempt either: the reader was starved (or its I²C
@@ -22,10 +22,13 @@ from __future__ import annotations
 import logging
 import math
 
-from bowden.hardware.protocols import TensionSensor
+from bowden.hardware.protocols import TensionSample, TensionSensor
 from bowden.runtime.bench_config import BenchFault
 
 _log = logging.getLogger(__name__)
+# Failed attempts since the newest reading that make a sensor fault (the ADS1115 reader's own
+# max_consecutive_errors); fewer, with the reader then starved, are a gap.
+_FAILED_ATTEMPTS = 3
 
 
 def reader_attempts(cell: TensionSensor) -> int | None:
@@ -53,33 +56,45 @@ class LoadCellWatch:
         self.reader_max_idle_s = reader_max_idle_s
         self._attempts: int | None = None
         self._heartbeat_s = -math.inf  # when the bench last saw the reader's attempts advance
+        self._taken_s = math.nan  # when the newest reading was taken
+        self._attempts_at_reading: int | None = None  # the reader's attempts when it was first seen
         self.gaps = 0  # gaps in the data so far (a starved reader)
         self.in_gap = False
 
-    def fresh(self, cell: TensionSensor, reading_time_s: float, now: float, stall_end_s: float) -> bool:
-        """True if the newest reading (taken at ``reading_time_s``, -inf: none yet) is fresh; False
-        in a gap (the reader starved).
+    def read(self, cell: TensionSensor, now: float, stall_end_s: float) -> tuple[TensionSample | None, bool]:
+        """The newest reading (None before the first) and whether it is fresh (False: a gap, the
+        reader starved).
 
         Raises
         ------
         BenchFault
-            A sensor that does not answer its reader, or a reader idle beyond its limit.
+            A sensor its reader tries and fails to read, or a reader idle beyond its limit.
         """
+        # The attempts first: a reader that comes back between the two reads has then counted no
+        # attempt whose reading this cycle missed.
         attempts = reader_attempts(cell)
+        reading = cell.read()
+        taken_s = reading.time_s if reading is not None else -math.inf
+        if taken_s != self._taken_s:
+            self._taken_s = taken_s
+            self._attempts_at_reading = attempts
         if attempts is not None and attempts != self._attempts:
             self._attempts = attempts
             self._heartbeat_s = now
-        age = now - max(reading_time_s, stall_end_s)
+        age = now - max(taken_s, stall_end_s)
         if age <= self.max_age_s:
             self.in_gap = False
-            return True
+            return reading, True
         limit = f"limit {1e3 * self.max_age_s:.0f} ms"
-        if attempts is None:
+        if attempts is None or self._attempts_at_reading is None:
             raise BenchFault(f"load cell: no reading for {1e3 * age:.0f} ms ({limit})")
-        idle = now - max(self._heartbeat_s, stall_end_s)
-        if idle <= self.max_age_s:
+        # Attempts since the reading, less the reading's own (counted after its sample is stored).
+        failed = attempts - self._attempts_at_reading - 1
+        if failed >= _FAILED_ATTEMPTS:
             raise BenchFault(f"load cell: no reading for {1e3 * age:.0f} ms ({limit}) while its reader "
-                             "kept trying: the sensor does not answer (check its wiring)")
+                             f"tried at least {failed} times: the sensor does not answer (check its "
+                             "wiring)")
+        idle = now - max(self._heartbeat_s, stall_end_s)
         if idle > self.reader_max_idle_s:
             raise BenchFault(f"load cell: its reader has not run for {1e3 * idle:.0f} ms (limit "
                              f"{1e3 * self.reader_max_idle_s:.0f} ms): the host is too busy, or the I²C "
@@ -89,4 +104,4 @@ class LoadCellWatch:
             self.gaps += 1
             _log.warning("bench: the load cell's reader has not run for %.0f ms (host load): a gap in "
                          "the data", 1e3 * idle)
-        return False
+        return reading, False
