@@ -91,6 +91,9 @@ def test_the_fastest_lowering_under_the_lightest_load_covers_the_range(tmp_path)
     assert report.complete, report.fault
     assert bench.scouting_moves >= 1
     assert_every_stroke_covers_the_range(tmp_path / "fast.csv", protocol)
+    # Measured: 117.0–118.3° with the wall; 120.0–120.3° without (the guard stops the run at 120°).
+    furthest = np.degrees(pd.read_csv(tmp_path / "fast.csv")["elevation_rad"].max())
+    assert furthest <= HIGH_DEG + 9.5, furthest
 
 
 def child(path: Path, options: list[str], *, resume: bool = False) -> subprocess.Popen[str]:

@@ -50,6 +50,7 @@ from bowden.runtime.bench_config import (
 )
 from bowden.runtime.bench_ends import LearnedEnds
 from bowden.runtime.bench_recording import LOG_COLUMNS, RECORDING_COLUMNS, BenchRecordingWriter
+from bowden.runtime.bench_walls import JointReference, SoftWalls
 from bowden.runtime.slack import take_up_slack
 
 _log = logging.getLogger(__name__)
@@ -86,7 +87,6 @@ _HOST_STALL_S = 0.01  # a cycle this late is a stall of the host
 # The spool target advances by the clock, but by at most this much time per cycle: after a stall of
 # the host the motor held its last target, and a jump of the whole stall would jerk the cable.
 _MAX_ADVANCE_S = _HOST_STALL_S
-_JOINT_REFERENCE_S = 1.0  # the time constant of the mannequin joint's offset to the IMU, at rest
 _TAKE_UP_STALL_S = 0.5  # a stalled spool pulling this long with a silent load cell: the load cell
 
 
@@ -115,7 +115,10 @@ class BenchRun:
         self._velocity_rad_s = 0.0  # the TDU's velocity target
         self._load_command_nm = 0.0  # the load (ramped), without the wall's
         self._mannequin_command_nm = 0.0  # what the mannequin's motor is told: the load and the wall
-        self._joint_offset_rad = math.nan  # the mannequin's joint angle minus the IMU's elevation, at rest
+        margin = config.safety.range_margin_rad / 2.0
+        self._walls = SoftWalls(config.protocol.low_rad - margin, config.protocol.high_rad + margin,
+                                config.wall_stiffness_nm_rad, config.wall_damping_nms_rad)
+        self._joint = JointReference()  # the mannequin's joint angle against the IMU's elevation
         self._load_from_nm = 0.0
         self._load_to_nm = 0.0
         self._load_ramp_start_s = -math.inf
@@ -718,46 +721,19 @@ class BenchRun:
         return self._load_from_nm + fraction * (self._load_to_nm - self._load_from_nm)
 
     def _wall_torque_nm(self) -> float:
-        """The soft walls beyond the range: the mannequin's motor brakes an arm past a range end by
-        half the range margin (the positioning tolerance: no rest is inside a wall) with a spring and
-        a damper on top of its load, as a lab bench uses it. Above the range always: a fast raising
-        stroke under a light load flings the arm (the cable goes slack as the spool brakes; the load
-        alone decelerates it). Below it only during a lowering stroke (its momentum stretches the
-        cable; 9.8° at −4 rad/s under 1 Nm after a resume): elsewhere an arm may rest low (a raising
-        stroke's start under a heavy load, the slack's take-up), and the load must be the load there.
-        The rows inside a wall are a stroke's end, which the identification's steady-state selection
-        leaves out. Returns the torque to add to the load (> 0 pulls the arm down)."""
-        config = self.config
-        margin = config.safety.range_margin_rad / 2.0
+        """The soft walls' torque now (:mod:`bowden.runtime.bench_walls`), on the joint's encoder."""
         state = self._mannequin_state
-        elevation = self._elevation_rad
-        if state is not None and math.isfinite(self._joint_offset_rad):
-            # The joint's encoder, referenced to the IMU at rest: the IMU's elevation trails a flung
-            # arm (3° at 1.4 rad/s on the simulated bench), so a wall on it engages late.
-            elevation = state.position_rad - self._joint_offset_rad
-        # The damper on the joint's own velocity (the mannequin motor's, in elevation's sign).
-        velocity = state.velocity_rad_s if state is not None else 0.0
-        k, d = config.wall_stiffness_nm_rad, config.wall_damping_nms_rad
-        above = elevation - (config.protocol.high_rad + margin)
-        if above > 0.0:
-            return max(k * above + d * velocity, 0.0)
-        below = (config.protocol.low_rad - margin) - elevation
-        lowering = self._stroke is not None and not self._stroke.raising
-        if below > 0.0 and lowering and self._phase in (PHASE_STROKE, PHASE_SETTLE):
-            return min(-k * below + d * velocity, 0.0)
-        return 0.0
+        if state is None:
+            return 0.0
+        elevation = self._joint.elevation_rad(state.position_rad, self._elevation_rad)
+        lowering = self._stroke is not None and not self._stroke.raising and self._phase in (
+            PHASE_STROKE, PHASE_SETTLE)
+        return self._walls.torque_nm(elevation, state.velocity_rad_s, lowering=lowering)
 
     def _reference_joint(self) -> None:
-        """Follow the offset between the mannequin's joint angle and the IMU's elevation while the arm
-        is still (a running mean over about a second of rest; the IMU's noise averages out)."""
         state = self._mannequin_state
-        if state is None or self._rest_speed_rad_s > _REST_SPEED_RAD_S:
-            return
-        offset = state.position_rad - self._elevation_rad
-        if not math.isfinite(self._joint_offset_rad):
-            self._joint_offset_rad = offset
-        self._joint_offset_rad += min(self._cycle_dt_s / _JOINT_REFERENCE_S, 1.0) * (
-            offset - self._joint_offset_rad)
+        if state is not None and self._rest_speed_rad_s <= _REST_SPEED_RAD_S:
+            self._joint.update(state.position_rad, self._elevation_rad, self._cycle_dt_s)
 
     def _spool_position(self) -> float:
         return self._tdu_state.position_rad if self._tdu_state is not None else 0.0
