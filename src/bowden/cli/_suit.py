@@ -21,6 +21,7 @@ from contextlib import AbstractContextManager, ExitStack, contextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Final
 
+from bowden.cli._flag_errors import flag_errors
 from bowden.errors import BowdenError, HardwareError, ParameterError
 from bowden.hardware.ak60_codec import (
     DEFAULT_FIRMWARE,
@@ -123,12 +124,27 @@ class CanSuitOptions:
 
     @classmethod
     def from_args(cls, args: argparse.Namespace) -> CanSuitOptions:
-        """The options of :func:`add_can_arguments`, validated."""
-        return cls(channel=args.channel, interface=args.interface, motor_id=args.motor_id,
-                   firmware=args.firmware, direction=args.direction, imu_port=args.imu_port,
-                   imu_host=args.imu_host, imu_sender=args.imu_sender,
-                   calibration_s=args.calibration_s, i2c_bus=args.i2c_bus,
-                   load_cell_gain_n_per_v=args.load_cell_gain)
+        """The options of :func:`add_can_arguments`, validated; a refusal names the flag."""
+        with flag_errors(SUIT_FLAGS):
+            return cls(channel=args.channel, interface=args.interface, motor_id=args.motor_id,
+                       firmware=args.firmware, direction=args.direction, imu_port=args.imu_port,
+                       imu_host=args.imu_host, imu_sender=args.imu_sender,
+                       calibration_s=args.calibration_s, i2c_bus=args.i2c_bus,
+                       load_cell_gain_n_per_v=args.load_cell_gain)
+
+
+# The flag of each field (all in the flag's own unit), for refusals in the commands' words.
+SUIT_FLAGS: Final = {
+    "CanSuitOptions.channel": "--channel",
+    "CanSuitOptions.interface": "--interface",
+    "CanSuitOptions.motor_id": "--motor-id",
+    "CanSuitOptions.direction": "--direction",
+    "CanSuitOptions.imu_port": "--imu-port",
+    "CanSuitOptions.imu_host": "--imu-host",
+    "CanSuitOptions.calibration_s": "--calibration-s",
+    "CanSuitOptions.i2c_bus": "--i2c-bus",
+    "CanSuitOptions.load_cell_gain_n_per_v": "--load-cell-gain",
+}
 
 
 def add_can_arguments(parser: argparse.ArgumentParser) -> None:

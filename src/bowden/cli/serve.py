@@ -136,14 +136,6 @@ _FLAGS: Final = {
     "StudyProtocol.repetitions": "--repetitions",
     "StudyProtocol.lead_in_s": "--lead-in",
     "StudyProtocol.order": "--order",
-    "CanSuitOptions.channel": "--channel",
-    "CanSuitOptions.interface": "--interface",
-    "CanSuitOptions.motor_id": "--motor-id",
-    "CanSuitOptions.direction": "--direction",
-    "CanSuitOptions.imu_port": "--imu-port",
-    "CanSuitOptions.calibration_s": "--calibration-s",
-    "CanSuitOptions.i2c_bus": "--i2c-bus",
-    "CanSuitOptions.load_cell_gain_n_per_v": "--load-cell-gain",
 }
 
 
