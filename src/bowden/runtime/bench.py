@@ -347,6 +347,7 @@ class BenchRun:
             self._check_position_deadline(target_rad, deadline)
         for _ in range(_POSITION_STEPS):
             self._come_to_rest(target_rad, deadline)
+            self._check_imu_against_joint()
             error = target_rad - self._elevation_rad
             if abs(error) <= safety.range_margin_rad / 2.0 or (or_below and error > 0.0):
                 self._learn_rest()
@@ -732,8 +733,23 @@ class BenchRun:
 
     def _reference_joint(self) -> None:
         state = self._mannequin_state
-        if state is not None and self._rest_speed_rad_s <= _REST_SPEED_RAD_S:
+        # Both still (an IMU that froze reads as still while the joint moves).
+        if state is not None and self._rest_speed_rad_s <= _REST_SPEED_RAD_S \
+                and abs(state.velocity_rad_s) <= _REST_SPEED_RAD_S:
             self._joint.update(state.position_rad, self._elevation_rad, self._cycle_dt_s)
+
+    def _check_imu_against_joint(self) -> None:
+        """With the arm at rest between positioning steps: the IMU's elevation against the mannequin
+        joint's (referenced to the IMU at rest before). An IMU that froze or fell off makes the steps
+        chase an error that never shrinks, which would otherwise be named as a load too heavy."""
+        state = self._mannequin_state
+        if state is None or not math.isfinite(self._joint.offset_rad):
+            return
+        joint = self._joint.elevation_rad(state.position_rad, self._elevation_rad)
+        if abs(joint - self._elevation_rad) > self.config.safety.range_margin_rad / 2.0:
+            raise BenchFault(f"the IMU does not follow the arm: it reads "
+                             f"{math.degrees(self._elevation_rad):.1f}° with the mannequin's joint at "
+                             f"{math.degrees(joint):.1f}° (is it on the arm?)")
 
     def _spool_position(self) -> float:
         return self._tdu_state.position_rad if self._tdu_state is not None else 0.0
