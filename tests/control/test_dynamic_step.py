@@ -212,3 +212,22 @@ def test_bad_inputs_fault_like_the_paper_step() -> None:
     command = controller.step(0.004, 1.0, 40.0)
     assert command.torque_nm == 0.0 and command.faults & Fault.ELEVATION_VELOCITY_OUT_OF_RANGE
     assert controller.step(0.006, 1.0, 0.0).torque_nm <= 200.0 * 0.002 + 1e-12  # ramps up again
+
+
+@pytest.mark.parametrize("compensation", ["paper", "dynamic"])
+def test_the_specialised_step_is_the_generic_one_without_the_other_branches(compensation: str) -> None:
+    """The controller runs step_closure's step with only its compensation's branches
+    (control/step.py, _specialise): the same commands, bit for bit, and none of the other's work."""
+    from bowden.control.step import step_closure
+
+    controller = build_controller(model=MODEL, support=0.5, subject=SUBJECT, compensation=compensation)  # type: ignore[arg-type]
+    generic = step_closure(MODEL, compensation, controller.arm, controller.geometry,  # type: ignore[arg-type]
+                           controller.assistance, controller.limits).step
+    code = controller.step.__code__  # type: ignore[attr-defined]
+    assert "dynamic" not in code.co_freevars and "dynamic" in generic.__code__.co_freevars  # type: ignore[attr-defined]
+    assert ("e0" in code.co_varnames) == (compensation == "dynamic")  # the estimator's locals
+    assert ("x" in code.co_varnames) == (compensation == "paper")  # the sigmoid's
+    for i, (elevation, velocity) in enumerate(movement(3000, 4)):
+        if i == 1200:
+            elevation = math.nan
+        assert controller.step(0.002 * i, elevation, velocity) == generic(0.002 * i, elevation, velocity)

@@ -13,15 +13,21 @@ Each cycle (paper, "Control architecture"; the dynamic parts: :mod:`bowden.model
 4. torque clamped to the motor's range (never below zero: a cable cannot push) and rate-limited.
 
 Every constant is folded into the closure's cells (on CPython a closure variable is the cheapest load
-there is), so the step is plain float arithmetic with no calls but ``math``'s. The batch simulator
-runs the same arithmetic compiled: ``bowden.sim._controller_kernel`` is generated from this file's
-source by :mod:`bowden.sim.controller_codegen` (and a test fails when it is out of date), and reads
-the constants from a controller's own cells. Change the arithmetic here, then regenerate.
+there is), so the step is plain float arithmetic with no calls but ``math``'s. It is written once,
+in :func:`step_closure`, for both compensations; :func:`compile_step` gives the controller that
+definition with only its compensation's branches (compiled from the same lines at import). The batch
+simulator runs the same arithmetic compiled: ``bowden.sim._controller_kernel`` is generated from
+this file's source by :mod:`bowden.sim.controller_codegen` (a test fails when it is out of date) and
+reads the constants from the cells of :func:`step_closure`. Change the arithmetic here, then
+regenerate.
 """
 
 from __future__ import annotations
 
+import ast
+import inspect
 import math
+import textwrap
 from collections.abc import Callable
 from typing import Literal, NamedTuple
 
@@ -94,7 +100,20 @@ def _compensation(model: CompensationModel, mode: Literal["paper", "dynamic"],
 def compile_step(model: CompensationModel, mode: Literal["paper", "dynamic"], arm: ArmModel,
                  geometry: CuffGeometry, assistance: AssistanceParameters,
                  limits: ControllerLimits) -> StepAccess:
-    """Fold every constant into a step closure; return it with accessors of its state."""
+    """The step of ``mode`` with every constant folded in, and accessors of its state."""
+    factory = _SPECIALISED[mode == "dynamic" and model.dynamic is not None]
+    return factory(model, mode, arm, geometry, assistance, limits)
+
+
+def step_closure(model: CompensationModel, mode: Literal["paper", "dynamic"], arm: ArmModel,
+                 geometry: CuffGeometry, assistance: AssistanceParameters,
+                 limits: ControllerLimits) -> StepAccess:
+    """Fold every constant into a step closure; return it with accessors of its state.
+
+    The definition of the step, for both compensations (``dynamic`` says which runs). The controller
+    runs it specialised (:func:`compile_step`); the batch kernel is generated from it and reads its
+    constants from its cells.
+    """
     (
         ab, aabb, two_ab, psi, pretension, support_moment, floor, max_tension,
         min_torque, max_torque, max_rate, nominal_dt, elev_min, elev_max, max_vel, max_motor_vel,
@@ -226,3 +245,38 @@ def compile_step(model: CompensationModel, mode: Literal["paper", "dynamic"], ar
         return last_torque
 
     return StepAccess(step, reset, torque_nm)
+
+
+def _specialise(dynamic: bool) -> Callable[..., StepAccess]:
+    """:func:`step_closure` with only its step's branches for ``dynamic``: the same source, line for
+    line, without the two tests of a closure variable per cycle and the other compensation's local
+    variables, which every call's frame would set up (5 % of the paper's step in
+    benchmarks/controller.py)."""
+    try:
+        lines, first = inspect.getsourcelines(step_closure)
+        filename = inspect.getsourcefile(step_closure) or "<bowden.control.step>"
+    except (OSError, TypeError):  # no source to read (a frozen build): the generic step
+        return step_closure
+    tree = ast.parse(textwrap.dedent("".join(lines)))
+    ast.increment_lineno(tree, first - 1)
+    step = next(node for node in ast.walk(tree) if isinstance(node, ast.FunctionDef) and node.name == "step")
+    step.body = _taken(step.body, dynamic)
+    namespace = dict(globals())
+    exec(compile(tree, filename, "exec"), namespace)
+    specialised: Callable[..., StepAccess] = namespace["step_closure"]
+    return specialised
+
+
+def _taken(statements: list[ast.stmt], dynamic: bool) -> list[ast.stmt]:
+    """``statements`` with each top-level ``if dynamic: … else: …`` replaced by the branch taken."""
+    kept: list[ast.stmt] = []
+    for statement in statements:
+        test = getattr(statement, "test", None)
+        if isinstance(statement, ast.If) and isinstance(test, ast.Name) and test.id == "dynamic":
+            kept.extend(statement.body if dynamic else statement.orelse)
+        else:
+            kept.append(statement)
+    return kept
+
+
+_SPECIALISED = {False: _specialise(False), True: _specialise(True)}

@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 
 from bowden.control import Controller
 from bowden.control import command as command_module
+from bowden.control.step import step_closure
 from bowden.sim import _controller_kernel as ck
 from bowden.sim import _kernels as k
 from bowden.sim._controller_kernel import controller_step
@@ -21,8 +22,10 @@ from bowden.sim._kernels import drop_stale_dependent_cache, jit
 
 
 def _closure_values(controller: Controller, names: tuple[str, ...]) -> NDArray[np.float64]:
-    """The values ``names`` hold in the controller's step closure, as floats (bools as 0/1)."""
-    step = controller.step
+    """The values ``names`` hold in the cells of the controller's step as :func:`step_closure` builds
+    it (the kernel's source; the controller runs it specialised), as floats (bools as 0/1)."""
+    step = step_closure(controller.model, controller.compensation, controller.arm, controller.geometry,
+                        controller.assistance, controller.limits).step
     cells = dict(zip(step.__code__.co_freevars, step.__closure__ or (), strict=True))  # type: ignore[attr-defined]
     return np.array([float(cells[name].cell_contents) for name in names])
 

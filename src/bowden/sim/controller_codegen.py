@@ -29,7 +29,7 @@ from pathlib import Path
 
 from bowden.control import step as step_module
 from bowden.control.limits import ControllerLimits
-from bowden.control.step import compile_step
+from bowden.control.step import step_closure
 from bowden.model import CompensationModel, CuffGeometry, Subject
 from bowden.model.anthropometry import arm_model
 from bowden.model.assistance import AssistanceParameters
@@ -40,7 +40,7 @@ _COMMAND_FIELDS = 5
 
 def _step_names() -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
     """The step's folded constants, its state and the module globals it uses (from a built step)."""
-    step = compile_step(
+    step = step_closure(
         CompensationModel.from_friction(k=0.1), "paper",
         arm_model(Subject(height_m=1.7, mass_kg=63.0, sex="female"), 0.5), CuffGeometry(),
         AssistanceParameters(support=0.5), ControllerLimits(),
@@ -56,7 +56,7 @@ def _step_names() -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
 def _step_tree() -> ast.FunctionDef:
     module = ast.parse(inspect.getsource(step_module))
     compile_fn = next(node for node in module.body
-                      if isinstance(node, ast.FunctionDef) and node.name == "compile_step")
+                      if isinstance(node, ast.FunctionDef) and node.name == "step_closure")
     return next(node for node in compile_fn.body if isinstance(node, ast.FunctionDef) and node.name == "step")
 
 
