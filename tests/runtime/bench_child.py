@@ -1,13 +1,15 @@
 """Child process of the bench's resume tests: runs (or resumes) a bench protocol on the simulated
 bench and says on stdout when each stroke's own motion starts, so the parent can interrupt it there.
 
-Usage: ``bench_child.py RECORDING SPEEDS LOADS REPETITIONS [resume]`` (speeds and loads comma-separated).
+Usage: ``bench_child.py RECORDING SPEEDS LOADS REPETITIONS HIGH_DEG [resume]`` (speeds and loads
+comma-separated; the strokes go from 20° to HIGH_DEG).
 Prints ``stroke K`` (flushed) as stroke K's spool starts to move, ``done COMPLETE FAULT`` at the end;
 a SIGINT is the Ctrl-C of ``bowden bench run``: the run stops safely and reports "interrupted".
 """
 
 from __future__ import annotations
 
+import math
 import sys
 
 from bowden.protocol.bench import BenchProtocol
@@ -37,9 +39,10 @@ class AnnouncingClock:
         self.clock.sleep_until(deadline_s)
 
 
-def main(path: str, speeds: str, loads: str, repetitions: str, resume: bool) -> None:
+def main(path: str, speeds: str, loads: str, repetitions: str, high_deg: str, resume: bool) -> None:
     protocol = BenchProtocol(spool_speeds_rad_s=tuple(map(float, speeds.split(","))),
-                             loads_nm=tuple(map(float, loads.split(","))), repetitions=int(repetitions))
+                             loads_nm=tuple(map(float, loads.split(","))), repetitions=int(repetitions),
+                             high_rad=math.radians(float(high_deg)))
     config = BenchRunConfig(protocol=protocol, safety=BenchSafety().on_shared_host())
     with open_sim_bench() as backend:
         clock = AnnouncingClock(backend.clock)
@@ -55,4 +58,4 @@ def main(path: str, speeds: str, loads: str, repetitions: str, resume: bool) -> 
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:5], resume=len(sys.argv) > 5)
+    main(*sys.argv[1:6], resume=len(sys.argv) > 6)

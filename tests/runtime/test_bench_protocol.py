@@ -127,7 +127,8 @@ def test_a_run_killed_and_interrupted_at_fast_lowering_strokes_resumes_to_the_sa
     # order. (The first resume's −4 rad/s lowering reached 9.8°, past the guard, before the low
     # soft wall; the child said so, and the test's reader, waiting for stroke 7, swallowed it.)
     path = tmp_path / "wire.csv"
-    options = ["1,4", "1,3", "1"]
+    # A range of 20°–70° keeps it quick (the strokes' ends, not their length, are what resumes).
+    options = ["1,4", "1,3", "1", "70"]
     killed = child(path, options)
     said = interrupt_at(killed, 3, signal.SIGKILL, 0.3)
     assert killed.returncode == -signal.SIGKILL, said
@@ -135,16 +136,17 @@ def test_a_run_killed_and_interrupted_at_fast_lowering_strokes_resumes_to_the_sa
     said = interrupt_at(interrupted, 7, signal.SIGINT, 0.3)
     assert "done False interrupted scouted 0" in said, said
     # The last resume through the command line (its path to a complete recording, exit 0).
-    assert main(["bench", "run", "--backend", "sim", "-o", str(path), "--resume", "--speeds", "1", "4",
-                 "--loads", "1", "3", "--repetitions", "1"]) == 0, capsys.readouterr().err
+    same = ["--speeds", "1", "4", "--loads", "1", "3", "--repetitions", "1", "--high-deg", "70"]
+    assert main(["bench", "run", "--backend", "sim", "-o", str(path), "--resume", *same]) == 0, \
+        capsys.readouterr().err
     assert "wrote 8 strokes" in capsys.readouterr().out
-    protocol = BenchProtocol(spool_speeds_rad_s=(1.0, 4.0), loads_nm=(1.0, 3.0), repetitions=1)
+    protocol = BenchProtocol(spool_speeds_rad_s=(1.0, 4.0), loads_nm=(1.0, 3.0), repetitions=1,
+                             high_rad=math.radians(70.0))
     assert_every_stroke_covers_the_range(path, protocol)
     assert pd.read_csv(tmp_path / "wire.log.csv")["time_s"].is_monotonic_increasing
 
     batch = tmp_path / "batch.csv"
-    assert main(["bench", "simulate", "-o", str(batch), "--quiet", "--speeds", "1", "4", "--loads", "1", "3",
-                 "--repetitions", "1"]) == 0
+    assert main(["bench", "simulate", "-o", str(batch), "--quiet", *same]) == 0
     for recording in (path, batch):
         assert main(["identify", str(recording), "-o", str(recording.with_suffix(".json"))]) in (0, 3)
     capsys.readouterr()
@@ -219,7 +221,8 @@ def test_a_host_that_stalls_or_falls_behind_runs_the_strokes_at_their_speed(tmp_
     # move the spool at the commanded speed: the target advances by the clock. Item 7's other cause:
     # the load cell's reader starved 0.6 s while the loop runs (it stopped the bench: "no reading for
     # 251 ms") is a gap in the data, not a dead sensor: the stroke is run again, nothing stale is kept.
-    protocol = BenchProtocol(spool_speeds_rad_s=(1.0,), loads_nm=(1.0,), repetitions=1)
+    protocol = BenchProtocol(spool_speeds_rad_s=(1.0,), loads_nm=(1.0,), repetitions=1,
+                             high_rad=math.radians(70.0))
     reader = StarvedReader(0.6)  # a stall of the loop itself meanwhile would hide part of it
     report, _ = run(protocol, tmp_path / "busy.csv", inject=reader,
                     clock_wrapper=lambda clock: StallingClock(clock, reader))

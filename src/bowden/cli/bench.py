@@ -43,6 +43,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--loads", type=float, nargs="+", metavar="NM", help="mannequin loads, Nm (default: 0.5 1 2 3 4)"
     )
     simulate.add_argument("--repetitions", type=int, help="repetitions of each speed and load (default 5)")
+    simulate.add_argument("--low-deg", type=float, help="low end of the strokes, degrees (default 20)")
+    simulate.add_argument("--high-deg", type=float, help="high end of the strokes, degrees (default 110)")
     simulate.add_argument("--quiet", action="store_true", help="no progress output")
     simulate.set_defaults(handler=run_simulate)
     _register_run(actions)
