@@ -1,6 +1,10 @@
-"""``bowden bench run`` refuses bad options in one line, before anything opens."""
+"""``bowden bench run`` refuses bad options in one line, before anything opens; ``bowden bench
+simulate`` takes its range options."""
 
 from __future__ import annotations
+
+import numpy as np
+import pandas as pd
 
 from bowden.cli import main
 
@@ -66,3 +70,12 @@ def test_the_simulated_bench_driven_on_a_wrong_mannequin_id_fails_as_on_the_bus(
     err = capsys.readouterr().err
     assert "the mannequin's motor does not answer" in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_bench_simulate_takes_the_range_bench_run_takes(tmp_path, capsys):
+    # To simulate the protocol a bench ran: --low-deg/--high-deg as bowden bench run's.
+    path = tmp_path / "s.csv"
+    assert main(["bench", "simulate", "-o", str(path), "--quiet", "--speeds", "2", "--loads", "1",
+                 "--repetitions", "1", "--low-deg", "30", "--high-deg", "70"]) == 0
+    elevation = np.degrees(pd.read_csv(path)["elevation_rad"].to_numpy())
+    assert 65.0 < elevation.max() < 80.0 and 20.0 < elevation.min() < 35.0, (elevation.min(), elevation.max())
