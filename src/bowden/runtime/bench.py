@@ -13,6 +13,8 @@ constant torque; the load cell, the IMU on the mannequin's arm and both motors a
   short; a faster one is preceded by a slow, unrecorded move to that end and back to learn it. A
   stroke is recorded until the arm rests; one that rests short of its end is run again (three
   attempts, then a fault that says so) (docs/identification.md, "On your bench");
+* the mannequin's motor brakes an arm flung beyond the range with soft walls on its load
+  (:mod:`bowden.runtime.bench_walls`);
 * every run starts by taking up the cable's slack (:mod:`bowden.runtime.slack`); before each stroke
   the TDU servoes the arm to the stroke's start on the IMU and holds it there while the mannequin's
   load ramps to the stroke's, until the arm rests there (logged, not recorded);
@@ -21,7 +23,9 @@ constant torque; the load cell, the IMU on the mannequin's arm and both motors a
   over the limit, a silent or failing motor, transmit failures, an IMU that does not follow the
   spool, a mannequin that does not hold its load, a load cell that reads nothing while the TDU pulls
   or while the arm rests on the cable under its load, an arm that cannot be held at a stroke's start
-  under its load, a stroke that does not end in time or does not reach its end.
+  under its load, a stroke that does not end in time or does not reach its end. A load cell whose
+  reader the host starves is a gap in the data, not a fault (:mod:`bowden.runtime.bench_cell`):
+  the stroke recorded with it is run again.
 
 Strokes are written by :class:`~bowden.runtime.bench_recording.BenchRecordingWriter` as they complete,
 so a stop loses at most the stroke under way, and a resumed run skips what is on disk.
