@@ -231,7 +231,8 @@ def test_a_host_that_stalls_or_falls_behind_runs_the_strokes_at_their_speed(tmp_
     frame = pd.read_csv(tmp_path / "busy.csv")
     tension = frame["tension_n"].to_numpy()
     changes = np.flatnonzero(np.diff(tension) != 0.0)
-    assert np.diff(changes).max() < 20, "a stale tension (100 ms unchanged) was recorded"
+    # A reading is fresh up to 250 ms old (51 rows at 200 Hz); the starved 0.6 s were run again.
+    assert np.diff(changes).max() <= 51, "a tension older than the limit was recorded"
     for trial, velocity in ((0, 1.0), (1, -1.0)):
         spool = frame.loc[frame["trial"] == trial, "motor_velocity_rad_s"].to_numpy()
         cruising = spool[np.abs(spool - velocity) < 0.5]  # away from the ramps and the stall
