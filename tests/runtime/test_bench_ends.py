@@ -68,3 +68,19 @@ def test_a_fast_stroke_aims_short_by_its_expected_excursion():
 def test_a_damaged_journal_entry_is_one_error():
     with pytest.raises(RecordingError, match="damaged"):
         LearnedEnds(GEOMETRY, RADIUS_M, {"points": [[[1.0, 2.0, "x"]]]})
+
+
+def test_a_stroke_never_aims_further_short_than_it_is_allowed_to():
+    # The CI failure: a −1 rad/s lowering's excursion of 2.5° (the IMU's noise on a busy host)
+    # extrapolated to 4 rad/s is 2.5° × 16 × 1.5 = 60°, more than the 50° range: the stroke braked
+    # where it started, learned nothing, and failed three times. Capped at 25° short, it travels.
+    ends = LearnedEnds(GEOMETRY, RADIUS_M)
+    low, key = math.radians(20.0), (math.radians(20.0), 1.0, -1.0)
+    ends.learn(key, low, 0.4)
+    ends.note_excursion(key, 1.0, math.radians(2.5))
+    assert math.degrees(ends.expected_excursion(key, 4.0)) == pytest.approx(60.0)
+    capped = ends.stop(key, 4.0, allowed_rad=math.radians(5.0), most_short_rad=math.radians(25.0))
+    aimed = 0.4 - (cable_m(45.0) - cable_m(20.0)) / RADIUS_M  # the spool's stop with the arm at 45°
+    assert capped == pytest.approx(aimed, rel=1e-9)
+    uncapped = ends.stop(key, 4.0, allowed_rad=math.radians(5.0))
+    assert uncapped == pytest.approx(0.4 - (cable_m(75.0) - cable_m(20.0)) / RADIUS_M, rel=1e-9)

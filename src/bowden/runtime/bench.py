@@ -496,9 +496,12 @@ class BenchRun:
                 # A fast stroke with no stroke to this end seen yet expects to turn as far past its
                 # rest as the range margin: it aims half of it short.
                 fast = speed > self.config.position_speed_rad_s
+                # It covers half the range at least: a stroke that rests short is run again, with
+                # the excursion at its own speed learned (not extrapolated from a slower one).
                 spool_stop = self._ends.stop((stop_rad, self._load_to_nm, direction), speed,
                                              allowed_rad=safety.range_margin_rad / 2.0,
-                                             unknown_rad=safety.range_margin_rad if fast else 0.0)
+                                             unknown_rad=safety.range_margin_rad if fast else 0.0,
+                                             most_short_rad=abs(p.high_rad - p.low_rad) / 2.0)
                 if spool_stop is not None:
                     # The spool target at which the arm rested at this end before (through the taut
                     # cable): brake so that the target, which decelerates exactly, stops there.

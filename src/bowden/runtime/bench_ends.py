@@ -83,16 +83,21 @@ class LearnedEnds:
         self.points[key] = (elevation_rad, spool_rad)
 
     def stop(self, key: Key, speed_rad_s: float = 0.0, allowed_rad: float = math.inf,
-             unknown_rad: float = 0.0) -> float | None:
+             unknown_rad: float = 0.0, most_short_rad: float = math.inf) -> float | None:
         """The spool position at which a stroke at ``speed_rad_s`` brings the arm to rest at ``key``'s
         end, or short of it by what its expected excursion (``unknown_rad`` before any stroke there
-        was seen) carries it beyond ``allowed_rad`` past the end; None before any rest there is known."""
+        was seen) carries it beyond ``allowed_rad`` past the end, by at most ``most_short_rad``; None
+        before any rest there is known.
+
+        The cap keeps a stroke moving: an excursion extrapolated from a slower speed grows with the
+        speed squared, and the IMU's noise in a slow stroke's excursion (1–2° on a busy host) can make
+        it span the whole range, so that the stroke would brake where it starts and learn nothing."""
         point = self.points.get(key)
         if point is None:
             return None
         end, _, direction = key
         expected = self.expected_excursion(key, speed_rad_s) if key in self.excursions else unknown_rad
-        short_rad = max(expected - allowed_rad, 0.0)
+        short_rad = min(max(expected - allowed_rad, 0.0), most_short_rad)
         return self.spool_at(point, end - direction * short_rad)
 
     def note_excursion(self, key: Key, speed_rad_s: float, excursion_rad: float) -> None:
