@@ -19,17 +19,14 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, ExitStack, contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
 from bowden.cli._flag_errors import flag_errors
 from bowden.errors import BowdenError, HardwareError, ParameterError
-from bowden.hardware.ak60_codec import (
-    DEFAULT_FIRMWARE,
-    FIRMWARE_LIMITS,
-    MAX_STANDARD_ID,
-    limits_for_firmware,
-)
+from bowden.hardware.ak60_codec import MAX_STANDARD_ID
 from bowden.hardware.backend import Backend
+from bowden.hardware.motors import AK_MOTORS, DEFAULT_MOTOR, FIRMWARE_VARIANTS, motor_model
 from bowden.runtime import MonotonicClock
 
 if TYPE_CHECKING:
@@ -60,9 +57,12 @@ class CanSuitOptions:
     channel, interface
         python-can channel and interface of the AK60-6 (``can0``, ``socketcan``; tests: ``virtual``).
     motor_id
-        The AK60-6's CAN id.
+        The motor's CAN id.
+    motor
+        The AK-series model (a key of ``bowden.hardware.motors.AK_MOTORS``): its MIT-mode ranges.
     firmware
-        Key of ``ak60_codec.FIRMWARE_LIMITS`` (the MIT-mode field ranges; the sources disagree).
+        The model's firmware variant (the MIT-mode field ranges; the sources disagree), None for the
+        manual's.
     direction
         +1 if positive motor torque pulls the cable, −1 if the spool is wound the other way.
     imu_port
@@ -82,7 +82,8 @@ class CanSuitOptions:
     channel: str = "can0"
     interface: str = "socketcan"
     motor_id: int = 1
-    firmware: str = DEFAULT_FIRMWARE
+    motor: str = DEFAULT_MOTOR
+    firmware: str | None = None
     direction: int = 1
     imu_port: int = DEFAULT_IMU_PORT
     imu_host: str = "0.0.0.0"
@@ -95,7 +96,7 @@ class CanSuitOptions:
         for name in ("channel", "interface"):
             if not getattr(self, name):
                 raise ParameterError(f"CanSuitOptions.{name} must not be empty")
-        limits_for_firmware(self.firmware)  # names the known variants if unknown
+        motor_model(self.motor).limits(self.firmware)  # names the known models and variants if unknown
         if self.direction not in (1, -1):
             raise ParameterError(f"CanSuitOptions.direction must be +1 or -1, got {self.direction!r}")
         if not 1 <= self.imu_port <= 65535:
@@ -127,7 +128,8 @@ class CanSuitOptions:
         """The options of :func:`add_can_arguments`, validated; a refusal names the flag."""
         with flag_errors(SUIT_FLAGS):
             return cls(channel=args.channel, interface=args.interface, motor_id=args.motor_id,
-                       firmware=args.firmware, direction=args.direction, imu_port=args.imu_port,
+                       motor=args.motor, firmware=args.firmware, direction=args.direction,
+                       imu_port=args.imu_port,
                        imu_host=args.imu_host, imu_sender=args.imu_sender,
                        calibration_s=args.calibration_s, i2c_bus=args.i2c_bus,
                        load_cell_gain_n_per_v=args.load_cell_gain)
@@ -154,9 +156,17 @@ def add_can_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--channel", default=defaults.channel, help="CAN channel (default can0)")
     group.add_argument("--interface", default=defaults.interface,
                        help="python-can interface (default socketcan)")
-    group.add_argument("--motor-id", type=int, default=defaults.motor_id, help="AK60-6 CAN id (default 1)")
-    group.add_argument("--firmware", choices=sorted(FIRMWARE_LIMITS), default=defaults.firmware,
-                       help="AK60-6 field ranges (the sources disagree; default: the manual's)")
+    group.add_argument("--motor-id", type=int, default=defaults.motor_id,
+                       help="the motor's CAN id (default 1)")
+    group.add_argument("--motor", choices=tuple(AK_MOTORS), default=defaults.motor,
+                       help=f"the TDU's AK-series model, for its MIT-mode ranges (default {DEFAULT_MOTOR}; "
+                       "also with --backend sim: the simulated motor is that model)")
+    group.add_argument("--firmware", choices=FIRMWARE_VARIANTS, default=None,
+                       help="the motor's firmware variant of the field ranges (the sources disagree on the "
+                       "AK60-6's; default: the CubeMars manual V1.0.8's)")
+    group.add_argument("--allow-other-motor", action="store_true",
+                       help="use a --model identified on another --motor (its friction is another "
+                       "transmission's: only for a deliberate comparison)")
     group.add_argument("--direction", type=int, choices=(1, -1), default=defaults.direction,
                        help="+1 if positive motor torque pulls the cable")
     group.add_argument("--imu-port", type=int, default=defaults.imu_port, help="NGIMU send port (8000)")
@@ -188,8 +198,52 @@ def require_hardware_extra(command: str, options: CanSuitOptions) -> None:
                           "pip install 'bowden[hardware]'")
 
 
+def check_model_motor(model_path: Path | None, motor: str, *, allow_other: bool = False) -> str | None:
+    """Refuse a ``model.json`` identified on another motor than ``--motor`` (unless ``allow_other``).
+
+    Returns
+    -------
+    str or None
+        A note for the operator when the model does not say which motor it was identified on, or
+        when another motor was allowed; None when it matches (or without a model file).
+
+    Raises
+    ------
+    ParameterError
+        One line naming the model's motor, ``--motor`` and ``--allow-other-motor``.
+    """
+    if model_path is None:
+        return None
+    from bowden.model.model_file import recorded_motor
+
+    recorded = recorded_motor(model_path)
+    if recorded is None:
+        return f"{model_path} does not record the motor it was identified on; assuming --motor {motor}"
+    if recorded == motor:
+        return None
+    if not allow_other:
+        raise ParameterError(f"--model {model_path} was identified on an {recorded}, not the "
+                             f"--motor {motor}: identify on this motor, or give --allow-other-motor")
+    return f"using a model identified on an {recorded} with an {motor} (--allow-other-motor)"
+
+
 def _say(text: str) -> None:
     print(text, file=sys.stderr)
+
+
+def motor_config(options: CanSuitOptions) -> AK60Config:
+    """The driver's configuration of the TDU named by ``options`` (model, firmware, id, direction).
+
+    The AK60-6 keeps the driver's default command clamp (its 9 Nm peak torque); another model is
+    clamped at its torque field's range, the most its firmware can be asked for.
+    """
+    from bowden.hardware.ak60 import AK60Config
+
+    limits = motor_model(options.motor).limits(options.firmware)
+    if options.motor == DEFAULT_MOTOR:
+        return AK60Config(motor_id=options.motor_id, limits=limits, direction=options.direction)
+    return AK60Config(motor_id=options.motor_id, limits=limits, direction=options.direction,
+                      torque_limit_nm=limits.torque_nm)
 
 
 @contextmanager
@@ -210,11 +264,10 @@ def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None]
     import can
 
     from bowden.hardware.ads1115 import ADS1115LoadCell, LoadCellCalibration
-    from bowden.hardware.ak60 import AK60Config, AK60Motor
+    from bowden.hardware.ak60 import AK60Motor
     from bowden.hardware.ngimu import NgimuClient, NgimuConfig
 
-    config = AK60Config(motor_id=options.motor_id, limits=limits_for_firmware(options.firmware),
-                        direction=options.direction)
+    config = motor_config(options)
     where = f"{options.interface}:{options.channel}"
     with ExitStack() as stack:
         try:
@@ -245,7 +298,7 @@ def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None]
             load_cell.tare(0.5)
         motor = stack.enter_context(AK60Motor(bus, config))
         second = None
-        describe = f"AK60-6 id {options.motor_id} on {where}"
+        describe = f"{options.motor} id {options.motor_id} on {where}"
         if mannequin is not None:
             # Its own socket on the channel: two drivers reading one would take each other's replies.
             mannequin_bus = stack.enter_context(can.Bus(interface=options.interface, channel=options.channel,

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from bowden.cli._outputs import check_output_file, refuse_overwriting_inputs
 from bowden.errors import FitError, OutputFileError, ParameterError
+from bowden.hardware.motors import AK_MOTORS, DEFAULT_MOTOR
 from bowden.identify.dynamic import DEFAULT_IMU_LATENCY_S, format_dynamic
 from bowden.identify.estimator import TransmissionIdentifier
 from bowden.identify.figure import save_identification_figure
@@ -41,6 +42,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "bench", nargs="+", type=Path, metavar="BENCH", help="bench recording(s), .csv or .parquet"
     )
     parser.add_argument("-o", "--output", type=Path, required=True, help="model file to write (model.json)")
+    parser.add_argument("--motor", choices=tuple(AK_MOTORS), default=DEFAULT_MOTOR,
+                        help="the TDU's AK-series model the bench data were recorded with, recorded in the "
+                        f"model (default {DEFAULT_MOTOR}; bowden run refuses the model on another --motor)")
     parser.add_argument("--figure", type=Path, help="also draw the regression figure (.png, .pdf, .svg)")
     parser.add_argument(
         "--pulley-radius-mm", type=float, default=35.0, help="spool radius in mm (default 35, the paper's)"
@@ -113,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
         identifier.fit(read_bench_recording(args.bench, limits=identifier.limits, allow_extra_columns=True))
     else:
         identifier.fit(args.bench)
-    save_model(identifier.model_, args.output)
+    save_model(identifier.model_, args.output, motor=args.motor)
     print(identifier.summary_.format())
     dynamic = identifier.model_.dynamic
     if dynamic is not None:

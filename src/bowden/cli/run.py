@@ -45,6 +45,7 @@ from bowden.cli._suit import (
     Backend,
     CanSuitOptions,
     add_can_arguments,
+    check_model_motor,
     open_can_backend,
     open_sim_backend,
     require_hardware_extra,
@@ -298,11 +299,12 @@ def run(args: argparse.Namespace) -> int:
     )
     support, condition = support_and_condition(args.support, args.condition, catalogue)
     participant = participant_id(args.participant, "--participant")
+    suit = CanSuitOptions.from_args(args)  # the motor's model and firmware count on either backend
     options = None
     if args.backend == "can":
         if args.model is None:
             raise ParameterError("--backend can needs --model model.json (run `bowden identify` first)")
-        options = CanSuitOptions.from_args(args)
+        options = suit
         require_hardware_extra("bowden run", options)
     if args.serve and args.record is None:
         raise ParameterError("--serve needs --record study.db (the trial and the questionnaires go there)")
@@ -319,6 +321,9 @@ def run(args: argparse.Namespace) -> int:
     realtime_config(args)
     reference = run_reference(args, catalogue)
     model = run_model(args)
+    motor_note = check_model_motor(args.model, suit.motor, allow_other=args.allow_other_motor)
+    if motor_note is not None:
+        _say(motor_note)
     slack = slack_config(args, model.pulley_radius_m)
     fill_wearer(args, participant)
     subject = wearer(args)
@@ -341,8 +346,9 @@ def run(args: argparse.Namespace) -> int:
         error = "the run did not finish"
         recording_error = ""
         try:
-            opener = (open_sim_backend(reference=reference, announce=_say) if options is None
-                      else open_can_backend(options))
+            opener = (open_sim_backend(reference=reference, announce=_say, motor=suit.motor,
+                                       firmware=suit.firmware, motor_id=suit.motor_id)
+                      if options is None else open_can_backend(options))
             backend = stack.enter_context(opener)
             print(f"bowden run: {backend.describe}", file=sys.stderr)
             report = run_trial(

@@ -121,13 +121,19 @@ FIRMWARE_LIMITS: Final[dict[str, AK60Limits]] = {
 }
 DEFAULT_FIRMWARE: Final = "manual-v1.0.8"
 
-# Other AK-series motors speak the same MIT-mode frames with their own field ranges; the bench's
-# mannequin motor is typically an AK80-9. Public drivers disagree on its ranges as on the AK60-6's
-# (velocity ±50 in neurobionics/TMotorCANControl, ±41.87 in IHMC's tMotorCore; torque ±18 in both),
-# so check yours as docs/hardware.md §1 item 5 says.
+# Other AK-series motors speak the same MIT-mode frames with their own field ranges: the table of
+# CubeMars "AK Series Actuator Driver Manual" V1.0.8 §5.3 (p. 50; position ±12.5 rad, Kp 0–500, Kd 0–5
+# for every model). neurobionics/TMotorCANControl (mit_can.py MIT_Params, commit bb8d071) has the same
+# ranges except the AK60-6's velocity (±50). The bench's mannequin motor is typically an AK80-9; IHMC's
+# tMotorCore gives it ±41.87 rad/s, so check yours as docs/hardware.md §1 item 5 says. The motors'
+# gear ratios and torque constants are in :mod:`bowden.hardware.motors`.
 MOTOR_LIMITS: Final[dict[str, AK60Limits]] = {
+    "AK10-9": AK60Limits(velocity_rad_s=50.0, torque_nm=65.0),
     "AK60-6": FIRMWARE_LIMITS[DEFAULT_FIRMWARE],
+    "AK70-10": AK60Limits(velocity_rad_s=50.0, torque_nm=25.0),
+    "AK80-6": AK60Limits(velocity_rad_s=76.0, torque_nm=12.0),
     "AK80-9": AK60Limits(velocity_rad_s=50.0, torque_nm=18.0),
+    "AK80-64": AK60Limits(velocity_rad_s=8.0, torque_nm=144.0),
 }
 
 

@@ -16,11 +16,15 @@ Format (version 2; version 1 is the same without ``dynamic`` and still loads)::
                   "reversal_hysteresis_rad_s": 0.07, "reversal_time_s": 0.01, "max_dynamic_nm": 0.6,
                   "fit": {"n": ..., "viscous_se_nm_s_rad": ..., "inertia_se_kg_m2": ...,
                           "regime_rms_nm": {...}, "paper_rms_nm": {...}}
-                          | null} | null
+                          | null} | null,
+      "motor": "AK60-6" | null
     }
 
 where ``fit`` holds ``n, r_squared_ols, r_squared_robust, robust_scale_nm, intercept_se_nm,
-slope_se_m``. Every problem on reading names the file and the dotted field.
+slope_se_m``. ``motor`` (optional, any version) names the AK-series model the bench data were
+recorded with (``bowden identify --motor``; ``bowden.hardware.motors``): ``bowden run`` refuses the
+model on another motor unless told (:func:`recorded_motor`). Every problem on reading names the file
+and the dotted field.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ from bowden.model.lines import CompensationLine, LineFitStats
 FORMAT = "bowden.compensation_model"
 VERSION = 2
 READABLE_VERSIONS = (1, 2)
+MOTOR_KEY = "motor"
 _DYNAMIC_NUMBERS = (
     "viscous_nm_s_rad",
     "inertia_kg_m2",
@@ -108,13 +113,36 @@ def _dynamic_to_dict(dynamic: DynamicCompensation) -> dict[str, Any]:
     return out
 
 
-def model_text(model: CompensationModel) -> str:
-    """The text of ``model``'s file, as :func:`save_model` writes it."""
-    return json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
+def model_text(model: CompensationModel, *, motor: str | None = None) -> str:
+    """The text of ``model``'s file, as :func:`save_model` writes it (``motor``: see the module)."""
+    data = model_to_dict(model)
+    if motor is not None:
+        data[MOTOR_KEY] = motor
+    return json.dumps(data, indent=2, allow_nan=False) + "\n"
 
 
-def save_model(model: CompensationModel, path: str | Path) -> None:
+def recorded_motor(path: str | Path) -> str | None:
+    """The motor model ``path`` was identified with, or None when the file does not say (older files).
+
+    Raises
+    ------
+    ModelFileError
+        The file cannot be read, is not JSON, or its ``motor`` is not a string.
+    """
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ModelFileError(f"{path}: cannot read the model file ({error})") from None
+    motor = data.get(MOTOR_KEY) if isinstance(data, Mapping) else None
+    if motor is not None and not (isinstance(motor, str) and motor):
+        raise ModelFileError(f"{path}: field {MOTOR_KEY!r} must be a motor model name or null, got {motor!r}")
+    return motor
+
+
+def save_model(model: CompensationModel, path: str | Path, *, motor: str | None = None) -> None:
     """Write ``model`` to ``path`` atomically (a crash never leaves half a file).
+
+    ``motor`` is recorded as the AK-series model the bench data came from (None: not recorded).
 
     The file gets the usual permissions (``0o666`` less the umask). An existing file is replaced only
     if it is a bowden model file itself, so a wrong path cannot destroy a recording.
@@ -125,7 +153,7 @@ def save_model(model: CompensationModel, path: str | Path) -> None:
         ``path`` is a directory, holds something else, or cannot be written (names path and reason).
     """
     path = Path(path)
-    text = model_text(model)
+    text = model_text(model, motor=motor)
     _refuse_replacing_other_files(path)
     try:
         write_text_atomically(path, text, durable=True)

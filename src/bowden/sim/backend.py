@@ -15,12 +15,15 @@ import math
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from bowden.contracts import SPEED_PEAK_DEG_S
 from bowden.hardware.backend import Backend
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim.arm_follower import ArmFollowingTheLoop, FollowedReference
+
+if TYPE_CHECKING:
+    from bowden.hardware.ak60 import AK60Config
 
 _channels = itertools.count()
 
@@ -43,6 +46,7 @@ class _RecordedReference:
 def open_sim_backend(
     *, speed: str = "V1", reference: FollowedReference | None = None, calibration_s: float = 0.3,
     in_process: bool = False, announce: Callable[[str], None] | None = None,
+    motor: str = "AK60-6", firmware: str | None = None, motor_id: int = 1,
 ) -> Iterator[Backend]:
     """The simulated suit behind its wire peers, driven by the real drivers (all closed on exit).
 
@@ -59,20 +63,35 @@ def open_sim_backend(
         Run the device peers as threads of this process (quick tests) instead of a process of their own.
     announce
         Told about a slow start (a first run compiles the simulated suit).
+    motor, firmware
+        The AK-series model and firmware variant (``bowden.hardware.motors``): the simulated TDU
+        speaks its MIT-mode ranges, and the driver is set up for them.
+    motor_id
+        The id the *driver* expects (``--motor-id``); the simulated motor answers on id 1, so another
+        id hears no reply, as on the real bus.
     """
+    from bowden.hardware.ak60 import AK60Config
+    from bowden.hardware.motors import motor_model
+
+    limits = motor_model(motor).limits(firmware)
+    config = AK60Config(motor_id=motor_id, limits=limits)
+    if motor != "AK60-6":  # another model is clamped at its field's range (cli._suit.motor_config)
+        config = AK60Config(motor_id=motor_id, limits=limits, torque_limit_nm=limits.torque_nm)
     cycle = MinimumJerkCycle(peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]))
     opener = _in_process if in_process else _own_process
-    with opener(cycle, reference, calibration_s, announce) as backend:
+    with opener(cycle, reference, calibration_s, announce, config) as backend:
+        backend.describe = f"{motor} ({limits.velocity_rad_s:g} rad/s, {limits.torque_nm:g} Nm ranges) " \
+                           f"on the {backend.describe}"
         yield backend
 
 
 @contextmanager
 def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, calibration_s: float,
-                 announce: Callable[[str], None] | None) -> Iterator[Backend]:
+                 announce: Callable[[str], None] | None, config: AK60Config) -> Iterator[Backend]:
     import can
 
     from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
-    from bowden.hardware.ak60 import AK60Config, AK60Motor
+    from bowden.hardware.ak60 import AK60Motor
     from bowden.hardware.ngimu import NgimuClient, NgimuConfig
     from bowden.runtime.clock import MonotonicClock
     from bowden.sim.link.i2c import RemoteSMBus
@@ -81,7 +100,7 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
     with ExitStack() as stack:
         imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
         suit = SimulatedSuitProcess(imu_target=imu.address, reference=reference,
-                                    cycle=cycle if reference is None else None)
+                                    cycle=cycle if reference is None else None, motor_limits=config.limits)
         stack.enter_context(suit.start(announce))
         bus = stack.enter_context(can.Bus(interface="bowden_loopback", channel=suit.can_channel))
         smbus = stack.enter_context(RemoteSMBus(suit.i2c_path))
@@ -101,7 +120,7 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
                 return float(cycle.elevation_rad(time.monotonic() - origin))
 
         yield Backend(
-            motor=stack.enter_context(AK60Motor(bus, AK60Config())),
+            motor=stack.enter_context(AK60Motor(bus, config)),
             imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
             describe=f"simulated suit in its own process (pid {suit.pid}): CAN over bowden_loopback, "
                      f"OSC on {imu.address[0]}:{imu.address[1]}, I²C over a local socket",
@@ -162,11 +181,11 @@ def open_sim_bench(*, calibration_s: float = 0.3, announce: Callable[[str], None
 
 @contextmanager
 def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, calibration_s: float,
-                announce: Callable[[str], None] | None) -> Iterator[Backend]:
+                announce: Callable[[str], None] | None, config: AK60Config) -> Iterator[Backend]:
     import can
 
     from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
-    from bowden.hardware.ak60 import AK60Config, AK60Motor
+    from bowden.hardware.ak60 import AK60Motor
     from bowden.hardware.ngimu import NgimuClient, NgimuConfig
     from bowden.runtime.clock import MonotonicClock
     from bowden.sim.arm import PrescribedArm
@@ -180,7 +199,7 @@ def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, ca
     with ExitStack() as stack:
         driver_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
         peer_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
-        motor_peer = stack.enter_context(AK60Peer(peer_bus, plant))
+        motor_peer = stack.enter_context(AK60Peer(peer_bus, plant, limits=config.limits))
         imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
         imu_peer = stack.enter_context(NgimuPeer(plant, imu.address, rate_hz=200.0))
         adc = ADS1115Peer(plant, offset_v=0.05, volts_per_newton=0.01)
@@ -213,7 +232,7 @@ def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, ca
             return getattr(devices[target], method)(*args)
 
         yield Backend(
-            motor=stack.enter_context(AK60Motor(driver_bus, AK60Config())),
+            motor=stack.enter_context(AK60Motor(driver_bus, config)),
             imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
             describe=f"simulated suit in this process over virtual CAN {channel}, OSC on {imu.address}, "
                      "fake I²C",

@@ -83,6 +83,9 @@ class SuitProcessSettings:
         The mannequin bench instead of a participant: the arm is the mannequin's, driven by a second
         simulated AK-series motor (an AK80-9, id :data:`MANNEQUIN_MOTOR_ID`) on the same bus;
         ``reference`` and ``cycle`` are unused.
+    motor_limits
+        The MIT-mode ranges the simulated TDU speaks (an ``AK60Limits``: its AK model's and firmware's,
+        ``bowden.hardware.motors``), None for the AK60-6's default.
     """
 
     directory: str
@@ -91,6 +94,7 @@ class SuitProcessSettings:
     cycle: Any
     imu_rate_hz: float = 200.0
     bench: bool = False
+    motor_limits: Any = None
 
 
 class SimulatedSuitProcess:
@@ -107,14 +111,16 @@ class SimulatedSuitProcess:
     """
 
     def __init__(self, *, imu_target: tuple[str, int], reference: Any = None, cycle: Any = None,
-                 bench: bool = False, ready_timeout_s: float = READY_TIMEOUT_S) -> None:
+                 bench: bool = False, ready_timeout_s: float = READY_TIMEOUT_S,
+                 motor_limits: Any = None) -> None:
         if not imu_target[0].startswith("127.") and imu_target[0] != "::1":
             raise ParameterError(f"the simulated IMU sends to loopback only, got {imu_target[0]!r}")
         if reference is None and cycle is None and not bench:
             raise ParameterError("SimulatedSuitProcess needs a reference or a cycle for the arm")
         self._directory = Path(tempfile.mkdtemp(prefix="bowden-suit-"))
         self.settings = SuitProcessSettings(directory=str(self._directory), imu_target=imu_target,
-                                            reference=reference, cycle=cycle, bench=bench)
+                                            reference=reference, cycle=cycle, bench=bench,
+                                            motor_limits=motor_limits)
         self.ready_timeout_s = ready_timeout_s
         self._process: subprocess.Popen[str] | None = None
         self._requests: Connection | None = None
@@ -444,7 +450,7 @@ class _ChildDevices:
         self._closers: list[Any] = []
         self.bus = can.Bus(interface="bowden_loopback", channel=str(directory / "can"))
         self._closers.append(self.bus.shutdown)
-        self.motor = AK60Peer(self.bus, self.plant).start()
+        self.motor = AK60Peer(self.bus, self.plant, limits=settings.motor_limits).start()
         self._closers.insert(0, self.motor.close)
         self.mannequin: AK60Peer | None = None
         self.mannequin_joint: MannequinJoint | None = None
