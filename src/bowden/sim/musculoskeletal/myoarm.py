@@ -59,14 +59,17 @@ def _mujoco() -> Any:
 
 @functools.lru_cache(maxsize=1)
 def _load() -> tuple[Any, Any]:
-    _mujoco()
     try:
         import myo_sim  # type: ignore[import-untyped]
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise ParameterError(
             "the musculoskeletal participants need myo-sim: pip install 'bowden[msk]'"
         ) from exc
-    with warnings.catch_warnings():  # myo_sim attaches its arm with an empty prefix: harmless here
+    mujoco = _mujoco()
+    # myo_sim attaches its arm with an empty prefix, which MuJoCo warns about (harmless here) by
+    # appending to MUJOCO_LOG.TXT in the working directory: route its warnings to Python's instead.
+    mujoco.set_mju_user_warning(lambda message: warnings.warn(f"MuJoCo: {message}", stacklevel=2))
+    with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model, data = myo_sim.load("myoarm")
     return model, data
