@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 import sqlite3
 from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any, Final
 
 import numpy as np
@@ -222,6 +223,43 @@ def read_trial_emg(connection: sqlite3.Connection, trial_id: int) -> pd.DataFram
     if not frames:
         return None
     return frames[0] if len(frames) == 1 else pd.concat(frames, ignore_index=True)
+
+
+@dataclass(frozen=True)
+class StoredEmgChannel:
+    """One muscle's EMG of a trial as the store holds it: ``volts = codes × gain_v + offset_v``."""
+
+    codes: np.ndarray[Any, Any]
+    gain_v: float
+    offset_v: float
+    rate_hz: float
+    start_time_s: float
+
+
+def read_trial_emg_codes(connection: sqlite3.Connection, trial_id: int) -> dict[str, StoredEmgChannel]:
+    """A trial's EMG per muscle as stored codes with their scaling (for exports that keep the codes,
+    e.g. the BIDS writer's EDF/BDF); empty if the trial has none. Muscles cut to the shortest, as
+    :func:`iter_trial_emg` does.
+    """
+    legacy = has_table(connection, _LEGACY_TABLE) and connection.execute(
+        "SELECT 1 FROM emg WHERE trial_id = ? LIMIT 1", (trial_id,)
+    ).fetchone() is not None
+    table, offset = (_LEGACY_TABLE, "0.0") if legacy else ("emg_chunks", "offset_v")
+    scales = {
+        str(muscle): (float(gain), float(offset_v))
+        for muscle, gain, offset_v in connection.execute(
+            f"SELECT muscle, gain, {offset} FROM {table} WHERE trial_id = ?", (trial_id,)
+        )
+    }
+    blocks = list(_legacy_blocks(connection, trial_id) if legacy else _chunk_blocks(connection, trial_id))
+    if not blocks:
+        return {}
+    start, rate = blocks[0][0], blocks[0][1]
+    channels = {}
+    for muscle in _ordered(blocks[0][3]):
+        codes = np.concatenate([block[3][muscle] for block in blocks])
+        channels[muscle] = StoredEmgChannel(codes, *scales[muscle], rate_hz=rate, start_time_s=start)
+    return channels
 
 
 Block = tuple[float, float, int, dict[str, np.ndarray[Any, Any]]]

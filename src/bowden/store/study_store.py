@@ -246,6 +246,22 @@ class StudyStore:
             params=(kind,),
         )
 
+    def trial_events(self, trial_id: int) -> pd.DataFrame:
+        """Every event of one trial: time_s, kind, message, in recording order (for exports)."""
+        return pd.read_sql_query(
+            "SELECT time_s, kind, message FROM events WHERE trial_id = ? ORDER BY rowid",
+            self._db,
+            params=(trial_id,),
+        )
+
+    def trial_times_utc(self, trial_id: int) -> tuple[str, str | None]:
+        """When a trial started and ended (ISO 8601 UTC as recorded; the end None while open)."""
+        query = "SELECT started_utc, ended_utc FROM trials WHERE id = ?"
+        row = self._db.execute(query, (trial_id,)).fetchone()
+        if row is None:
+            raise StoreError(f"{self.path}: no trial {trial_id}")
+        return str(row[0]), None if row[1] is None else str(row[1])
+
     def trial_metadata(self, trial_id: int) -> dict[str, Any]:
         """The JSON metadata recorded with a trial (backend, seed, versions...)."""
         row = self._db.execute("SELECT metadata FROM trials WHERE id = ?", (trial_id,)).fetchone()
@@ -293,6 +309,10 @@ class StudyStore:
     def trial_emg_chunks(self, trial_id: int) -> Iterator[pd.DataFrame]:
         """The EMG of a trial a block at a time (bounded memory, for exports); nothing if none."""
         return emg_chunks.iter_trial_emg(self._db, trial_id)
+
+    def trial_emg_codes(self, trial_id: int) -> dict[str, emg_chunks.StoredEmgChannel]:
+        """The EMG of a trial per muscle as stored codes with their scaling (empty if none stored)."""
+        return emg_chunks.read_trial_emg_codes(self._db, trial_id)
 
     def trials_with_emg(self) -> list[int]:
         """Ids of the trials with stored EMG, in order."""
