@@ -31,8 +31,9 @@ def _figure(width: float, height: float) -> Figure:
 def participant_curves(curves: pd.DataFrame, participant: str) -> Figure:
     """One participant's mean ± SD over the kept repetitions (paper's single-participant figure).
 
-    Rows: elevation, shoulder torque and cable tension (reference in black), EMG of the anterior and
-    posterior deltoid; columns: speeds.
+    Rows: elevation, shoulder torque and cable tension (each condition's desired torque and tension
+    dashed in the condition's colour: pretension, 25 % and 50 % support each follow their own), EMG of
+    the anterior and posterior deltoid; columns: speeds.
     """
     rows = (
         ("elevation_rad", None, "elevation (deg)", np.degrees),
@@ -49,9 +50,10 @@ def participant_curves(curves: pd.DataFrame, participant: str) -> Figure:
         for row, (signal, reference, label, scale) in enumerate(rows):
             ax = axes[row, col]
             for condition in CONDITIONS:
-                _band(ax, data, condition, speed, signal, scale, CONDITION_COLOURS[condition])
-                if reference is not None and condition == "support_50":
-                    _band(ax, data, condition, speed, reference, scale, "black", dashed=True)
+                colour = CONDITION_COLOURS[condition]
+                _band(ax, data, condition, speed, signal, scale, colour)
+                if reference is not None:  # each condition has its own desired torque and tension
+                    _band(ax, data, condition, speed, reference, scale, colour, dashed=True)
             if col == 0:
                 ax.set_ylabel(label)
             if row == len(rows) - 1:
@@ -59,7 +61,7 @@ def participant_curves(curves: pd.DataFrame, participant: str) -> Figure:
     handles = [
         axes[0, 0].plot([], [], color=CONDITION_COLOURS[c], label=CONDITION_LABELS[c])[0] for c in CONDITIONS
     ]
-    handles.append(axes[0, 0].plot([], [], color="black", linestyle="--", label="reference (50 %)")[0])
+    handles.append(axes[0, 0].plot([], [], color="grey", linestyle="--", label="desired (its colour)")[0])
     figure.legend(handles=handles, loc="outside upper center", ncols=len(handles))
     return figure
 

@@ -8,7 +8,9 @@ from __future__ import annotations
 import base64
 import html
 import io
+import re
 from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
@@ -18,6 +20,7 @@ import pandas as pd
 
 from bowden._atomic_file import existing_head, write_text_atomically
 from bowden.errors import OutputFileError
+from bowden.study.report.pvalues import format_p_columns
 
 _STYLE = """
 body { font-family: system-ui, -apple-system, "Segoe UI", sans-serif; max-width: 1100px;
@@ -36,6 +39,13 @@ pre { white-space: pre-wrap; font-size: 0.85em; }
 .note { color: #555; font-size: 0.92em; }
 .side-by-side { display: flex; gap: 2em; flex-wrap: wrap; align-items: flex-start; }
 .table-scroll { overflow-x: auto; max-width: 100%; }
+/* A number, "< 0.001" or "0.412 (0.031)" is never broken over lines: a wide table scrolls in its box
+   instead; only cells of running text wrap. */
+td { white-space: nowrap; }
+td.text { white-space: normal; min-width: 18em; }
+nav.toc { background: #f7f7f7; border: 1px solid #ddd; padding: .4em 1.2em; margin: 1em 0; }
+nav.toc ol { margin: .3em 0; padding-left: 1.4em; }
+nav.toc ol ol { font-size: 0.92em; }
 """
 
 
@@ -102,6 +112,17 @@ class HtmlDocument:
     def heading(self, text: str, level: int = 2) -> None:
         self.parts.append(f"<h{level}>{html.escape(text)}</h{level}>")
 
+    @contextmanager
+    def section(self, text: str, level: int = 2) -> Iterator[None]:
+        """A heading kept only if something is added under it (``with document.section(...):``): a
+        report leaves out a section its study has nothing for, such as the identification of a lab
+        store without a bench."""
+        start = len(self.parts)
+        self.heading(text, level)
+        yield
+        if len(self.parts) == start + 1:
+            del self.parts[start]
+
     def paragraph(self, text: str, css_class: str = "") -> None:
         attr = f' class="{css_class}"' if css_class else ""
         self.parts.append(f"<p{attr}>{html.escape(text)}</p>")
@@ -125,10 +146,11 @@ class HtmlDocument:
             frame[objects] = frame[objects].where(frame[objects].notna(), float("nan"))
         # A bare 0, 1, 2… index says nothing: leave it out.
         plain_index = isinstance(frame.index, pd.RangeIndex) and frame.index.name is None
-        body = frame.to_html(
+        body = format_p_columns(frame).to_html(
             float_format=lambda v: float_format.format(v), na_rep="–", border=0, escape=True,
             index=not plain_index,
         )
+        body = _LONG_CELL.sub(r'<td class="text">\1</td>', body)  # running text may wrap, numbers not
         opening_end = body.index(">") + 1  # after pandas' "<table ...>"
         caption = html.escape(self._caption(caption))
         # Wide tables scroll inside their own box instead of widening the page.
@@ -186,7 +208,7 @@ class HtmlDocument:
     def render(self) -> str:
         if self._pending or self._started:
             self.draw_figures()
-        body = "\n".join(self.parts)
+        body = "\n".join(with_contents(self.parts))
         return (
             '<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             f"<title>{html.escape(self.title)}</title><style>{_STYLE}</style></head>\n"
@@ -213,6 +235,67 @@ class HtmlDocument:
             return write_text_atomically(path, self.render())
         except OSError as error:
             raise OutputFileError(f"cannot write the report to {path}: {error.strerror or error}") from None
+
+
+# A cell of running text (a reason, a reference): longer than any number the report prints.
+_LONG_CELL = re.compile(r"<td>([^<]{40,})</td>")
+_HEADING = re.compile(r"^<h([23])>(.*)</h\1>$", re.S)
+
+
+def _anchor(text: str, taken: set[str]) -> str:
+    """A unique id for a heading: its words in lower case joined by hyphens (``-2``… if repeated)."""
+    slug = re.sub(r"[^a-z0-9]+", "-", html.unescape(text).lower()).strip("-") or "section"
+    anchor, n = slug, 1
+    while anchor in taken:
+        n += 1
+        anchor = f"{slug}-{n}"
+    taken.add(anchor)
+    return anchor
+
+
+def with_contents(parts: list[str]) -> list[str]:
+    """``parts`` with an id on every section heading (h2, h3) and a table of contents linking to them,
+    placed before the first section; unchanged when there is no section heading.
+
+    Anchors are made here, when the document is complete, so that sections added by any caller (an
+    appendix, a banner put in front) are listed and no two ids clash.
+    """
+    taken: set[str] = set()
+    out: list[str] = []
+    first = 0
+    entries: list[tuple[int, str, str]] = []  # level, anchor, escaped text
+    for part in parts:
+        match = _HEADING.match(part)
+        if match is None:
+            out.append(part)
+            continue
+        level, text = int(match.group(1)), match.group(2)
+        anchor = _anchor(text, taken)
+        if not entries:
+            first = len(out)
+        entries.append((level, anchor, text))
+        out.append(f'<h{level} id="{anchor}">{text}</h{level}>')
+    if not entries:
+        return out
+    return [*out[:first], _contents(entries), *out[first:]]
+
+
+def _contents(entries: list[tuple[int, str, str]]) -> str:
+    """The nested list of links: each h3 under the h2 before it."""
+    items: list[str] = []
+    open_sublist = False
+    for level, anchor, text in entries:
+        link = f'<a href="#{anchor}">{text}</a>'
+        if level == 3 and items:
+            items.append(("" if open_sublist else "<ol>") + f"<li>{link}</li>")
+            open_sublist = True
+            continue
+        if open_sublist:
+            items.append("</ol>")
+            open_sublist = False
+        items.append(("</li>" if items else "") + f"<li>{link}")
+    items.append(("</ol>" if open_sublist else "") + "</li>")
+    return f'<nav class="toc"><strong>Contents</strong><ol>{"".join(items)}</ol></nav>'
 
 
 def check_report_path(path: Path) -> None:
