@@ -143,7 +143,7 @@ def run_trial(
         row[O_COCONTRACTION] = x[k.X_COCONTRACTION]
         if wears_suit:
             motor_velocity = x[k.X_SPOOL_W]
-            motor_torque = x[k.X_MOTOR_TAU] / p[k.P_KT_RATIO]
+            motor_torque = k.reported_torque_nm(x, p)
             controller_step(c, cs, t, elevation, velocity, motor_velocity, motor_torque, command)
             row[O_DESIRED_TENSION] = command[1]
             row[O_MOMENT_ARM] = command[2]

@@ -106,7 +106,20 @@ P_ARM_MAX = 21
 P_STOP_K = 22
 P_STOP_C = 23
 P_SHEATH_VISCOUS = 24
-N_PARAM = 25
+# Structural variants of the plant (:mod:`bowden.sim.plant_structure`); each default keeps the nominal
+# physics above bit for bit.
+P_PRESLIDE_M = 25  # Dahl presliding: node displacement that builds the breakaway friction (0: rigid stick)
+P_STRIBECK_EXP = 26  # exponent of the Stribeck curve (2: Gaussian)
+P_VISCOUS_LOAD = 27  # sheath drag per newton of normal force, N·s/m/N
+P_WRAP_GAIN = 28  # friction coefficient's growth per rad of elevation (wrap around the shoulder)
+P_TENSION_GAIN = 29  # friction coefficient's growth per newton of mean tension (capstan, flattening)
+P_PLAY_M = 30  # axial play of the sheath's ends, m (backlash, taken up by the friction force)
+P_PLAY_COMPLIANCE = 31  # m/N: how fast the friction force takes up the play
+P_SHEATH_COMPLIANCE = 32  # m/N: axial compression of the sheath under the motor-side tension
+P_KT_TEMPCO = 33  # 1/K: loss of torque constant per kelvin of winding temperature rise
+P_HEATING = 34  # K/Nm²: steady temperature rise per squared delivered torque
+P_THERMAL_TAU = 35  # s: thermal time constant of the motor (0: no drift)
+N_PARAM = 36
 
 # --- state vector -------------------------------------------------------------------------------
 X_SPOOL_Q = 0  # spool angle, rad (> 0 reeling in)
@@ -133,7 +146,10 @@ X_COCONTRACTION = 20  # virtual participant's co-contraction torque (each side o
 X_LEARNED = 21  # 3 weights (Nm) of the torque the participant has learned to add: sin θ, friction, θ̇
 N_LEARNED = 3
 X_LAG_NOISE = 24  # virtual participant's lag deviation (unit-variance Ornstein–Uhlenbeck)
-N_STATE = 25
+X_FRICTION = 25  # friction force on the sheath node of the last step, T_in − T_out, N
+X_SHEATH_SHIFT = 26  # how far the sheath's ends have shifted and compressed (play, compliance), m
+X_TEMP_RISE = 27  # motor winding temperature above ambient, K
+N_STATE = 28
 
 # --- arm drive modes ----------------------------------------------------------------------------
 ARM_PRESCRIBED = 0  # arm_a = elevation, arm_b = elevation velocity
@@ -154,7 +170,8 @@ R_SPOOL_Q = 3
 R_SPOOL_W = 4
 R_MOTOR_TAU = 5
 R_ARM_TORQUE = 6
-N_RECORD = 7
+R_REPORTED_TAU = 7  # the driver's torque (its current times the torque constant it assumes)
+N_RECORD = 8
 
 
 @jit
@@ -184,9 +201,11 @@ def anchor_pull_m(p: NDArray[np.float64], th: float) -> float:
 
 @jit
 def stribeck_coefficient(p: NDArray[np.float64], slip_speed: float) -> float:
-    """``k(v) = k_k + (k_s − k_k)·exp(−(v/v_s)²)``."""
+    """``k(v) = k_k + (k_s − k_k)·exp(−|v/v_s|^δ)`` (δ = 2, Gaussian, unless a variant sets it)."""
     ratio = slip_speed / p[P_V_STRIBECK]
-    return float(p[P_K_KINETIC] + (p[P_K_STATIC] - p[P_K_KINETIC]) * math.exp(-ratio * ratio))
+    exponent = p[P_STRIBECK_EXP]
+    shape = ratio * ratio if exponent == 2.0 else abs(ratio) ** exponent
+    return float(p[P_K_KINETIC] + (p[P_K_STATIC] - p[P_K_KINETIC]) * math.exp(-shape))
 
 
 @jit
@@ -200,21 +219,23 @@ def distal_tension_at_rest(p: NDArray[np.float64], s: float, ya: float, yda: flo
 
 @jit
 def sliding_node_position(
-    p: NDArray[np.float64], dt: float, s0: float, xm: float, ya: float, yda: float, sigma: float, k: float
+    p: NDArray[np.float64], dt: float, s0: float, xm: float, ya: float, yda: float, sigma: float, k: float,
+    viscous: float,
 ) -> float:
     """Node position after one implicit step of sliding in direction ``sigma`` with coefficient ``k``.
 
     Sliding balances the node: ``T_in − T_out = σ·k·(T_in + T_out) + c_v·v`` (the paper's law plus the
-    sheath's viscous drag ``c_v·v``, ``v = (s − s0)/dt``), i.e. ``g·T_in − T_out − c_v·v/(1 + σk) = 0``
-    with ``g = (1 − σk)/(1 + σk)``. ``T_in`` falls, ``T_out`` and the drag rise with ``s``, so the
-    balance has one root; every term is piecewise linear in ``s`` (breakpoints where the motor-side
-    cable and the distal segment go slack), and the root is found in closed form piece by piece.
+    sheath's viscous drag ``c_v·v``, ``v = (s − s0)/dt``, ``c_v`` = ``viscous``), i.e.
+    ``g·T_in − T_out − c_v·v/(1 + σk) = 0`` with ``g = (1 − σk)/(1 + σk)``. ``T_in`` falls, ``T_out``
+    and the drag rise with ``s``, so the balance has one root; every term is piecewise linear in ``s``
+    (breakpoints where the motor-side cable and the distal segment go slack), and the root is found in
+    closed form piece by piece.
     """
     kc = p[P_K_CABLE]
     kd = p[P_K_DISTAL]
     c = p[P_C_DISTAL] / dt
     g = (1.0 - sigma * k) / (1.0 + sigma * k)
-    cv = p[P_SHEATH_VISCOUS] / ((1.0 + sigma * k) * dt)
+    cv = viscous / ((1.0 + sigma * k) * dt)
     # Where the damped distal force turns positive, and where the segment is taut at all.
     s_damped = (kd * ya + c * s0 + p[P_C_DISTAL] * yda) / (kd + c)
     s_taut = max(ya, s_damped)
@@ -248,15 +269,46 @@ def sliding_node_position(
 
 
 @jit
+def friction_scale(p: NDArray[np.float64], th: float, t_in: float, t_out: float) -> float:
+    """Factor on the sheath's friction coefficients (1 for the nominal plant): friction growing with the
+    wrap around the shoulder (elevation) and with tension (a capstan whose liner flattens under load),
+    bounded so the static coefficient stays below 0.9."""
+    scale = max(1.0 + p[P_WRAP_GAIN] * th + p[P_TENSION_GAIN] * 0.5 * (t_in + t_out), 0.1)
+    if p[P_K_STATIC] > 0.0:
+        scale = min(scale, 0.9 / p[P_K_STATIC])
+    return float(scale)
+
+
+@jit
+def presliding_node_position(
+    p: NDArray[np.float64], dt: float, s0: float, xm: float, ya: float, yda: float, force0: float,
+    stiffness: float,
+) -> float:
+    """Node position while the sheath sticks elastically (Dahl presliding): the node balances
+    ``T_in − T_out = F0 + σ·(s − s0)`` with both segments taut (the distal one damped); NaN when a
+    segment would go slack there (then the rigid stick applies)."""
+    kc = p[P_K_CABLE]
+    kd = p[P_K_DISTAL]
+    c = p[P_C_DISTAL] / dt
+    numerator = kc * xm + kd * ya + c * s0 + p[P_C_DISTAL] * yda - force0 + stiffness * s0
+    s = numerator / (kc + kd + c + stiffness)
+    if s >= xm or s <= ya or kd * (s - ya) + c * (s - s0) - p[P_C_DISTAL] * yda < 0.0:
+        return math.nan
+    return float(s)
+
+
+@jit
 def sheath_step(
     x: NDArray[np.float64], p: NDArray[np.float64], dt: float, xm: float, ya: float, yda: float
 ) -> None:
     """Advance the sheath node one step with stick–slip friction; updates tensions and energies."""
     s0 = x[X_NODE_S]
     kc = p[P_K_CABLE]
-    k_static = p[P_K_STATIC]
     t_in0 = kc * max(0.0, xm - s0)
     t_out0 = distal_tension_at_rest(p, s0, ya, yda)
+    scale = friction_scale(p, x[X_ARM_TH], t_in0, t_out0)
+    k_static = p[P_K_STATIC] * scale
+    viscous = p[P_SHEATH_VISCOUS] + p[P_VISCOUS_LOAD] * (t_in0 + t_out0)
     imbalance = t_in0 - t_out0
     inside_cone = abs(imbalance) <= k_static * (t_in0 + t_out0)
 
@@ -264,10 +316,11 @@ def sheath_step(
     s1 = s0
     g = 1.0
     k_used = 0.0
+    presliding = False
     if not stuck:
         sigma = x[X_SLIP_DIR]
-        k = stribeck_coefficient(p, abs(x[X_SLIP_V]))
-        s_try = sliding_node_position(p, dt, s0, xm, ya, yda, sigma, k)
+        k = stribeck_coefficient(p, abs(x[X_SLIP_V])) * scale
+        s_try = sliding_node_position(p, dt, s0, xm, ya, yda, sigma, k, viscous)
         moved = (s_try - s0) * sigma
         slow = abs(s_try - s0) < p[P_V_STICK] * dt
         if moved > 0.0 and not (slow and inside_cone):
@@ -276,13 +329,29 @@ def sheath_step(
             k_used = k
         else:
             stuck = True
-    if stuck:
+    if stuck and p[P_PRESLIDE_M] > 0.0:
+        # Dahl (1968): the friction force builds with the node's displacement, dF/ds = σ0·(1 − F·d/F_c),
+        # σ0 = F_c / presliding length; the sheath breaks away when the force would pass F_c.
+        breakaway_n = k_static * (t_in0 + t_out0)
+        force0 = x[X_FRICTION]
+        direction = 1.0 if imbalance > force0 else -1.0
+        hardening = max(0.05, 1.0 - force0 * direction / max(breakaway_n, 1e-9))
+        stiffness = breakaway_n / p[P_PRESLIDE_M] * hardening
+        s_elastic = presliding_node_position(p, dt, s0, xm, ya, yda, force0, stiffness)
+        if not math.isnan(s_elastic):
+            force1 = force0 + stiffness * (s_elastic - s0)
+            if abs(force1) <= breakaway_n:
+                s1 = s_elastic
+                presliding = True
+            else:
+                inside_cone = False
+    if stuck and not presliding:
         if inside_cone:
             s1 = s0
         else:
             # Breakaway: start sliding with the static coefficient (zero slip speed on the curve).
             sigma = 1.0 if imbalance > 0.0 else -1.0
-            s1 = sliding_node_position(p, dt, s0, xm, ya, yda, sigma, k_static)
+            s1 = sliding_node_position(p, dt, s0, xm, ya, yda, sigma, k_static, viscous)
             g = (1.0 - sigma * k_static) / (1.0 + sigma * k_static)
             k_used = k_static
             stuck = (s1 - s0) * sigma <= 0.0
@@ -292,7 +361,11 @@ def sheath_step(
                 x[X_SLIP_DIR] = sigma
 
     t_in = kc * max(0.0, xm - s1)
-    if stuck:
+    if presliding:
+        t_out = max(0.0, p[P_K_DISTAL] * (s1 - ya) + p[P_C_DISTAL] * ((s1 - s0) / dt - yda))
+        x[X_STUCK] = 1.0
+        x[X_SLIP_V] = 0.0
+    elif stuck:
         t_out = t_out0
         x[X_STUCK] = 1.0
         x[X_SLIP_V] = 0.0
@@ -300,9 +373,10 @@ def sheath_step(
         # While sliding the node is balanced by definition of the friction law (Coulomb part
         # through g, the viscous drag on top).
         slip_v = (s1 - s0) / dt
-        t_out = max(0.0, g * t_in - p[P_SHEATH_VISCOUS] * slip_v / (1.0 + x[X_SLIP_DIR] * k_used))
+        t_out = max(0.0, g * t_in - viscous * slip_v / (1.0 + x[X_SLIP_DIR] * k_used))
         x[X_STUCK] = 0.0
         x[X_SLIP_V] = slip_v
+    x[X_FRICTION] = t_in - t_out
     x[X_E_SHEATH] += (t_in - t_out) * (s1 - s0)
     stretch = s1 - ya
     x[X_DISTAL_STRETCH] = stretch
@@ -316,16 +390,51 @@ def sheath_step(
 
 
 @jit
+def kt_drift(x: NDArray[np.float64], p: NDArray[np.float64]) -> float:
+    """Factor on the torque constant from the winding's temperature rise (1 without thermal drift)."""
+    return float(1.0 - p[P_KT_TEMPCO] * x[X_TEMP_RISE])
+
+
+@jit
+def reported_torque_nm(x: NDArray[np.float64], p: NDArray[np.float64]) -> float:
+    """The driver's torque: its current times the torque constant it assumes (the delivered torque
+    divided by the true constant's ratio to it, drift included)."""
+    return float(x[X_MOTOR_TAU] / (p[P_KT_RATIO] * kt_drift(x, p)))
+
+
+SHIFT_TIME_S = 2e-3  # the sheath's ends follow the friction force and tension with this lag (stability)
+
+
+@jit
+def sheath_shift_m(x: NDArray[np.float64], p: NDArray[np.float64], dt: float) -> float:
+    """Advance the shift of the sheath's ends: the axial play taken up by the last friction force and
+    the sheath's compression under the motor-side tension (0 for the nominal plant). It shortens the
+    cable between spool and node as seen by both."""
+    if p[P_PLAY_M] > 0.0 or p[P_SHEATH_COMPLIANCE] > 0.0:
+        half = 0.5 * p[P_PLAY_M]
+        play = min(max(p[P_PLAY_COMPLIANCE] * x[X_FRICTION], -half), half)
+        target = play + p[P_SHEATH_COMPLIANCE] * x[X_T_IN]
+        x[X_SHEATH_SHIFT] += (target - x[X_SHEATH_SHIFT]) * (1.0 - math.exp(-dt / SHIFT_TIME_S))
+    return float(x[X_SHEATH_SHIFT])
+
+
+@jit
 def motor_step(
     x: NDArray[np.float64], p: NDArray[np.float64], dt: float, torque_cmd: float, lag: float
 ) -> None:
     """Current loop, then spool dynamics against the cable with Coulomb friction by time stepping."""
     limit = p[P_TORQUE_LIMIT]
-    target = min(max(torque_cmd * p[P_KT_RATIO], -limit), limit)
+    drift = kt_drift(x, p)
+    if p[P_THERMAL_TAU] > 0.0:
+        # The winding warms with the delivered torque squared (copper loss ∝ current²) and cools to
+        # ambient; the magnets' flux, and with it the torque constant, falls as it warms.
+        rise = x[X_TEMP_RISE]
+        x[X_TEMP_RISE] = rise + (p[P_HEATING] * x[X_MOTOR_TAU] ** 2 - rise) * dt / p[P_THERMAL_TAU]
+    target = min(max(torque_cmd * p[P_KT_RATIO] * drift, -limit), limit)
     x[X_MOTOR_TAU] += (target - x[X_MOTOR_TAU]) * lag
     j = p[P_MOTOR_J]
     radius = p[P_SPOOL_R]
-    stretch = radius * x[X_SPOOL_Q] - x[X_NODE_S]
+    stretch = radius * x[X_SPOOL_Q] - x[X_NODE_S] - x[X_SHEATH_SHIFT]
     t_in = p[P_K_CABLE] * max(0.0, stretch)
     # Implicit in the cable spring (while taut) and the viscous friction, so a stiff cable on a light
     # rotor cannot make the step unstable: w_new·a = w + dt/J·(τ − R·T_in − f), f the Coulomb force.
@@ -382,7 +491,7 @@ def plant_step(
     th = x[X_ARM_TH]
     ya = anchor_pull_m(p, th)
     yda = moment_arm_m(p, th) * x[X_ARM_THD]
-    sheath_step(x, p, dt, p[P_SPOOL_R] * x[X_SPOOL_Q], ya, yda)
+    sheath_step(x, p, dt, p[P_SPOOL_R] * x[X_SPOOL_Q] - sheath_shift_m(x, p, dt), ya, yda)
     x[X_W_ARM] += x[X_T_OUT] * (ya - ya_old)
     x[X_TIME] += dt
 
@@ -438,6 +547,7 @@ def integrate(
         record[i, R_SPOOL_W] = x[X_SPOOL_W]
         record[i, R_MOTOR_TAU] = x[X_MOTOR_TAU]
         record[i, R_ARM_TORQUE] = external
+        record[i, R_REPORTED_TAU] = reported_torque_nm(x, p)
         if stop_direction != 0 and (x[X_ARM_TH] - stop_elevation) * stop_direction >= 0.0:
             return i + 1
     return n_steps

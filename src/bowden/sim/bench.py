@@ -63,11 +63,11 @@ class _Bench:
         return record
 
     def _log(self, times: NDArray[np.float64], rows: NDArray[np.float64]) -> NDArray[np.float64]:
-        imu, cell, ratio = self.suit.imu, self.suit.load_cell, self.suit.motor.torque_constant_ratio
+        imu, cell = self.suit.imu, self.suit.load_cell
         n = times.size
         out = np.empty((n, 6))
         out[:, 0] = times
-        out[:, 1] = rows[:, k.R_MOTOR_TAU] / ratio  # the driver's estimate from current
+        out[:, 1] = rows[:, k.R_REPORTED_TAU]  # the driver's estimate from current
         out[:, 2] = rows[:, k.R_SPOOL_W]
         out[:, 3] = rows[:, k.R_T_OUT] + cell.offset_n + cell.noise_n * self.rng.standard_normal(n)
         noise = imu.elevation_noise_rad * self.rng.standard_normal(n)

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, fields
 from bowden.errors import ParameterError
 from bowden.hardware.ads1115 import FULL_SCALE_V
 from bowden.model import CuffGeometry
+from bowden.sim.plant_structure import PlantStructure
 from bowden.validation import check_field
 
 MAX_SEED = 2**32 - 1  # numpy seeds are unsigned; one 32-bit word keeps them portable
@@ -308,6 +309,9 @@ class SuitParameters:
     motor, sheath, transmission, geometry, imu, load_cell
         The parts; ``geometry`` is the cuff geometry shared with the controller (docs/design.md, "Cuff
         geometry").
+    structure
+        Structural variants of the friction and motor physics (:mod:`bowden.sim.plant_structure`);
+        the default is the nominal plant.
     substep_s
         Fixed integration step of the plant. Every stiff part (cable on the rotor, current loop,
         sheath node, friction) is integrated implicitly; the arm on the distal spring is explicit and
@@ -322,6 +326,7 @@ class SuitParameters:
     imu: ImuParameters = field(default_factory=ImuParameters)
     load_cell: LoadCellParameters = field(default_factory=LoadCellParameters)
     substep_s: float = 2.5e-4
+    structure: PlantStructure = field(default_factory=PlantStructure)
 
     def __post_init__(self) -> None:
         expected = {
@@ -331,6 +336,7 @@ class SuitParameters:
             "geometry": CuffGeometry,
             "imu": ImuParameters,
             "load_cell": LoadCellParameters,
+            "structure": PlantStructure,
         }
         for f in fields(self):
             kind = expected.get(f.name)

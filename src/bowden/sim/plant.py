@@ -56,6 +56,18 @@ def pack_parameters(suit: SuitParameters, arm: ArmParameters) -> NDArray[np.floa
     p[k.P_ARM_MAX] = arm.max_elevation_rad
     p[k.P_STOP_K] = STOP_STIFFNESS_NM_RAD
     p[k.P_STOP_C] = STOP_DAMPING_NMS_RAD
+    v = suit.structure
+    p[k.P_PRESLIDE_M] = v.presliding_m
+    p[k.P_STRIBECK_EXP] = v.stribeck_exponent
+    p[k.P_VISCOUS_LOAD] = v.viscous_per_newton_ns_m_n
+    p[k.P_WRAP_GAIN] = v.wrap_gain_per_rad
+    p[k.P_TENSION_GAIN] = v.tension_gain_per_n
+    p[k.P_PLAY_M] = v.play_m
+    p[k.P_PLAY_COMPLIANCE] = v.play_compliance_m_n
+    p[k.P_SHEATH_COMPLIANCE] = v.sheath_compliance_m_n
+    p[k.P_KT_TEMPCO] = v.kt_tempco_per_k
+    p[k.P_HEATING] = v.heating_k_nm2
+    p[k.P_THERMAL_TAU] = v.thermal_time_constant_s
     return p
 
 
@@ -70,7 +82,9 @@ def equilibrium_state(
     ya = float(k.anchor_pull_m(p, elevation_rad))
     s = ya + tension_n / p[k.P_K_DISTAL]
     x[k.X_NODE_S] = s
-    x[k.X_SPOOL_Q] = (s + tension_n / p[k.P_K_CABLE]) / p[k.P_SPOOL_R]
+    # A compliant sheath is compressed by the tension it holds (its play is not taken up at rest).
+    x[k.X_SHEATH_SHIFT] = p[k.P_SHEATH_COMPLIANCE] * tension_n
+    x[k.X_SPOOL_Q] = (s + tension_n / p[k.P_K_CABLE] + x[k.X_SHEATH_SHIFT]) / p[k.P_SPOOL_R]
     x[k.X_MOTOR_TAU] = p[k.P_SPOOL_R] * tension_n
     x[k.X_STUCK] = 1.0
     x[k.X_SLIP_DIR] = 1.0

@@ -247,12 +247,11 @@ class SimulatedMotor:
 
     def state(self) -> MotorState:
         x = self._suit.plant.state_vector
-        ratio = self._suit.parameters.motor.torque_constant_ratio
         return MotorState(
             time_s=self._suit.time_s,
             position_rad=float(x[k.X_SPOOL_Q]) - self._zero_rad,
             velocity_rad_s=float(x[k.X_SPOOL_W]),
-            torque_nm=float(x[k.X_MOTOR_TAU]) / ratio,
+            torque_nm=k.reported_torque_nm(x, self._suit.plant.vector),
             temperature_c=self._temperature_c,
             error_code=0,
         )

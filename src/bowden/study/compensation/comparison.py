@@ -183,3 +183,23 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
         worse = (cell_table["dynamic"] > cell_table["paper"]).groupby(level="plant", sort=False).sum()
         out[column] = worse.reindex(out.index).astype(int)
     return out.reset_index()
+
+
+WORSE_TOLERANCE = 0.05  # issue 28: no cell worse than the paper's by more than 5 % of the paper's value
+
+
+def cell_table(rows: pd.DataFrame, compensation: str = "dynamic") -> pd.DataFrame:
+    """Per (suit, condition, speed) cell: each measure of ``compensation`` and of the paper's averaged
+    over participants, their ratios, and whether the cell is worse than the paper's by more than
+    :data:`WORSE_TOLERANCE` (RMSE or lowering-onset peak)."""
+    means = rows.groupby(["plant", "condition", "speed", "compensation"], sort=False)[
+        ["tension_rmse_n", "onset_peak_pct"]
+    ].mean().unstack("compensation")
+    out = pd.DataFrame(index=means.index)
+    for measure, ratio in (("tension_rmse_n", "rmse_ratio"), ("onset_peak_pct", "peak_ratio")):
+        out[f"{measure}_paper"] = means[(measure, "paper")]
+        out[f"{measure}_{compensation}"] = means[(measure, compensation)]
+        out[ratio] = means[(measure, compensation)] / means[(measure, "paper")]
+    out["worse"] = (out["rmse_ratio"] > 1.0 + WORSE_TOLERANCE) | (out["peak_ratio"] > 1.0 + WORSE_TOLERANCE)
+    return out.reset_index()
+
