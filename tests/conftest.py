@@ -26,6 +26,7 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 SERIAL_GROUPS = {
     "realtime": (
         "tests/cli/test_bench_run_cli.py",
+        "tests/cli/test_check.py",
         "tests/cli/test_run_custom.py",
         "tests/cli/test_run_registry.py",
         "tests/cli/test_suit.py",
