@@ -81,6 +81,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="age of the suit's IMU samples on arrival, for the dynamic compensation's estimator (50)",
     )
     parser.add_argument(
+        "--latency-recording",
+        type=Path,
+        help="the bench's latency segment (time_s, elevation_rad, mannequin_elevation_rad): identify the "
+        "IMU's latency from it instead of assuming --imu-latency-ms (docs/identification.md)",
+    )
+    parser.add_argument(
         "--paper-only", action="store_true", help="write the paper's lines only (model.json without dynamic)"
     )
     parser.add_argument(
@@ -97,6 +103,14 @@ def run(args: argparse.Namespace) -> int:
             raise ParameterError("--friction-figure draws the dynamic model, which --paper-only leaves out")
     if not 0.0 <= args.imu_latency_ms <= 200.0:
         raise ParameterError(f"--imu-latency-ms must be in [0, 200] ms, got {args.imu_latency_ms:g}")
+    imu_latency_s = args.imu_latency_ms / 1000.0
+    if args.latency_recording is not None:
+        from bowden.identify.latency import read_latency_segment
+
+        latency = read_latency_segment(str(args.latency_recording))
+        imu_latency_s = latency.latency_s
+        print(f"IMU latency identified from {args.latency_recording}: {1e3 * latency.latency_s:.1f} ms "
+              f"(residual {math.degrees(latency.residual_rms_rad):.2f}°)")
     settings = PreprocessSettings(
         cutoff_hz=args.cutoff_hz,
         min_speed_rad_s=math.radians(args.min_speed_deg_s),
@@ -109,7 +123,7 @@ def run(args: argparse.Namespace) -> int:
         pulley_radius_m=args.pulley_radius_mm / 1000.0,
         min_samples_per_direction=args.min_samples,
         dynamic=not args.paper_only,
-        imu_latency_s=args.imu_latency_ms / 1000.0,
+        imu_latency_s=imu_latency_s,
     )
     if args.ignore_extra_columns:
         from bowden.identify.recording import read_bench_recording

@@ -24,10 +24,13 @@ from numpy.typing import NDArray
 from bowden import contracts as c
 from bowden.errors import FitError
 from bowden.identify import TransmissionIdentifier
+from bowden.identify.latency import identify_imu_latency
 from bowden.model import AssistanceParameters, CompensationModel, CuffGeometry, arm_model, desired_tension_n
 from bowden.protocol.bench import BenchProtocol
 from bowden.sim import ProtocolSettings, generate_cohort, simulate_trial
 from bowden.sim.bench import run_bench
+from bowden.sim.bench_latency import ENCODER_ELEVATION, IMU_ELEVATION, run_latency_segment
+from bowden.sim.bench_latency import TIME as LATENCY_TIME
 from bowden.sim.parameters import SuitParameters
 from bowden.sim.participants import PAPER_COHORT_SIZE
 from bowden.sim.plant_family import FamilyPlant
@@ -53,9 +56,13 @@ class ComparisonSettings:
 
 
 def identify_plant(plant: FamilyPlant, settings: ComparisonSettings) -> CompensationModel:
-    """The suit's model as a lab would get it: its own bench recording through ``bowden identify``."""
+    """The suit's model as a lab would get it: its own bench recording through ``bowden identify``,
+    the IMU's latency identified from the bench's latency segment (``--latency-recording``)."""
     recording = run_bench(plant.suit, settings.bench, seed=settings.bench_seed)
-    identifier = TransmissionIdentifier().fit(recording)
+    segment = run_latency_segment(plant.suit, seed=settings.bench_seed)
+    latency = identify_imu_latency(segment[LATENCY_TIME].to_numpy(), segment[IMU_ELEVATION].to_numpy(),
+                                   segment[ENCODER_ELEVATION].to_numpy())
+    identifier = TransmissionIdentifier(imu_latency_s=latency.latency_s).fit(recording)
     if identifier.model_.dynamic is None:
         raise FitError(f"suit {plant.name!r}: no dynamic compensation ({identifier.dynamic_error_})")
     return identifier.model_
