@@ -7,6 +7,7 @@ from pathlib import Path
 
 from bowden.cli._outputs import check_output_directory, check_output_file, refuse_overwriting_inputs
 from bowden.errors import ParameterError, StoreError
+from bowden.share.r_script import r_script_path, write_r_script
 from bowden.store.export import export_paths
 from bowden.store.schema import STORE_FILE_NAME
 from bowden.study.analyze import analyze_store
@@ -28,7 +29,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         type=Path,
         metavar="DIR",
         help="also export the tables to DIR, one file each: participants, trials, samples, events, "
-        "questionnaires, outcomes, artifacts (the raw sEMG only with --export-emg)",
+        "questionnaires, outcomes, artifacts (the raw sEMG only with --export-emg), and glmm.R, the R "
+        "script that refits the report's GLMMs from the outcomes table",
     )
     parser.add_argument(
         "--export-emg",
@@ -67,13 +69,17 @@ def run(args: argparse.Namespace) -> int:
         written = {**inputs, report: "the --report file"}
         for path in export_paths(args.export, file_format=args.format, include_emg=args.export_emg):
             refuse_overwriting_inputs("--export", path, written)
+        refuse_overwriting_inputs("--export", r_script_path(args.export), written)
     result = analyze_store(store, report, bench_path=bench, progress=StageProgress(enabled=not args.quiet))
     if args.export is not None:
         from bowden.store.study_store import StudyStore
 
         with StudyStore(store) as opened:
             files = opened.export(args.export, file_format=args.format, include_emg=args.export_emg)
-        print(f"exported {len(files)} tables to {args.export}")
+        # The R script that refits the report's GLMMs from the outcomes table, beside it.
+        script = write_r_script(args.export, file_format=args.format)
+        print(f"exported {len(files)} tables to {args.export}, and {script.name} (Rscript {script}) "
+              "that refits the report's GLMMs in R")
     skipped = f", skipped {len(result.skipped)} (see the report's notes)" if result.skipped else ""
     print(f"analysed {result.n_trials} trials{skipped}; report {result.report.resolve()}")
     return 0
