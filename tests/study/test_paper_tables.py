@@ -7,7 +7,6 @@ import re
 import pandas as pd
 
 from bowden.analysis.outcomes import IEMG_PREFIX, SPARC
-from bowden.study.report.build import _beside
 from bowden.study.report.figures import condition_boxplots
 from bowden.study.report.paper_tables import (
     paper_effects_table,
@@ -15,6 +14,7 @@ from bowden.study.report.paper_tables import (
     paper_pairwise_table,
     paper_significance_html,
 )
+from bowden.study.report.study_tables import beside
 
 
 def test_the_papers_tables_in_the_reports_shapes() -> None:
@@ -33,7 +33,7 @@ def test_the_papers_tables_in_the_reports_shapes() -> None:
 
 def test_the_paper_stands_under_the_study_outcome_by_outcome() -> None:
     ours = paper_effects_table("raising").iloc[:6]  # two muscles, as a study would give them
-    both = _beside(ours, paper_effects_table("raising"), "simulated")
+    both = beside(ours, paper_effects_table("raising"), "simulated")
     first = [tuple(i) for i in both.index[:12]]
     assert [i[:2] for i in first[::3]] == [("Ant. delt.", "simulated"), ("Ant. delt.", "paper"),
                                            ("Med. delt.", "simulated"), ("Med. delt.", "paper")]
