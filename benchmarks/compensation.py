@@ -77,13 +77,19 @@ def main() -> None:
         print(f"{label}: RMSE ratio {rmse:.3f} (target ≤ 0.6), lowering-onset peak ratio {peak:.3f} "
               f"(target ≤ 0.5); worst suit RMSE ratio {part['rmse_ratio'].max():.3f}, "
               f"peak ratio {part['peak_ratio'].max():.3f}")
-    cells = cell_table(rows)
-    print_cells(cells)
+    print("dynamic compensation everywhere:")
+    print_cells(cell_table(rows))
+    choices = rows.groupby("plant", sort=False)[["recommended", "recommended_why"]].first()
+    for plant, choice in choices.iterrows():
+        print(f"  {plant}: {choice['recommended']} — {choice['recommended_why']}")
+    print("the compensation the bench's study-like segment recommends (the paper's where it picks it):")
+    print_cells(cell_table(rows, "recommended"))
     print(f"random suits' seed: {seed}; {len(plants)} suits in {time.perf_counter() - started:.0f} s")
 
 
 def print_cells(cells: pd.DataFrame) -> None:
     """Every (suit, condition, speed) cell, then the means over cells and the worst cell."""
+    cells = cells.rename(columns=lambda name: name.replace("_recommended", "_dynamic"))
     print(cells.round(3).to_string(index=False))
     rmse = cells["tension_rmse_n_dynamic"].mean() / cells["tension_rmse_n_paper"].mean()
     peak = cells["onset_peak_pct_dynamic"].mean() / cells["onset_peak_pct_paper"].mean()

@@ -31,6 +31,7 @@ from bowden.sim import ProtocolSettings, generate_cohort, simulate_trial
 from bowden.sim.bench import run_bench
 from bowden.sim.bench_latency import ENCODER_ELEVATION, IMU_ELEVATION, run_latency_segment
 from bowden.sim.bench_latency import TIME as LATENCY_TIME
+from bowden.sim.bench_study import recommend_compensation
 from bowden.sim.parameters import SuitParameters
 from bowden.sim.participants import PAPER_COHORT_SIZE
 from bowden.sim.plant_family import FamilyPlant
@@ -138,6 +139,7 @@ def compared_trials(
 def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.DataFrame:
     """One row per participant, condition, speed and compensation on one suit."""
     model = identify_plant(plant, settings)
+    recommended, why = recommend_compensation(model, plant.suit, seed=settings.bench_seed)
     rows = [
         {
             "plant": plant.name,
@@ -145,6 +147,8 @@ def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.Dat
             "condition": item.trial.condition,
             "speed": item.trial.speed,
             "compensation": item.compensation,
+            "recommended": recommended,
+            "recommended_why": why,
             **trial_errors(item.trial, item.reference_n),
         }
         for item in compared_trials(model, plant.suit, settings)
@@ -198,7 +202,11 @@ WORSE_TOLERANCE = 0.05  # issue 28: no cell worse than the paper's by more than 
 def cell_table(rows: pd.DataFrame, compensation: str = "dynamic") -> pd.DataFrame:
     """Per (suit, condition, speed) cell: each measure of ``compensation`` and of the paper's averaged
     over participants, their ratios, and whether the cell is worse than the paper's by more than
-    :data:`WORSE_TOLERANCE` (RMSE or lowering-onset peak)."""
+    :data:`WORSE_TOLERANCE` (RMSE or lowering-onset peak). ``"recommended"`` is, per suit, what the
+    bench's study-like segment recommended (``rows["recommended"]``): the dynamic rows or the paper's."""
+    if compensation == "recommended":
+        chosen = rows[rows["compensation"] == rows["recommended"]].assign(compensation="recommended")
+        rows = pd.concat([rows[rows["compensation"] == "paper"], chosen], ignore_index=True)
     means = rows.groupby(["plant", "condition", "speed", "compensation"], sort=False)[
         ["tension_rmse_n", "onset_peak_pct"]
     ].mean().unstack("compensation")
