@@ -37,6 +37,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--compensation", choices=("paper", "dynamic"), default="paper",
         help="the paper's friction compensation (default) or the dynamic one identified from the same bench",
     )
+    parser.add_argument(
+        "--muscles", choices=("simple", "musculoskeletal"), default="simple",
+        help="muscle activations from the hand-made model (default) or from MyoArm's mechanics and static "
+        "optimisation (needs the msk extra: pip install 'bowden[msk]')",
+    )
     engine = parser.add_mutually_exclusive_group()
     engine.add_argument(
         "--workers", type=int, metavar="N",
@@ -59,6 +64,7 @@ def run(args: argparse.Namespace) -> int:
         quick_bench=args.quick_bench,
         store_emg=not args.no_emg,
         compensation=args.compensation,
+        muscles=args.muscles,
     )
     result = run_study(
         settings,

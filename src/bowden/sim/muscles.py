@@ -57,6 +57,13 @@ def _activation_dynamics(
     return out
 
 
+def activation_dynamics(
+    excitation: NDArray[np.float64], dt: float, rise_s: float, fall_s: float
+) -> NDArray[np.float64]:
+    """First-order activation from excitation (samples, muscles), faster to rise than to fall."""
+    return _activation_dynamics(np.ascontiguousarray(excitation, dtype=np.float64), dt, rise_s, fall_s)
+
+
 def muscle_activations(
     shoulder_torque_nm: NDArray[np.float64],
     elevation_rad: NDArray[np.float64],

@@ -43,6 +43,8 @@ PAPER_AGE_YEARS = (29.33, 7.04)
 # speed nor direction. 0.3 is a wrap angle that differs by about +-30 % between bodies (k ~ mu*Phi/2);
 # no measurement of the paper's suit exists, docs/simulation.md shows the effect of the value.
 WEARER_FRICTION_LOG_SD = 0.3
+# Sources of the muscle activations (VirtualParticipant.muscles, `bowden study --muscles`).
+MUSCLE_MODELS = ("simple", "musculoskeletal")
 WEARER_FRICTION_SCALE_RANGE = (0.5, 2.0)
 
 
@@ -161,6 +163,10 @@ class VirtualParticipant:
         Log-normal SD of each repetition's excursion about :attr:`amplitude_gain`: people do not
         reach the same peak twice (endpoint variability grows with the movement, Harris & Wolpert
         1998; van Beers, Haggard & Wolpert 2004, J Neurophysiol 91:1050).
+    muscles
+        Where the activations come from: ``"simple"``, the hand-made model of :mod:`bowden.sim.muscles`,
+        or ``"musculoskeletal"``, MyoArm's mechanics and static optimisation
+        (:mod:`bowden.sim.musculoskeletal.trial`; needs the ``msk`` extra).
     sheath_friction_scale
         The suit's sheath friction on this body relative to the mannequin bench. The sheath's bends
         follow the wearer's back and shoulder, and in the capstan limit ``k ≈ μ·Φ/2`` grows with the
@@ -200,8 +206,11 @@ class VirtualParticipant:
     lag_wander_sd: float = 0.3
     lag_wander_time_s: float = 0.5
     excursion_repetition_sd: float = 0.05
+    muscles: str = "simple"
 
     def __post_init__(self) -> None:
+        if self.muscles not in MUSCLE_MODELS:
+            raise ParameterError(f"muscles must be one of {', '.join(MUSCLE_MODELS)}, got {self.muscles!r}")
         checks = {
             "hand_load_kg": (0.0, 5.0),
             "gravity_scale": (0.5, 1.5),
@@ -341,6 +350,7 @@ def generate_cohort(
     mass_kg: tuple[float, float] = PAPER_MASS_KG,
     age_years: tuple[float, float] = PAPER_AGE_YEARS,
     wearer_friction_log_sd: float = WEARER_FRICTION_LOG_SD,
+    muscles: str = "simple",
 ) -> tuple[VirtualParticipant, ...]:
     """Draw a cohort like the paper's (defaults), reproducibly from ``seed``.
 
@@ -350,7 +360,9 @@ def generate_cohort(
     Individual differences in arm dynamics, movement and EMG are drawn around the defaults of
     :class:`VirtualParticipant`. ``n_female`` defaults to the paper's proportion (12 of 17).
     ``wearer_friction_log_sd`` is the log-normal spread of the sheath friction between wearers
-    (:data:`WEARER_FRICTION_LOG_SD`; 0 gives every wearer the bench's friction).
+    (:data:`WEARER_FRICTION_LOG_SD`; 0 gives every wearer the bench's friction). ``muscles`` is
+    every participant's :attr:`VirtualParticipant.muscles`; it draws nothing, so both muscle models
+    get the same cohort.
     """
     if not (2 <= n_participants <= 500):
         raise ParameterError(f"n_participants must be between 2 and 500, got {n_participants}")
@@ -397,6 +409,7 @@ def generate_cohort(
                 sheath_friction_scale=float(
                     np.clip(rng.lognormal(0.0, wearer_friction_log_sd), *WEARER_FRICTION_SCALE_RANGE)
                 ),
+                muscles=muscles,
             )
         )
     return tuple(cohort)

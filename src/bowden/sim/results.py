@@ -140,15 +140,24 @@ class TrialSimulation:
         if isinstance(cached, pd.DataFrame):
             return cached
         rate = 1.0 / float(self.time_s[1] - self.time_s[0])
-        act = muscle_activations(
-            self.signals[SHOULDER_TORQUE],
-            self.signals[TRUE_ELEVATION],
-            self.signals[TRUE_ELEVATION_VELOCITY],
-            sample_rate_hz=rate,
-            max_torque_nm=max_elevation_torque_nm(self.participant.subject.mass_kg),
-            correction_torque_nm=self.signals.get(CORRECTION_TORQUE),
-            cocontraction_nm=self.signals.get(COCONTRACTION),
-        )
+        if self.participant.muscles == "musculoskeletal":
+            from bowden.sim.musculoskeletal.trial import trial_activations  # needs the msk extra
+
+            act = trial_activations(
+                self.participant, self.signals, sample_rate_hz=rate, elevation=TRUE_ELEVATION,
+                velocity=TRUE_ELEVATION_VELOCITY, tension=TRUE_TENSION, correction=CORRECTION_TORQUE,
+                cocontraction=COCONTRACTION,
+            )
+        else:
+            act = muscle_activations(
+                self.signals[SHOULDER_TORQUE],
+                self.signals[TRUE_ELEVATION],
+                self.signals[TRUE_ELEVATION_VELOCITY],
+                sample_rate_hz=rate,
+                max_torque_nm=max_elevation_torque_nm(self.participant.subject.mass_kg),
+                correction_torque_nm=self.signals.get(CORRECTION_TORQUE),
+                cocontraction_nm=self.signals.get(COCONTRACTION),
+            )
         frame = pd.DataFrame(act, columns=list(c.MUSCLES))
         frame.insert(0, c.TRIAL_TIME, self.time_s)
         self._cache["activations"] = frame

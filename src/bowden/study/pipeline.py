@@ -34,7 +34,7 @@ from bowden.protocol.bench import QUICK_BENCH
 from bowden.sim.batch import ProtocolSettings
 from bowden.sim.bench import BenchProtocol, run_bench
 from bowden.sim.parameters import SuitParameters, check_seed
-from bowden.sim.participants import VirtualParticipant, generate_cohort
+from bowden.sim.participants import MUSCLE_MODELS, VirtualParticipant, generate_cohort
 from bowden.store.ownership import files_not_written_by_study, note_written, read_trial_origins
 from bowden.store.study_store import StudyStore
 from bowden.study.analyze import AnalysisReport, analyze_store
@@ -66,6 +66,9 @@ class StudySettings:
     compensation
         ``"paper"`` (the paper's method, the default: the study reproduces the paper) or ``"dynamic"``
         (the dynamic compensation identified from the same bench, :mod:`bowden.model.dynamic`).
+    muscles
+        Where the participants' muscle activations come from: ``"simple"`` (the hand-made model, the
+        default) or ``"musculoskeletal"`` (MyoArm and static optimisation; needs the ``msk`` extra).
     """
 
     participants: int = 17
@@ -74,8 +77,11 @@ class StudySettings:
     quick_bench: bool = False
     store_emg: bool = True
     compensation: Literal["paper", "dynamic"] = "paper"
+    muscles: Literal["simple", "musculoskeletal"] = "simple"
 
     def __post_init__(self) -> None:
+        if self.muscles not in MUSCLE_MODELS:
+            raise ParameterError(f"--muscles must be one of {', '.join(MUSCLE_MODELS)}, got {self.muscles!r}")
         if self.compensation not in ("paper", "dynamic"):
             raise ParameterError(f"compensation must be 'paper' or 'dynamic', got {self.compensation!r}")
         if not 2 <= self.participants <= 200:
@@ -180,7 +186,9 @@ def _run_stages(
         store.put_artifact("settings.json", settings_file.read_text())
         with clock.stage("cohort"):
             # The paper's 12 women in 17, kept in proportion for other cohort sizes.
-            cohort = generate_cohort(settings.seed, n_participants=settings.participants)
+            cohort = generate_cohort(
+                settings.seed, n_participants=settings.participants, muscles=settings.muscles
+            )
             for participant in cohort:
                 store.add_participant(
                     participant.participant_id, participant.subject, {"age_years": participant.age_years}
@@ -274,7 +282,8 @@ def _check_directory_is_ours(out: Path, settings: StudySettings, *, force: bool)
                 f"{out} holds {', '.join(results)} but no settings.json, so they cannot be checked against "
                 "these settings: use another --out directory, or --force to start again"
             )
-    elif {"compensation": "paper", **stored} != asdict(settings):  # runs before it existed were the paper's
+    # Runs from before an option existed used its default.
+    elif {"compensation": "paper", "muscles": "simple", **stored} != asdict(settings):
         raise ParameterError(
             f"{out} holds a study run with other settings ({settings_file}); "
             "use another --out directory or --force to start again"

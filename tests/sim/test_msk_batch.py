@@ -1,0 +1,71 @@
+"""The musculoskeletal batch path: many states solved at once, the co-contraction row, the table."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bowden.sim.musculoskeletal.static_optimisation import solve_static, solve_static_batch
+
+
+def test_batch_solver_equals_the_single_state_solver() -> None:
+    # Random problems, many with saturated muscles and reserves: the batched semismooth Newton
+    # must find the same minimiser as BFGS on each one's dual.
+    rng = np.random.default_rng(3)
+    capacity = rng.normal(0.0, 20.0, (120, 5, 25))
+    required = rng.normal(0.0, 30.0, (120, 5))
+    batch = solve_static_batch(capacity, required)
+    for n in range(len(required)):
+        single = solve_static(capacity[n], required[n])
+        assert batch.activations[n] == pytest.approx(single.activations, abs=5e-5)
+        assert batch.reserve_nm[n] == pytest.approx(single.reserve_nm, abs=5e-5)
+
+
+def test_batch_solver_hand_solved_sharing() -> None:
+    # One joint, two agonists of 10 and 20 Nm: least Σa² with 6 Nm gives a ∝ capacity,
+    # a = 6·c/(10² + 20²) → 0.12 and 0.24 (as tests/sim/test_static_optimisation.py derives).
+    solution = solve_static_batch(np.array([[[10.0, 20.0]]]), np.array([[6.0]]))
+    assert solution.activations[0] == pytest.approx([0.12, 0.24], abs=1e-6)
+
+
+pytest.importorskip("mujoco")
+pytest.importorskip("myo_sim")
+
+from bowden.sim.musculoskeletal.myoarm import ARM_MUSCLES, COORDINATES, ELEVATION  # noqa: E402
+from bowden.sim.musculoskeletal.table import load_table  # noqa: E402
+from bowden.sim.musculoskeletal.trial import required_and_capacity  # noqa: E402
+from bowden.sim.participants import generate_cohort  # noqa: E402
+
+
+@pytest.mark.parametrize("cable_n", [0.0, 40.0])
+def test_cocontraction_activates_the_posterior_deltoid_and_keeps_the_net_torque(cable_n: float) -> None:
+    participant = generate_cohort(0, muscles="musculoskeletal")[0]
+    table = load_table()
+    theta = np.array([math.radians(60.0)] * 2)
+    zero = np.zeros(2)
+    capacity, required = required_and_capacity(
+        table, participant, theta, zero, zero, np.full(2, cable_n), np.array([0.0, 2.0])
+    )
+    solution = solve_static_batch(capacity, required)
+    delt3 = ARM_MUSCLES.index("DELT3")
+    # Least Σa² alone leaves the antagonist silent; 2 Nm of co-contraction recruits it.
+    assert solution.activations[0, delt3] < 1e-6
+    assert solution.activations[1, delt3] > 0.005
+    row = COORDINATES.index(ELEVATION)
+    net = np.einsum("nm,nm->n", capacity[:, row, :], solution.activations)
+    # The net elevation torque is what the arm needs either way (the flexors add what the extensors take).
+    assert net[1] == pytest.approx(net[0], abs=1e-3)
+    assert np.abs(solution.reserve_nm[:, :2]).max() < 1e-3
+
+
+def test_the_cable_lowers_the_anterior_deltoid_through_the_table() -> None:
+    participant = generate_cohort(0, muscles="musculoskeletal")[0]
+    theta = np.array([math.radians(60.0)] * 2)
+    zero = np.zeros(2)
+    capacity, required = required_and_capacity(
+        load_table(), participant, theta, zero, zero, np.array([0.0, 50.0]), zero
+    )
+    delt1 = solve_static_batch(capacity, required).activations[:, ARM_MUSCLES.index("DELT1")]
+    assert delt1[1] < 0.8 * delt1[0]
