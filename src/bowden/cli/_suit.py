@@ -26,6 +26,7 @@ from bowden.cli._flag_errors import flag_errors
 from bowden.errors import BowdenError, HardwareError, ParameterError
 from bowden.hardware.ak60_codec import MAX_STANDARD_ID
 from bowden.hardware.backend import Backend
+from bowden.hardware.lsl_imu import parse_imu
 from bowden.hardware.motors import AK_MOTORS, DEFAULT_MOTOR, FIRMWARE_VARIANTS, motor_model
 from bowden.runtime import MonotonicClock
 
@@ -65,6 +66,9 @@ class CanSuitOptions:
         manual's.
     direction
         +1 if positive motor torque pulls the cable, −1 if the spool is wound the other way.
+    imu
+        ``ngimu`` (OSC over UDP), or ``lsl:STREAM_NAME``: any IMU streaming a quaternion (or an
+        elevation) into Lab Streaming Layer (:mod:`bowden.hardware.lsl_imu`).
     imu_port
         UDP port the NGIMU sends its OSC bundles to.
     imu_host
@@ -85,6 +89,7 @@ class CanSuitOptions:
     motor: str = DEFAULT_MOTOR
     firmware: str | None = None
     direction: int = 1
+    imu: str = "ngimu"
     imu_port: int = DEFAULT_IMU_PORT
     imu_host: str = "0.0.0.0"
     imu_sender: str | None = None
@@ -97,6 +102,7 @@ class CanSuitOptions:
             if not getattr(self, name):
                 raise ParameterError(f"CanSuitOptions.{name} must not be empty")
         motor_model(self.motor).limits(self.firmware)  # names the known models and variants if unknown
+        parse_imu(self.imu)  # names --imu if it is neither form
         if self.direction not in (1, -1):
             raise ParameterError(f"CanSuitOptions.direction must be +1 or -1, got {self.direction!r}")
         if not 1 <= self.imu_port <= 65535:
@@ -129,7 +135,7 @@ class CanSuitOptions:
         with flag_errors(SUIT_FLAGS):
             return cls(channel=args.channel, interface=args.interface, motor_id=args.motor_id,
                        motor=args.motor, firmware=args.firmware, direction=args.direction,
-                       imu_port=args.imu_port,
+                       imu=args.imu, imu_port=args.imu_port,
                        imu_host=args.imu_host, imu_sender=args.imu_sender,
                        calibration_s=args.calibration_s, i2c_bus=args.i2c_bus,
                        load_cell_gain_n_per_v=args.load_cell_gain)
@@ -169,6 +175,10 @@ def add_can_arguments(parser: argparse.ArgumentParser) -> None:
                        "transmission's: only for a deliberate comparison)")
     group.add_argument("--direction", type=int, choices=(1, -1), default=defaults.direction,
                        help="+1 if positive motor torque pulls the cable")
+    group.add_argument("--imu", default=defaults.imu, metavar="ngimu|lsl:STREAM_NAME",
+                       help="the arm's IMU: the NGIMU over OSC (default), or any IMU streaming a quaternion "
+                       "(4 channels w,x,y,z) or elevation (1 channel) into Lab Streaming Layer under that "
+                       "name (needs the lsl extra; also with --backend sim)")
     group.add_argument("--imu-port", type=int, default=defaults.imu_port, help="NGIMU send port (8000)")
     group.add_argument("--imu-host", default=defaults.imu_host,
                        help="address to listen on for the NGIMU (default 0.0.0.0: every interface; "
@@ -265,6 +275,7 @@ def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None]
 
     from bowden.hardware.ads1115 import ADS1115LoadCell, LoadCellCalibration
     from bowden.hardware.ak60 import AK60Motor
+    from bowden.hardware.lsl_imu import LslImuClient, LslImuConfig
     from bowden.hardware.ngimu import NgimuClient, NgimuConfig
 
     config = motor_config(options)
@@ -276,12 +287,17 @@ def open_can_backend(options: CanSuitOptions, *, announce: Callable[[str], None]
         except (can.CanError, OSError, ValueError, ImportError) as error:
             raise HardwareError(f"cannot open the CAN interface {where}: {error} "
                                 "(is it up? see docs/hardware.md)") from None
-        try:
-            imu = stack.enter_context(NgimuClient(NgimuConfig(host=options.imu_host, port=options.imu_port,
-                                                              sender=options.imu_sender)))
-        except OSError as error:
-            raise HardwareError(f"cannot listen for the NGIMU on {options.imu_host} UDP port "
-                                f"{options.imu_port}: {error.strerror or error}") from None
+        imu: NgimuClient | LslImuClient
+        stream = parse_imu(options.imu)
+        if stream is not None:  # resolving it names the streams that are visible if it is not
+            imu = stack.enter_context(LslImuClient(LslImuConfig(stream_name=stream)))
+        else:
+            try:
+                listen = NgimuConfig(host=options.imu_host, port=options.imu_port, sender=options.imu_sender)
+                imu = stack.enter_context(NgimuClient(listen))
+            except OSError as error:
+                raise HardwareError(f"cannot listen for the NGIMU on {options.imu_host} UDP port "
+                                    f"{options.imu_port}: {error.strerror or error}") from None
         announce(f"calibrating the IMU: keep the arm hanging still for {options.calibration_s:g} s")
         imu.calibrate_arm_down(options.calibration_s)
         load_cell: ADS1115LoadCell | None = None

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from bowden.cli._suit import CanSuitOptions, add_can_arguments, check_model_motor, motor_config
 from bowden.errors import BowdenError, ParameterError
+from bowden.hardware.lsl_imu import parse_imu
 from bowden.hardware.motors import motor_model
 from bowden.hardware.preflight import (
     CAN_BITRATE,
@@ -149,6 +150,9 @@ def _motor(options: CanSuitOptions, rig: SimulatedRig | None) -> Check:
 
 
 def _imu(args: argparse.Namespace, options: CanSuitOptions, rig: SimulatedRig | None) -> Check:
+    stream = parse_imu(options.imu)
+    if stream is not None:
+        return _lsl_imu(args, stream, options.calibration_s, rig)
     from bowden.hardware.ngimu import NgimuClient, NgimuConfig
 
     host, port = ("127.0.0.1", 0) if rig is not None else (options.imu_host, options.imu_port)
@@ -165,6 +169,24 @@ def _imu(args: argparse.Namespace, options: CanSuitOptions, rig: SimulatedRig | 
         except BowdenError:
             return _silent_imu(client, options)
         return check_imu_stream(client, lambda: client.counters.quaternions, expected_rate_hz=args.imu_rate)
+
+
+def _lsl_imu(args: argparse.Namespace, stream: str, calibration_s: float, rig: SimulatedRig | None) -> Check:
+    from bowden.hardware.lsl_imu import LslImuClient, LslImuConfig
+
+    if rig is not None:
+        rig.start_imu(stream, rate_hz=200.0)  # the stream exists before the client looks for it
+    try:
+        client = LslImuClient(LslImuConfig(stream_name=stream)).start()
+    except BowdenError as error:
+        return Check("imu", False, str(error))
+    with client:
+        try:
+            client.calibrate_arm_down(calibration_s)
+        except BowdenError as error:
+            return Check("imu", False, str(error))
+        return check_imu_stream(client, lambda: client.counters.samples - client.counters.stale,
+                                expected_rate_hz=args.imu_rate)
 
 
 def _silent_imu(client: Any, options: CanSuitOptions) -> Check:

@@ -54,6 +54,7 @@ from bowden.cli._sync_options import add_sync_arguments, open_sync_outputs
 from bowden.cli._sync_options import trigger_report as _trigger_report
 from bowden.contracts import CONDITIONS, SPEEDS
 from bowden.errors import BowdenError, ParameterError, StoreError
+from bowden.hardware.lsl_imu import parse_imu
 from bowden.model import CompensationModel
 from bowden.protocol.catalogue import Catalogue
 from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row
@@ -347,7 +348,8 @@ def run(args: argparse.Namespace) -> int:
         recording_error = ""
         try:
             opener = (open_sim_backend(reference=reference, announce=_say, motor=suit.motor,
-                                       firmware=suit.firmware, motor_id=suit.motor_id)
+                                       firmware=suit.firmware, motor_id=suit.motor_id,
+                                       imu_lsl_name=parse_imu(suit.imu))
                       if options is None else open_can_backend(options))
             backend = stack.enter_context(opener)
             print(f"bowden run: {backend.describe}", file=sys.stderr)

@@ -47,6 +47,7 @@ def open_sim_backend(
     *, speed: str = "V1", reference: FollowedReference | None = None, calibration_s: float = 0.3,
     in_process: bool = False, announce: Callable[[str], None] | None = None,
     motor: str = "AK60-6", firmware: str | None = None, motor_id: int = 1,
+    imu_lsl_name: str | None = None,
 ) -> Iterator[Backend]:
     """The simulated suit behind its wire peers, driven by the real drivers (all closed on exit).
 
@@ -69,6 +70,9 @@ def open_sim_backend(
     motor_id
         The id the *driver* expects (``--motor-id``); the simulated motor answers on id 1, so another
         id hears no reply, as on the real bus.
+    imu_lsl_name
+        The simulated IMU publishes an LSL quaternion stream of this name, read by
+        :class:`~bowden.hardware.lsl_imu.LslImuClient` (``--imu lsl:NAME``), instead of NGIMU OSC.
     """
     from bowden.hardware.ak60 import AK60Config
     from bowden.hardware.motors import motor_model
@@ -79,7 +83,7 @@ def open_sim_backend(
         config = AK60Config(motor_id=motor_id, limits=limits, torque_limit_nm=limits.torque_nm)
     cycle = MinimumJerkCycle(peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]))
     opener = _in_process if in_process else _own_process
-    with opener(cycle, reference, calibration_s, announce, config) as backend:
+    with opener(cycle, reference, calibration_s, announce, config, imu_lsl_name) as backend:
         backend.describe = f"{motor} ({limits.velocity_rad_s:g} rad/s, {limits.torque_nm:g} Nm ranges) " \
                            f"on the {backend.describe}"
         yield backend
@@ -87,7 +91,8 @@ def open_sim_backend(
 
 @contextmanager
 def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, calibration_s: float,
-                 announce: Callable[[str], None] | None, config: AK60Config) -> Iterator[Backend]:
+                 announce: Callable[[str], None] | None, config: AK60Config,
+                 imu_lsl_name: str | None = None) -> Iterator[Backend]:
     import can
 
     from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
@@ -98,10 +103,16 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
     from bowden.sim.link.suit_process import SimulatedSuitProcess
 
     with ExitStack() as stack:
-        imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
-        suit = SimulatedSuitProcess(imu_target=imu.address, reference=reference,
-                                    cycle=cycle if reference is None else None, motor_limits=config.limits)
+        ngimu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
+        suit = SimulatedSuitProcess(imu_target=ngimu.address, reference=reference,
+                                    cycle=cycle if reference is None else None, motor_limits=config.limits,
+                                    imu_lsl_name=imu_lsl_name)
         stack.enter_context(suit.start(announce))
+        imu: Any = ngimu
+        if imu_lsl_name is not None:  # the child publishes the stream now
+            from bowden.hardware.lsl_imu import LslImuClient, LslImuConfig
+
+            imu = stack.enter_context(LslImuClient(LslImuConfig(stream_name=imu_lsl_name)))
         bus = stack.enter_context(can.Bus(interface="bowden_loopback", channel=suit.can_channel))
         smbus = stack.enter_context(RemoteSMBus(suit.i2c_path))
         calibration = LoadCellCalibration(offset_v=0.05, gain_n_per_v=100.0)
@@ -123,7 +134,8 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
             motor=stack.enter_context(AK60Motor(bus, config)),
             imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
             describe=f"simulated suit in its own process (pid {suit.pid}): CAN over bowden_loopback, "
-                     f"OSC on {imu.address[0]}:{imu.address[1]}, I²C over a local socket",
+                     + (f"OSC on {ngimu.address[0]}:{ngimu.address[1]}" if imu is ngimu else imu.source)
+                     + ", I²C over a local socket",
             inject=suit.inject, simulation=suit,
         )
 
@@ -181,7 +193,8 @@ def open_sim_bench(*, calibration_s: float = 0.3, announce: Callable[[str], None
 
 @contextmanager
 def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, calibration_s: float,
-                announce: Callable[[str], None] | None, config: AK60Config) -> Iterator[Backend]:
+                announce: Callable[[str], None] | None, config: AK60Config,
+                imu_lsl_name: str | None = None) -> Iterator[Backend]:
     import can
 
     from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
@@ -200,8 +213,16 @@ def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, ca
         driver_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
         peer_bus = stack.enter_context(can.Bus(interface="virtual", channel=channel))
         motor_peer = stack.enter_context(AK60Peer(peer_bus, plant, limits=config.limits))
-        imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
-        imu_peer = stack.enter_context(NgimuPeer(plant, imu.address, rate_hz=200.0))
+        imu: Any
+        if imu_lsl_name is not None:
+            from bowden.hardware.lsl_imu import LslImuClient, LslImuConfig
+            from bowden.sim.peers.lsl_imu_peer import LslImuPeer
+
+            imu_peer: NgimuPeer = stack.enter_context(LslImuPeer(plant, imu_lsl_name, rate_hz=200.0))
+            imu = stack.enter_context(LslImuClient(LslImuConfig(stream_name=imu_lsl_name)))
+        else:
+            imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
+            imu_peer = stack.enter_context(NgimuPeer(plant, imu.address, rate_hz=200.0))
         adc = ADS1115Peer(plant, offset_v=0.05, volts_per_newton=0.01)
         smbus = stack.enter_context(FakeSMBus(adc))
         calibration = LoadCellCalibration(offset_v=0.05, gain_n_per_v=100.0)
@@ -234,8 +255,8 @@ def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, ca
         yield Backend(
             motor=stack.enter_context(AK60Motor(driver_bus, config)),
             imu=imu, clock=MonotonicClock(), load_cell=load_cell, reference_elevation=recorded,
-            describe=f"simulated suit in this process over virtual CAN {channel}, OSC on {imu.address}, "
-                     "fake I²C",
+            describe=f"simulated suit in this process over virtual CAN {channel}, "
+                     f"{getattr(imu, 'source', '') or f'OSC on {imu.address}'}, fake I²C",
             inject=inject,
         )
 

@@ -86,6 +86,9 @@ class SuitProcessSettings:
     motor_limits
         The MIT-mode ranges the simulated TDU speaks (an ``AK60Limits``: its AK model's and firmware's,
         ``bowden.hardware.motors``), None for the AK60-6's default.
+    imu_lsl_name
+        Publish the arm as an LSL quaternion stream of this name (``--imu lsl:NAME``) instead of
+        sending NGIMU OSC bundles to ``imu_target``.
     """
 
     directory: str
@@ -95,6 +98,7 @@ class SuitProcessSettings:
     imu_rate_hz: float = 200.0
     bench: bool = False
     motor_limits: Any = None
+    imu_lsl_name: str | None = None
 
 
 class SimulatedSuitProcess:
@@ -112,7 +116,7 @@ class SimulatedSuitProcess:
 
     def __init__(self, *, imu_target: tuple[str, int], reference: Any = None, cycle: Any = None,
                  bench: bool = False, ready_timeout_s: float = READY_TIMEOUT_S,
-                 motor_limits: Any = None) -> None:
+                 motor_limits: Any = None, imu_lsl_name: str | None = None) -> None:
         if not imu_target[0].startswith("127.") and imu_target[0] != "::1":
             raise ParameterError(f"the simulated IMU sends to loopback only, got {imu_target[0]!r}")
         if reference is None and cycle is None and not bench:
@@ -120,7 +124,7 @@ class SimulatedSuitProcess:
         self._directory = Path(tempfile.mkdtemp(prefix="bowden-suit-"))
         self.settings = SuitProcessSettings(directory=str(self._directory), imu_target=imu_target,
                                             reference=reference, cycle=cycle, bench=bench,
-                                            motor_limits=motor_limits)
+                                            motor_limits=motor_limits, imu_lsl_name=imu_lsl_name)
         self.ready_timeout_s = ready_timeout_s
         self._process: subprocess.Popen[str] | None = None
         self._requests: Connection | None = None
@@ -464,7 +468,13 @@ class _ChildDevices:
             self.mannequin = AK60Peer(mannequin_bus, joint, motor_id=MANNEQUIN_MOTOR_ID,
                                       limits=limits).start()
             self._closers.insert(0, self.mannequin.close)
-        self.imu = NgimuPeer(self.plant, settings.imu_target, rate_hz=settings.imu_rate_hz).start()
+        if settings.imu_lsl_name is not None:
+            from bowden.sim.peers.lsl_imu_peer import LslImuPeer
+
+            self.imu: NgimuPeer = LslImuPeer(self.plant, settings.imu_lsl_name,
+                                             rate_hz=settings.imu_rate_hz).start()
+        else:
+            self.imu = NgimuPeer(self.plant, settings.imu_target, rate_hz=settings.imu_rate_hz).start()
         self._closers.insert(0, self.imu.close)
         self.adc = ADS1115Peer(self.plant, offset_v=0.05, volts_per_newton=0.01)
         self.i2c = I2CServer(FakeSMBus(self.adc), directory / "i2c.sock").start()

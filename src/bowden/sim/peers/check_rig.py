@@ -47,9 +47,15 @@ class SimulatedRig:
     _stack: ExitStack = field(repr=False)
     imu_peer: NgimuPeer | None = None
 
-    def start_imu(self, target: tuple[str, int], rate_hz: float = 200.0) -> NgimuPeer:
-        """Start the IMU sending to ``target`` (the client the check opened), arm hanging still."""
-        peer = self._stack.enter_context(NgimuPeer(self.plant, target, rate_hz=rate_hz))
+    def start_imu(self, target: tuple[str, int] | str, rate_hz: float = 200.0) -> NgimuPeer:
+        """Start the IMU sending to ``target`` (the client the check opened; a name: an LSL stream of
+        that name), the arm hanging still."""
+        if isinstance(target, str):
+            from bowden.sim.peers.lsl_imu_peer import LslImuPeer
+
+            peer: NgimuPeer = self._stack.enter_context(LslImuPeer(self.plant, target, rate_hz=rate_hz))
+        else:
+            peer = self._stack.enter_context(NgimuPeer(self.plant, target, rate_hz=rate_hz))
         peer.hold_arm_down()
         if "silent-imu" in self.faults:
             peer.pause()

@@ -192,9 +192,13 @@ class NgimuPeer(StartedInWith):
                 if sample is None:
                     continue
                 elevation, velocity = sample.elevation_rad, sample.elevation_velocity_rad_s
-            for datagram in self.datagrams(elevation, velocity):
-                try:
-                    self._socket.sendto(datagram, self.target)
-                except OSError:
-                    continue  # nobody listening yet (ICMP port unreachable): a real IMU sends anyway
+            self._emit(elevation, velocity)
             self.sent += 1
+
+    def _emit(self, elevation_rad: float, elevation_velocity_rad_s: float) -> None:
+        """Send one arm state (the LSL peer, :mod:`bowden.sim.peers.lsl_imu_peer`, pushes it instead)."""
+        for datagram in self.datagrams(elevation_rad, elevation_velocity_rad_s):
+            try:
+                self._socket.sendto(datagram, self.target)
+            except OSError:
+                continue  # nobody listening yet (ICMP port unreachable): a real IMU sends anyway

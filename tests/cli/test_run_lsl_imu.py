@@ -1,0 +1,33 @@
+"""``bowden run --backend sim --motor AK70-10 --imu lsl:NAME`` runs a trial (issue 31, "Done when").
+
+The simulated suit, in its own process, has an AK70-10 speaking its own MIT ranges and an IMU that
+publishes the arm as an LSL quaternion stream; the loop's process reads it with the LSL client.
+Discovery stays on this machine (ResolveScope = machine). In the real-time group of tests/conftest.py.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("pylsl")
+
+
+def test_a_trial_with_another_motor_and_an_lsl_imu(tmp_path: Path) -> None:
+    config = tmp_path / "lsl_api.cfg"
+    config.write_text("[ports]\nIPv6 = disable\n\n[multicast]\nResolveScope = machine\n")
+    name = f"bowden-test-arm-{os.getpid()}"
+    run = subprocess.run(
+        [sys.executable, "-m", "bowden", "run", "--backend", "sim", "--motor", "AK70-10",
+         "--imu", f"lsl:{name}", "--duration", "2", "--rate", "250", "--lead-in", "0.5"],
+        env={**os.environ, "LSLAPICFG": str(config)}, cwd=tmp_path, capture_output=True, text=True,
+        timeout=240,
+    )
+    assert run.returncode == 0, run.stderr
+    assert "AK70-10 (50 rad/s, 25 Nm ranges)" in run.stderr
+    assert f"LSL quaternion stream '{name}'" in run.stderr
+    assert "stopped: duration 2 s reached (no fault)" in run.stdout + run.stderr
