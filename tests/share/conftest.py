@@ -1,0 +1,51 @@
+"""A small simulated study made once per session, and the official BIDS validator."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from bowden.cli import main
+
+Validate = Callable[[Path], list[dict[str, Any]]]
+
+
+@pytest.fixture(scope="session")
+def small_study(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The study directory of ``bowden study`` with its smallest options (about 10 s on one core)."""
+    out = tmp_path_factory.mktemp("study") / "study"
+    code = main(["study", "--participants", "2", "--repetitions", "2", "--quick-bench", "--workers", "1",
+                 "--quiet", "--out", str(out)])
+    assert code == 0
+    return out
+
+
+def _validator() -> str:
+    """The ``bids-validator-deno`` executable of this environment (a dev dependency)."""
+    beside = Path(sys.executable).with_name("bids-validator-deno")
+    found = str(beside) if beside.exists() else shutil.which("bids-validator-deno")
+    assert found, "bids-validator-deno is a dev dependency: pip install -e '.[dev]'"
+    return found
+
+
+def validation_errors(dataset: Path) -> list[dict[str, Any]]:
+    """Every issue of severity ``error`` the official validator reports, every row of every TSV checked."""
+    run = subprocess.run(
+        [_validator(), "--format", "json", "--max-rows", "-1", str(dataset)],
+        capture_output=True, text=True, timeout=240, check=False,
+    )
+    issues = json.loads(run.stdout)["issues"]["issues"]
+    assert isinstance(issues, list)
+    return [issue for issue in issues if issue.get("severity") == "error"]
+
+
+@pytest.fixture(scope="session")
+def bids_errors() -> Validate:
+    return validation_errors
