@@ -96,3 +96,31 @@ def test_the_dynamic_parameters_are_checked() -> None:
     jump = DYNAMIC.friction_nm(30.0, 1e-9) - DYNAMIC.friction_nm(30.0, -1e-9)
     assert jump == pytest.approx(DYNAMIC.raising.torque_nm(30.0) - DYNAMIC.lowering.torque_nm(30.0), rel=1e-6)
     assert DYNAMIC.friction_nm(30.0, 2.0) - DYNAMIC.friction_nm(30.0, 1.0) == pytest.approx(0.042)
+
+
+def test_a_dynamic_compensation_not_recommended_leaves_the_controller_on_the_papers_lines(
+    tmp_path: Path,
+) -> None:
+    from dataclasses import replace
+
+    from bowden.control import build_controller
+    from bowden.model import Subject
+
+    why = "at V3 the dynamic compensation's RMSE 9.50 N does not beat the paper's 7.30 N"
+    path = tmp_path / "model.json"
+    save_model(replace(MODEL, dynamic=replace(DYNAMIC, recommended=False, recommendation=why)), path)
+    loaded = load_model(path)
+    assert loaded.dynamic is not None
+    assert (loaded.dynamic.recommended, loaded.dynamic.recommendation) == (False, why)
+    subject = Subject(height_m=1.70, mass_kg=63.0, sex="female")
+    assert build_controller(model=path, support=0.5, subject=subject).compensation == "paper"
+    forced = build_controller(model=path, support=0.5, subject=subject, compensation="dynamic")
+    assert forced.compensation == "dynamic"
+    # A file written before the recommendation existed keeps recommending the dynamic compensation.
+    data = model_to_dict(MODEL)
+    del data["dynamic"]["recommended"], data["dynamic"]["recommendation"]
+    old = write(tmp_path, data)
+    assert build_controller(model=old, support=0.5, subject=subject).compensation == "dynamic"
+    data["dynamic"]["recommended"] = "no"
+    with pytest.raises(ModelFileError, match=r"dynamic\.recommended"):
+        load_model(write(tmp_path, data))

@@ -118,7 +118,7 @@ def build_controller(
     compensation
         ``"paper"``: the paper's two lines and sigmoid, exactly; ``"dynamic"``: the model's dynamic
         compensation (:mod:`bowden.model.dynamic`); None: the model's recommendation (dynamic when
-        the model holds one).
+        the model holds one and recommends it, :attr:`DynamicCompensation.recommended`).
 
     Raises
     ------
@@ -127,7 +127,7 @@ def build_controller(
     """
     loaded = model if isinstance(model, CompensationModel) else load_model(model)
     if compensation is None:
-        compensation = "dynamic" if loaded.dynamic is not None else "paper"
+        compensation = "dynamic" if loaded.dynamic is not None and loaded.dynamic.recommended else "paper"
     return Controller(
         model=loaded,
         compensation=compensation,

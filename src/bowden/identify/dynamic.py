@@ -219,11 +219,16 @@ def format_dynamic(dynamic: DynamicCompensation) -> str:
         drag += f" ± {1e3 * fit.viscous_se_nm_s_rad:.2f}"
         inertia += f" ± {1e3 * fit.inertia_se_kg_m2:.3f}"
     up, down = dynamic.raising, dynamic.lowering
+    if dynamic.recommended:
+        choice = f"recommended ({dynamic.recommendation}); compensation='paper' forces the paper's lines"
+    else:
+        choice = (f"NOT recommended ({dynamic.recommendation}); the controller uses the paper's lines "
+                  "unless asked for compensation='dynamic'")
     lines = [
-        "Dynamic compensation (recommended; build_controller(compensation='paper') forces the paper's):",
+        f"Dynamic compensation, {choice}:",
         f"  Coulomb lines: raising {up.intercept_nm:+.4f} Nm + {1e3 * up.slope_m:.3f} mm·T,"
         f" lowering {down.intercept_nm:+.4f} Nm + {1e3 * down.slope_m:.3f} mm·T",
-        f"  drag {drag}, inertia {inertia}, IMU latency assumed {1e3 * dynamic.imu_latency_s:.0f} ms",
+        f"  drag {drag}, inertia {inertia}, IMU latency {1e3 * dynamic.imu_latency_s:.1f} ms",
     ]
     if fit is not None and fit.regime_rms_nm:
         paper = dict(fit.paper_rms_nm)

@@ -92,6 +92,11 @@ class DynamicCompensation:
     max_dynamic_nm
         Bound on the drag and inertia terms together: a wrong velocity or acceleration estimate can
         never add more than this to the command.
+    recommended, recommendation
+        Whether the dynamic compensation is recommended over the paper's lines and the one line why:
+        it is only where the study-like bench segment showed it beating the paper's on held-out
+        strokes at every speed (docs/dynamic_compensation.md, "Which compensation"); ``build_controller``
+        uses the paper's lines by default when it is not. A model never validated says so.
     """
 
     raising: CompensationLine
@@ -103,6 +108,8 @@ class DynamicCompensation:
     reversal_time_s: float = 0.01
     max_dynamic_nm: float = 0.6
     fit: DynamicFitStats | None = None
+    recommended: bool = True
+    recommendation: str = "not validated on the bench's study-like segment"
 
     def __post_init__(self) -> None:
         check_field(self, "viscous_nm_s_rad", 0.0, 1.0)
@@ -111,6 +118,8 @@ class DynamicCompensation:
         check_field(self, "reversal_hysteresis_rad_s", 0.0, 2.0)
         check_field(self, "reversal_time_s", 1e-4, 1.0)
         check_field(self, "max_dynamic_nm", 0.0, 5.0)
+        if not isinstance(self.recommended, bool) or not isinstance(self.recommendation, str):
+            raise ParameterError("DynamicCompensation.recommended must be a bool and recommendation a string")
         if self.raising.slope_m < self.lowering.slope_m:
             raise ParameterError(
                 f"DynamicCompensation: the raising slope ({self.raising.slope_m:.5g} m) is below the "

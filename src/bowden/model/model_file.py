@@ -14,6 +14,7 @@ Format (version 2; version 1 is the same without ``dynamic`` and still loads)::
       "dynamic": {"raising": {"intercept_nm": ..., "slope_m": ...}, "lowering": {...},
                   "viscous_nm_s_rad": 0.04, "inertia_kg_m2": 0.0015, "imu_latency_s": 0.05,
                   "reversal_hysteresis_rad_s": 0.07, "reversal_time_s": 0.01, "max_dynamic_nm": 0.6,
+                  "recommended": true, "recommendation": "why, one line" (both optional),
                   "fit": {"n": ..., "viscous_se_nm_s_rad": ..., "inertia_se_kg_m2": ...,
                           "regime_rms_nm": {...}, "paper_rms_nm": {...}}
                           | null} | null,
@@ -32,7 +33,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Mapping
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -102,6 +103,8 @@ def _dynamic_to_dict(dynamic: DynamicCompensation) -> dict[str, Any]:
         "lowering": {"intercept_nm": dynamic.lowering.intercept_nm, "slope_m": dynamic.lowering.slope_m},
     }
     out.update({name: getattr(dynamic, name) for name in _DYNAMIC_NUMBERS})
+    out["recommended"] = dynamic.recommended
+    out["recommendation"] = dynamic.recommendation
     fit = dynamic.fit
     out["fit"] = None if fit is None else {
         "n": fit.n,
@@ -331,12 +334,22 @@ def _dynamic_from_dict(read: _Reader, data: Any) -> DynamicCompensation:
                 prefix + "intercept_nm", f"is beyond the motor's peak torque ({MAX_INTERCEPT_NM:g} Nm)"
             )
     numbers = {name: read.number(data, name, "dynamic.") for name in _DYNAMIC_NUMBERS}
+    choice: dict[str, Any] = {}
+    if "recommended" in data:
+        if not isinstance(data["recommended"], bool):
+            raise read.fail("dynamic.recommended", f"must be true or false, got {data['recommended']!r}")
+        choice["recommended"] = data["recommended"]
+    if "recommendation" in data:
+        choice["recommendation"] = read.string(data, "recommendation", "dynamic.")
     fit = None
     fit_data = read.get(data, "fit", "dynamic.")
     if fit_data is not None:
         fit = _dynamic_fit_from_dict(read, fit_data)
     try:
-        return DynamicCompensation(raising=lines["raising"], lowering=lines["lowering"], fit=fit, **numbers)
+        compensation = DynamicCompensation(
+            raising=lines["raising"], lowering=lines["lowering"], fit=fit, **numbers
+        )
+        return replace(compensation, **choice)
     except ParameterError as error:
         raise read.fail("dynamic", f"is invalid: {error}") from None
 

@@ -15,7 +15,7 @@ elevation (not the controller's own, delayed or predicted, view of it):
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
@@ -140,6 +140,9 @@ def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.Dat
     """One row per participant, condition, speed and compensation on one suit."""
     model = identify_plant(plant, settings)
     recommended, why = recommend_compensation(model, plant.suit, seed=settings.bench_seed)
+    if model.dynamic is not None:  # what the lab's model.json would say
+        model = replace(model, dynamic=replace(model.dynamic, recommended=recommended == "dynamic",
+                                               recommendation=why))
     rows = [
         {
             "plant": plant.name,
