@@ -333,7 +333,7 @@ def _dynamic_from_dict(read: _Reader, data: Any) -> DynamicCompensation:
             raise read.fail(
                 prefix + "intercept_nm", f"is beyond the motor's peak torque ({MAX_INTERCEPT_NM:g} Nm)"
             )
-    numbers = {name: read.number(data, name, "dynamic.") for name in _DYNAMIC_NUMBERS}
+    numbers: dict[str, Any] = {name: read.number(data, name, "dynamic.") for name in _DYNAMIC_NUMBERS}
     choice: dict[str, Any] = {}
     if "recommended" in data:
         if not isinstance(data["recommended"], bool):
