@@ -62,7 +62,27 @@ class Clock(Protocol):
 
 @runtime_checkable
 class Motor(Protocol):
-    """A torque-controlled motor driving the spool."""
+    """A torque-controlled motor driving the spool — the interface an actuator plug-in implements.
+
+    A lab with another actuator (an ODrive, a CubeMars motor in servo mode, ...) writes one class
+    with these methods and hands it to :class:`~bowden.runtime.ControlLoop` (``motor=``); a worked
+    example with its simulated peer is ``docs/examples/servo_motor.py`` (docs/hardware.md, "Plug in
+    your own actuator"). The contract the loop relies on:
+
+    * units and signs of the spool side: torque in Nm, > 0 pulls the cable; position (multi-turn)
+      and velocity of the spool in rad and rad/s; ``MotorState.time_s`` on the loop's clock;
+    * :meth:`command_torque` never blocks for long (the loop calls it every cycle, at up to 2 kHz):
+      one send, and the replies that have already arrived; None when no new reply arrived — the
+      loop's no-reply watchdog counts those cycles (``--motor-silence-ms``);
+    * a failed send raises :class:`~bowden.errors.TransmitError` (the loop counts them: three in a
+      row stop the suit); a NaN torque raises :class:`~bowden.errors.ParameterError`;
+    * ``error_code`` ≠ 0 and the temperature are watched by the loop (``MOTOR_ERROR``,
+      ``MOTOR_OVER_TEMPERATURE``): pass the device's own through, NaN for an unknown temperature;
+    * :meth:`disable` and ``__exit__`` leave the motor limp and never raise (keep a failure in an
+      ``exit_error`` attribute: ``bowden run`` prints it);
+    * optional: ``command_mit(position_rad, velocity_rad_s, kp, kd, torque_nm)`` for the slack
+      take-up in velocity mode, ``last_malformed`` (why the last frame was refused).
+    """
 
     def enable(self) -> MotorState:
         """Enter motor mode; returns the first state."""
