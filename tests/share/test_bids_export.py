@@ -100,7 +100,9 @@ def test_the_loop_signals_and_the_elevation_read_back_as_stored(small_study: Pat
             (physio,) = exported.glob(f"sub-*/beh/*_run-{trial_id}_recording-loop_physio.tsv.gz")
             sidecar = json.loads(physio.with_name(physio.name.replace(".tsv.gz", ".json")).read_text())
             assert sidecar["Columns"] == list(TRIAL_COLUMNS)
-            assert sidecar["CompensationModel"]["format"] == "bowden.compensation_model"
+            model = sidecar["CompensationModel"]
+            assert model["document"]["format"] == "bowden.compensation_model"  # the study's model.json
+            assert model["model_coefficients"] == store.trial_metadata(trial_id)["model_coefficients"]
             with gzip.open(physio, "rt") as text:
                 back = _exact(pd.read_csv(text, sep="\t", header=None, names=sidecar["Columns"], dtype=str))
             for column in TRIAL_COLUMNS:

@@ -10,6 +10,7 @@ official validator (``bids-validator-deno``) passes the result with zero errors
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from dataclasses import dataclass
@@ -161,7 +162,7 @@ def _export_trial(
         physio_sidecar(
             time,
             start_time_s=float(time[0]) - emg_start,
-            model=model,
+            model=trial_model(meta, model),
         ),
     )
     _write_events(
@@ -169,6 +170,19 @@ def _export_trial(
     )
     files.append((f"beh/{physio}.tsv.gz", when))
     return files
+
+
+def trial_model(meta: dict[str, Any], stored: Any) -> Any:
+    """The compensation model the trial's controller used, as its metadata recorded it (file, SHA-256,
+    coefficients, compensation), with the store's ``model.json`` document when the SHA-256 is its."""
+    keys = ("compensation", "model", "model_sha256", "model_coefficients")
+    recorded = {key: meta[key] for key in keys if key in meta}
+    if stored is None:
+        return recorded or None
+    text, document = stored
+    if not recorded or meta.get("model_sha256") == hashlib.sha256(text.encode()).hexdigest():
+        return {**recorded, "document": document}
+    return recorded
 
 
 def store_support(meta: dict[str, Any], row: Any) -> float | None:
@@ -200,13 +214,13 @@ def _folder(parent: Path, name: str) -> Path:
     return folder
 
 
-def _stored_model(store: StudyStore) -> Any:
-    """The compensation model document the store keeps (``model.json``), or None."""
+def _stored_model(store: StudyStore) -> tuple[str, Any] | None:
+    """The compensation model document the store keeps (``model.json``): its text and content, or None."""
     text = store.artifact("model.json")
     if text is None:
         return None
     try:
-        return json.loads(text)
+        return text, json.loads(text)
     except ValueError:
         return None
 
