@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
+from bowden.cli import main
 from bowden.identify import TransmissionIdentifier
 from bowden.model import CompensationModel
+from bowden.model.model_file import load_model
 from bowden.protocol.bench import QUICK_BENCH
 from bowden.sim.bench import run_bench
 from bowden.sim.bench_study import recommend_compensation, run_study_segment
@@ -37,3 +41,24 @@ def test_a_dynamic_compensation_that_loses_on_the_bench_is_not_recommended(model
     choice, why = recommend_compensation(wrong, SuitParameters())
     assert choice == "paper"
     assert "does not beat the paper's" in why
+
+
+def test_bench_simulate_writes_the_latency_segment_and_validate_recommends(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bench, latency, model_path = tmp_path / "bench.csv", tmp_path / "latency.csv", tmp_path / "model.json"
+    assert main(["bench", "simulate", "-o", str(bench), "--speeds", "0.5", "2", "6", "--loads", "1", "3",
+                 "--repetitions", "1", "--quiet", "--latency-out", str(latency)]) == 0
+    assert main(["identify", str(bench), "-o", str(model_path), "--latency-recording", str(latency)]) == 0
+    dynamic = load_model(model_path).dynamic
+    assert dynamic is not None and dynamic.imu_latency_s == pytest.approx(0.05, abs=0.003)
+    capsys.readouterr()
+    assert main(["bench", "validate", str(model_path), "-o", str(model_path)]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"^V3\s+dynamic\s+\d+\.\d\d\s+-?\d+\.\d$", out, re.MULTILINE)
+    assert "recommended: dynamic" in out
+    validated = load_model(model_path).dynamic
+    assert validated is not None and validated.recommended
+    assert validated.recommendation.startswith("the dynamic compensation beats the paper's")
+    assert main(["bench", "validate", str(model_path), "--support", "2"]) == 1
+    assert "--support" in capsys.readouterr().err

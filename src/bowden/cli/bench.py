@@ -46,8 +46,29 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     simulate.add_argument("--low-deg", type=float, help="low end of the strokes, degrees (default 20)")
     simulate.add_argument("--high-deg", type=float, help="high end of the strokes, degrees (default 110)")
     simulate.add_argument("--quiet", action="store_true", help="no progress output")
+    simulate.add_argument(
+        "--latency-out", type=Path,
+        help="also write the latency segment (time_s, elevation_rad, mannequin_elevation_rad) for "
+        "`bowden identify --latency-recording`",
+    )
     simulate.set_defaults(handler=run_simulate)
     _register_run(actions)
+    validate = actions.add_parser(
+        "validate",
+        help="run the study-like segment with both compensations and recommend one",
+        description="The mannequin moves the arm along the study's minimum-jerk cycle (20°-100°-20°, "
+        "V1-V3) while the controller runs each compensation; prints tension RMSE and lowering-onset "
+        "peak per speed against the load cell, and which compensation the model should recommend.",
+    )
+    validate.add_argument("model", type=Path, help="the model.json to validate")
+    validate.add_argument("--backend", choices=("sim",), default="sim",
+                          help="sim: the simulated bench (the real bench's study-like segment is not "
+                          "implemented yet)")
+    validate.add_argument("--support", type=float, default=0.5, help="support fraction (default 0.5)")
+    validate.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default 0)")
+    validate.add_argument("-o", "--output", type=Path,
+                          help="write the model with its recommendation here (may be MODEL itself)")
+    validate.set_defaults(handler=run_validate)
     parser.set_defaults(handler=lambda args: _usage(parser))
 
 
@@ -99,6 +120,33 @@ def run_bench_command(args: argparse.Namespace) -> int:
     return run_bench_on_backend(args)
 
 
+def run_validate(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from bowden.model.model_file import load_model, save_model
+    from bowden.sim.bench_study import recommendation, validate_compensations
+    from bowden.sim.parameters import SuitParameters
+
+    if not 0.0 < args.support <= 1.0:
+        raise ParameterError(f"--support must be in (0, 1], got {args.support:g}")
+    model = load_model(args.model)
+    suit = SuitParameters()
+    results = validate_compensations(model, suit, seed=args.seed, support=args.support)
+    print("speed  compensation  tension RMSE (N)  lowering-onset peak (%)")
+    for speed, by_name in results.items():
+        for name, result in by_name.items():
+            print(f"{speed:5s}  {name:12s}  {result.tension_rmse_n:16.2f}  {result.onset_peak_pct:23.1f}")
+    choice, why = recommendation(results)
+    print(f"recommended: {choice} ({why})")
+    if args.output is not None:
+        if model.dynamic is None:
+            raise ParameterError("-o: the model has no dynamic compensation to recommend or not")
+        dynamic = replace(model.dynamic, recommended=choice == "dynamic", recommendation=why)
+        save_model(replace(model, dynamic=dynamic), args.output)
+        print(f"Model written to {args.output}")
+    return 0
+
+
 def run_simulate(args: argparse.Namespace) -> int:
     from bowden.cli._bench_run import bench_protocol
     from bowden.sim.bench import run_bench
@@ -135,6 +183,16 @@ def run_simulate(args: argparse.Namespace) -> int:
     except OSError as error:
         reason = error.strerror or error
         raise OutputFileError(f"cannot write the bench recording to {output}: {reason}") from None
+    if args.latency_out is not None:
+        from bowden.sim.bench_latency import run_latency_segment
+
+        segment = run_latency_segment(seed=args.seed)
+        try:
+            segment.to_csv(args.latency_out, index=False)
+        except OSError as error:
+            raise OutputFileError(f"cannot write the latency segment to {args.latency_out}: "
+                                  f"{error.strerror or error}") from None
+        print(f"wrote the latency segment ({len(segment)} samples) to {args.latency_out}")
     duration = float(frame["time_s"].iloc[-1])
     print(f"wrote {len(frame)} samples ({duration:.0f} s simulated, {protocol.n_strokes} strokes) "
           f"to {output}")

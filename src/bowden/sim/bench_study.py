@@ -101,18 +101,36 @@ def run_study_segment(model: CompensationModel, suit: SuitParameters, *, compens
     return StrokeResult(float(np.sqrt(np.mean(error**2))), float(curve[window].max()))
 
 
-def recommend_compensation(
-    model: CompensationModel, suit: SuitParameters, *, seed: int = 0
-) -> tuple[str, str]:
+def validate_compensations(
+    model: CompensationModel, suit: SuitParameters, *, seed: int = 0, support: float | str = 0.5
+) -> dict[str, dict[str, StrokeResult]]:
+    """The study-like segment at every speed with each compensation the model has: speed → name → result."""
+    names = ("paper", "dynamic") if model.dynamic is not None else ("paper",)
+    return {
+        speed: {
+            name: run_study_segment(model, suit, compensation=name, speed=speed, seed=seed, support=support)
+            for name in names
+        }
+        for speed in c.SPEEDS
+    }
+
+
+def recommendation(results: dict[str, dict[str, StrokeResult]]) -> tuple[str, str]:
     """``("dynamic" | "paper", why)``: dynamic only if it beats the paper's in RMSE and onset peak at
     every speed of the study-like segment (held-out repetitions); else the paper's lines."""
-    if model.dynamic is None:
+    if any("dynamic" not in by_name for by_name in results.values()):
         return "paper", "the model has no dynamic compensation"
-    for speed in c.SPEEDS:
-        paper = run_study_segment(model, suit, compensation="paper", speed=speed, seed=seed)
-        dynamic = run_study_segment(model, suit, compensation="dynamic", speed=speed, seed=seed)
+    for speed, by_name in results.items():
+        paper, dynamic = by_name["paper"], by_name["dynamic"]
         if dynamic.tension_rmse_n >= paper.tension_rmse_n or dynamic.onset_peak_pct >= paper.onset_peak_pct:
             return "paper", (f"at {speed} the dynamic compensation's RMSE {dynamic.tension_rmse_n:.2f} N / "
                              f"onset peak {dynamic.onset_peak_pct:.1f} % does not beat the paper's "
                              f"{paper.tension_rmse_n:.2f} N / {paper.onset_peak_pct:.1f} %")
     return "dynamic", "the dynamic compensation beats the paper's in RMSE and onset peak at every speed"
+
+
+def recommend_compensation(
+    model: CompensationModel, suit: SuitParameters, *, seed: int = 0, support: float | str = 0.5
+) -> tuple[str, str]:
+    """:func:`recommendation` from :func:`validate_compensations`."""
+    return recommendation(validate_compensations(model, suit, seed=seed, support=support))
