@@ -87,8 +87,8 @@ def test_each_outcome_row_names_its_trial(analysed: tuple[Path, Path], tmp_path:
 def test_the_report_lists_the_trials_stops_and_compensation(analysed: tuple[Path, Path]) -> None:
     _store, report = analysed
     text = report.read_text(encoding="utf-8")
-    assert "<h2>Trials</h2>" in text
-    section = text[text.index("<h2>Trials</h2>"):text.index("<h2>Methods</h2>")]
+    assert '<h2 id="trials">Trials</h2>' in text and '<a href="#trials">Trials</a>' in text  # in the contents
+    section = text[text.index('<h2 id="trials">Trials</h2>'):text.index('<h2 id="methods">Methods</h2>')]
     short = model_sha256(MODEL)[:12]
     # The odd stop stands alone with the trial's name; the four alike trials are one row.
     assert IMU_STOP in section and "#1 P01 support_50 V3" in section
