@@ -1,17 +1,23 @@
-"""Activations of the paper's recorded muscles from MyoArm's mechanics at one state of the arm.
+"""The paper's electrodes from MoBL's muscles: the one electrode mapping of the musculoskeletal model.
 
-Inverse dynamics of the humeral motion with the hand load and the cable's tension
-(:meth:`MyoArm.required_torques_nm`), less the muscles' passive forces, then static optimisation
-(:func:`solve_static`) over the shoulder and elbow muscles. The paper's electrodes are mapped to
-MoBL's muscles: anterior, medial and posterior deltoid to DELT1, DELT2, DELT3; the clavicular
-pectoralis major to PECM1; biceps to BIClong; triceps to TRIlong; latissimus dorsi to LAT1–3
-(their mean weighted by maximal force). The trapezius has no counterpart: MoBL moves the scapula
-by the rhythm's constraints, not by muscles, so it is not computed here (NaN).
+The paper's electrodes are mapped to MoBL's muscles (:data:`ELECTRODES`): anterior, medial and
+posterior deltoid to DELT1, DELT2, DELT3; the clavicular pectoralis major to PECM1; biceps to
+BIClong; triceps to TRIlong; latissimus dorsi to LAT1–3 (their mean weighted by maximal force).
+
+**Trapezius**: MoBL has none — its scapula follows the humerus by constraint, not by muscles. The
+upper trapezius and the deltoid act together as the force couple that elevates the arm and upwardly
+rotates the scapula (Inman, Saunders & Abbott 1944, J Bone Joint Surg 26:1): the trapezius
+electrode is represented by the unweighted mean of DELT1 and DELT2 (a proxy, not a mechanical
+result).
+
+:func:`solve_state` is the single-state path (MuJoCo at that state: inverse dynamics of the humeral
+motion with the hand load and the cable's tension, :meth:`MyoArm.required_torques_nm`, less the
+muscles' passive forces, then :func:`solve_static` over the shoulder and elbow muscles); the study
+path (:mod:`~bowden.sim.musculoskeletal.trial`) solves a trial's states from the table and maps them
+with the same :func:`electrode_activations`.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,7 +35,10 @@ ELECTRODES: dict[str, tuple[str, ...]] = {
     "triceps": ("TRIlong",),
     "latissimus_dorsi": ("LAT1", "LAT2", "LAT3"),
     "pectoralis_major": ("PECM1",),
+    "trapezius": ("DELT1", "DELT2"),  # proxy: see the module's docstring
 }
+# Electrodes whose MoBL muscles are averaged without weights (a proxy, not a muscle's share of force).
+UNWEIGHTED = frozenset({"trapezius"})
 
 
 def solve_state(
@@ -57,14 +66,28 @@ def solve_state(
     return solve_static(capacity, required - passive)
 
 
-def electrode_activations(arm: MyoArm, activations: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The paper's eight muscles (order of ``contracts.MUSCLES``) from MoBL's; NaN for the trapezius."""
-    force = np.array([arm.model.actuator_gainprm[i][2] for i in arm.muscle_ids])
-    out = np.full(len(MUSCLES), math.nan)
+def electrode_activations(
+    activations: NDArray[np.float64], max_force_n: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The paper's eight muscles (order of ``contracts.MUSCLES``) from MoBL's.
+
+    Parameters
+    ----------
+    activations
+        Shape (..., muscles): activations of :data:`ARM_MUSCLES` (one state or many).
+    max_force_n
+        Shape (muscles,): their maximal isometric forces (:attr:`MyoArm.max_force_n`), N, the
+        weights of an electrode over several muscles (LAT1–3).
+
+    Returns
+    -------
+    Shape (..., 8): force-weighted means of each electrode's muscles (unweighted for the
+    trapezius proxy).
+    """
+    activations = np.asarray(activations, dtype=np.float64)
+    weights = np.zeros((len(ARM_MUSCLES), len(MUSCLES)))
     for m, muscle in enumerate(MUSCLES):
-        names = ELECTRODES.get(muscle)
-        if names is None:
-            continue
-        index = [ARM_MUSCLES.index(name) for name in names]
-        out[m] = float(np.average(activations[index], weights=force[index]))
-    return out
+        index = [ARM_MUSCLES.index(name) for name in ELECTRODES[muscle]]
+        share = np.ones(len(index)) if muscle in UNWEIGHTED else np.asarray(max_force_n)[index]
+        weights[index, m] = share / share.sum()
+    return np.asarray(activations @ weights)

@@ -122,6 +122,11 @@ class MyoArm:
                 vector[m.jnt_dofadr[m.eq_obj1id[i]]] = polynomial[1]
         return vector
 
+    @property
+    def max_force_n(self) -> NDArray[np.float64]:
+        """Maximal isometric forces of :data:`ARM_MUSCLES` (MuJoCo's muscle gain parameter 2), N."""
+        return np.array([self.model.actuator_gainprm[i][2] for i in self.muscle_ids])
+
     def coupling(self, coordinate: str) -> NDArray[np.float64]:
         """The joint-space direction of ``coordinate`` (coupled joints included)."""
         return self._couplings[coordinate].copy()

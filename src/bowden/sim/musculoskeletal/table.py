@@ -102,7 +102,7 @@ def compute_table() -> MechanicsTable:
     arm_mass_kg = np.array(arm.model.body_subtreemass[arm.model.body("humerus_r").id])
     return MechanicsTable(ELEVATION_GRID_RAD.copy(), VELOCITY_GRID_RAD_S.copy(), capacity, passive, own,
                           inertia, hand, cable, arm_mass_kg,
-                          np.array([arm.model.actuator_gainprm[i][2] for i in arm.muscle_ids]))
+                          arm.max_force_n)
 
 
 @functools.lru_cache(maxsize=1)

@@ -20,10 +20,8 @@ arm's gravity and velocity torques scale with the participant's body mass over t
 ``gravity_scale``, its inertia with ``inertia_scale``; muscle forces with the body mass (the simple
 model's strength, 0.7 Nm/kg, is proportional to it too). Lengths are MyoArm's (not scaled).
 
-**Trapezius**: MoBL has none — its scapula follows the humerus by constraint. The upper trapezius
-and the deltoid act together as the force couple that elevates the arm and upwardly rotates the
-scapula (Inman, Saunders & Abbott 1944, J Bone Joint Surg 26:1): the trapezius electrode is
-represented by the mean of DELT1 and DELT2 (a proxy, not a mechanical result).
+**Electrodes**: :func:`~bowden.sim.musculoskeletal.activations.electrode_activations`, the one
+mapping (with the trapezius proxy) that the single-state path uses too.
 
 The solve runs at 100 Hz (activation dynamics, 15/50 ms, smooth faster changes anyway) and is
 interpolated to the control cycles before activation dynamics.
@@ -38,23 +36,14 @@ from numpy.typing import NDArray
 
 from bowden.contracts import MUSCLES
 from bowden.sim.muscles import ACTIVATION_TIME_S, DEACTIVATION_TIME_S, activation_dynamics
-from bowden.sim.musculoskeletal.myoarm import ARM_MUSCLES, COORDINATES, ELBOW, ELEVATION
+from bowden.sim.musculoskeletal.activations import electrode_activations
+from bowden.sim.musculoskeletal.myoarm import COORDINATES, ELBOW, ELEVATION
 from bowden.sim.musculoskeletal.static_optimisation import solve_static_batch
 from bowden.sim.musculoskeletal.table import MechanicsTable, interpolate, load_table
 from bowden.sim.participants import VirtualParticipant
 
 DE_LEVA_ARM_FRACTION = 0.0271 + 0.0162 + 0.0061  # upper arm, forearm, hand of body mass (men)
 SOLVE_RATE_HZ = 100.0
-ELECTRODES: dict[str, tuple[str, ...]] = {
-    "anterior_deltoid": ("DELT1",),
-    "medial_deltoid": ("DELT2",),
-    "posterior_deltoid": ("DELT3",),
-    "biceps": ("BIClong",),
-    "triceps": ("TRIlong",),
-    "latissimus_dorsi": ("LAT1", "LAT2", "LAT3"),
-    "pectoralis_major": ("PECM1",),
-    "trapezius": ("DELT1", "DELT2"),  # proxy: see the module's docstring
-}
 
 
 def cocontraction_row(capacity_nm: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -89,18 +78,6 @@ def required_and_capacity(
     capacity = np.concatenate([capacity, cocontraction_row(capacity)[:, None, :]], axis=1)
     required = np.concatenate([required, np.maximum(cocontraction_nm, 0.0)[:, None]], axis=1)
     return capacity, required
-
-
-def electrode_activations(
-    activations: NDArray[np.float64], max_force_n: NDArray[np.float64]
-) -> NDArray[np.float64]:
-    """(states, :data:`ARM_MUSCLES`) → (states, ``contracts.MUSCLES``), force-weighted means."""
-    out = np.empty((activations.shape[0], len(MUSCLES)))
-    for m, muscle in enumerate(MUSCLES):
-        index = [ARM_MUSCLES.index(name) for name in ELECTRODES[muscle]]
-        weights = max_force_n[index] if muscle != "trapezius" else np.ones(len(index))
-        out[:, m] = activations[:, index] @ (weights / weights.sum())
-    return out
 
 
 def trial_activations(
