@@ -14,7 +14,7 @@ from bowden.cli._outputs import check_output_directory
 from bowden.errors import ParameterError, StoreError
 from bowden.store.schema import STORE_FILE_NAME
 
-EXTRA: Final = ("emg", ("edfio",))
+EXTRA: Final = ("share", ("edfio",))
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
