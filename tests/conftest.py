@@ -51,6 +51,7 @@ SERIAL_GROUPS = {
         "tests/study/test_trial_traceability.py",
         "tests/web/test_browser_session.py",
         "tests/web/test_killed_server.py",
+        "tests/web/test_preflight_route.py",
         "tests/web/test_real_suit.py",
         "tests/web/test_serve_sync.py",
     ),

@@ -82,6 +82,17 @@ def check(args: argparse.Namespace) -> int:
     return 0 if all(c.ok for c in checks) else 1
 
 
+def preflight_report(served: argparse.Namespace) -> dict[str, object]:
+    """``bowden check --json``'s report for the suit ``bowden serve`` was started with (its console's
+    pre-flight): the same suit options, its model and its store. The trigger line and the LSL outlets
+    are left out: the server holds them open already (opening them was their check)."""
+    args = argparse.Namespace(**vars(served))
+    args.imu_rate, args.session_min, args.inject, args.lsl, args.trigger = 200.0, 60.0, [], False, None
+    args.record, args.rate = served.store, served.rate_hz
+    checks = run_checks(args, CanSuitOptions.from_args(args))
+    return {"ok": all(c.ok for c in checks), "checks": [c.to_json() for c in checks]}
+
+
 def _validate(args: argparse.Namespace) -> None:
     if not (math.isfinite(args.imu_rate) and 1.0 <= args.imu_rate <= 2000.0):
         raise ParameterError(f"--imu-rate must be 1–2000 Hz, got {args.imu_rate:g}")

@@ -13,6 +13,7 @@ the trigger line and publishes its LSL markers and samples, as ``bowden run`` do
 from __future__ import annotations
 
 import argparse
+import functools
 import logging
 import math
 import sys
@@ -32,6 +33,7 @@ from bowden.cli._suit import (
     require_hardware_extra,
 )
 from bowden.cli._sync_options import SyncOutputs, add_sync_arguments, open_sync_outputs
+from bowden.cli.check import preflight_report
 from bowden.contracts import BACKEND_CAN, REPETITIONS_PER_TRIAL, SPEEDS
 from bowden.errors import ParameterError
 from bowden.model.model_file import load_model
@@ -209,7 +211,7 @@ def _serve_config(args: argparse.Namespace) -> ServeConfig:
     return ServeConfig(store_path=args.store, model=model, model_file=args.model, backend=backend,
                        host=args.host, port=args.port,
                        rate_hz=args.rate_hz, safety=safety, realtime=realtime, slack=slack,
-                       protocol=protocol)
+                       protocol=protocol, preflight=functools.partial(preflight_report, args))
 
 
 def session_protocol(args: argparse.Namespace) -> StudyProtocol:

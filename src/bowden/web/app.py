@@ -35,6 +35,7 @@ from starlette.staticfiles import StaticFiles
 
 from bowden.web.http import Handler
 from bowden.web.live import ROLE_CONSOLE
+from bowden.web.preflight_routes import Preflight, preflight_routes
 from bowden.web.questionnaire_routes import questionnaire_routes
 from bowden.web.questionnaire_store import QuestionnaireStore
 from bowden.web.security import TOKEN_FIELD, TOKEN_HEADER, SecurityHeaders, SessionToken
@@ -56,6 +57,7 @@ def create_app(
     desk: SessionDesk,
     token: SessionToken,
     allowed_hosts: Sequence[str] = ("127.0.0.1", "localhost", "::1", "[::1]"),
+    preflight: Preflight | None = None,
 ) -> Starlette:
     """The bowden web application.
 
@@ -69,6 +71,8 @@ def create_app(
         The registry and the session plans (:mod:`bowden.web.session_routes`).
     token
         The session token operator actions and questionnaire writes need.
+    preflight
+        The checks of ``bowden check`` for the console (``GET /api/console/preflight``), or None.
     allowed_hosts
         Host names the server answers to (``Host`` header); others get 400, which stops DNS
         rebinding from reaching the API through a browser.
@@ -106,6 +110,7 @@ def create_app(
         *trial_routes(manager, desk, authorise),
         *questionnaire_routes(questionnaires, desk, authorise),
         *session_routes(desk, authorise),
+        *preflight_routes(manager, preflight, authorise),
         *socket_routes(manager, desk, token),
         Mount("/static", StaticFiles(directory=STATIC_DIR), name="static"),
     ]

@@ -28,6 +28,7 @@ from bowden.runtime.realtime import RealtimeConfig
 from bowden.runtime.slack import SlackTakeUp
 from bowden.web.app import create_app
 from bowden.web.live import LiveHub
+from bowden.web.preflight_routes import Preflight
 from bowden.web.questionnaire_store import QuestionnaireStore
 from bowden.web.security import SessionToken
 from bowden.web.session_desk import SessionDesk
@@ -70,6 +71,9 @@ class ServeConfig:
         The protocol of the session plans (default: the paper's).
     sync
         The trigger line and LSL outlets each console trial drives (``--trigger``, ``--lsl``), or None.
+    preflight
+        The checks of ``bowden check`` the console runs before a session (returns its ``--json``
+        report), or None.
     """
 
     store_path: Path
@@ -85,6 +89,7 @@ class ServeConfig:
     token: str | None = None
     protocol: StudyProtocol = field(default_factory=StudyProtocol)
     sync: TrialSyncs | None = None
+    preflight: Preflight | None = None
 
     def __post_init__(self) -> None:
         if not (isinstance(self.port, int) and 0 <= self.port <= 65535):
@@ -135,7 +140,7 @@ def build_server(config: ServeConfig) -> WebServer:
     desk = SessionDesk(config.store_path, manager, config.protocol)
     app = create_app(
         manager=manager, questionnaires=questionnaires, desk=desk, token=token,
-        allowed_hosts=config.allowed_hosts,
+        allowed_hosts=config.allowed_hosts, preflight=config.preflight,
     )
     return WebServer(config, app, token, manager, questionnaires, desk)
 
