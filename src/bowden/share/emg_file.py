@@ -8,8 +8,9 @@ Each signal's physical range is the codes' digital range mapped through the stor
 EDF reader's ``(d − d_min)·(p_max − p_min)/(d_max − d_min) + p_min`` is the store's formula.
 
 The EDF header gives the physical range 8 ASCII characters each (EDF specification, "header record":
-``8 ascii : physical minimum``), about 6 significant digits: a reader of the file alone gets the
-store's volts to about 1e-6 of the range, 1/15 of a 16-bit step. The exact scaling is kept too: the
+``8 ascii : physical minimum``), 6 significant digits with the sign: a reader of the file alone
+gets the store's volts to within half a 16-bit step (0.23 steps at worst in the simulated study), so
+rounding gives the codes back. The exact scaling is kept too: the
 ``gain_v`` and ``offset_v`` columns of ``_channels.tsv`` (defined in its ``_channels.json``) give
 ``codes × gain_v + offset_v``, the store's float64 volts bit for bit.
 
@@ -171,4 +172,7 @@ def _record_duration(samples: int, rate_hz: float) -> float:
         text = repr(duration)
         if len(text) <= _HEADER_CHARS and float(text) * rate_hz == count:
             return duration
-    raise StoreError(f"no EDF data record of whole samples fits {samples} samples at {rate_hz} Hz")
+    raise StoreError(
+        f"no EDF data record of whole samples fits {samples} samples at {rate_hz} Hz with a duration the "
+        "header states exactly: the EMG would have to be padded or cut"
+    )
