@@ -184,6 +184,6 @@ def test_reports_say_simulated_measured_or_mixed_in_the_title(tmp_path: Path) ->
     assert result.data_kind == "mixed"
     assert title(result.report) == "bowden study report — MIXED: 1 measured and 2 simulated trials"
     html = result.report.read_text(encoding="utf-8")
-    assert "measured trials (ids 1) and simulated trials (ids 2, 3)" in html
+    assert "measured trials (#1) and simulated trials (#2–#3)" in html  # runs, not a page of ids
     assert "Shoulder torque tracking RMSE (Nm), simulated vs the paper" in html  # never "measured"
     assert "measured vs the paper" not in html

@@ -67,7 +67,7 @@ from bowden.study.report.custom_protocols import (
 from bowden.study.report.html import FigureJob, FigureMapper, HtmlDocument
 from bowden.study.statistics import FitJob, FitMapper, FitResult, StudyStatistics, study_statistics
 from bowden.study.trial_analysis import LoadedTrialTask, StoredTrialTask, TrialJob, analyse_task
-from bowden.study.trial_list import trial_list
+from bowden.study.trial_list import id_ranges, trial_list
 
 _log = logging.getLogger(__name__)
 
@@ -404,8 +404,8 @@ def _label_mixed(document: HtmlDocument, trials: Mapping[int, Mapping[str, Any]]
     )
     banner = HtmlDocument(title="")
     banner.banner(
-        f"Mixed data: this store holds measured trials (ids {_ids(measured)}) and simulated trials "
-        f"(ids {_ids(simulated)}). Every table, figure and test below pools both kinds, so none of it "
+        f"Mixed data: this store holds measured trials ({id_ranges(measured)}) and simulated trials "
+        f"({id_ranges(simulated)}). Every table, figure and test below pools both kinds, so none of it "
         "is a measured result; the captions call it simulated. Analyse the measured trials in a store "
         "of their own to report them."
     )
