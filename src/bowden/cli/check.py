@@ -72,8 +72,13 @@ def check(args: argparse.Namespace) -> int:
     options = CanSuitOptions.from_args(args)
     _validate(args)
     # The drivers log what they retry; here each check's line says what came of it.
-    logging.getLogger("bowden.hardware").setLevel(logging.ERROR)
-    checks = run_checks(args, options)
+    drivers = logging.getLogger("bowden.hardware")
+    level = drivers.level
+    drivers.setLevel(logging.ERROR)
+    try:
+        checks = run_checks(args, options)
+    finally:
+        drivers.setLevel(level)
     if args.json:
         print(json.dumps({"ok": all(c.ok for c in checks), "checks": [c.to_json() for c in checks]}))
     else:
