@@ -69,3 +69,61 @@ def test_the_cable_lowers_the_anterior_deltoid_through_the_table() -> None:
     )
     delt1 = solve_static_batch(capacity, required).activations[:, ARM_MUSCLES.index("DELT1")]
     assert delt1[1] < 0.8 * delt1[0]
+
+
+def test_the_exact_fallback_gives_the_single_state_answer() -> None:
+    # No Newton step allowed: every state goes to the bounded least squares (BVLS), which must find
+    # the minimiser that BFGS on the dual finds, saturated muscles and reserves included.
+    rng = np.random.default_rng(11)
+    capacity = rng.normal(0.0, 20.0, (30, 5, 25))
+    required = rng.normal(0.0, 60.0, (30, 5))
+    fallback = solve_static_batch(capacity, required, max_iterations=0)
+    for n in range(len(required)):
+        single = solve_static(capacity[n], required[n])
+        assert fallback.activations[n] == pytest.approx(single.activations, abs=5e-5)
+        assert fallback.reserve_nm[n] == pytest.approx(single.reserve_nm, abs=5e-5)
+
+
+def test_time_ordered_states_start_from_their_neighbour_and_keep_the_answer() -> None:
+    # A smooth path through problem space (as a trial's states are): the warm start must not change
+    # any state's minimiser.
+    rng = np.random.default_rng(5)
+    ends = rng.normal(0.0, 20.0, (2, 5, 25)), rng.normal(0.0, 30.0, (2, 5))
+    s = np.linspace(0.0, 1.0, 200)
+    capacity = (1 - s)[:, None, None] * ends[0][0] + s[:, None, None] * ends[0][1]
+    required = (1 - s)[:, None] * ends[1][0] + s[:, None] * ends[1][1]
+    batch = solve_static_batch(capacity, required)
+    for n in range(0, len(required), 7):
+        single = solve_static(capacity[n], required[n])
+        assert batch.activations[n] == pytest.approx(single.activations, abs=5e-5)
+
+
+def test_the_table_gives_the_direct_mujoco_solve_between_its_grid_points() -> None:
+    # A participant the table does not scale (MyoArm's own arm mass, unit gravity and inertia
+    # scales): the interpolated mechanics, solved, against MuJoCo and the single-state solve at states
+    # off the grid (2.5° × 0.5 rad/s). Tolerance 0.002 in activation (bilinear interpolation's error
+    # was at most 0.0004 at these states, activations up to 0.85).
+    from dataclasses import replace
+
+    from bowden.model import CuffGeometry
+    from bowden.sim.musculoskeletal.activations import solve_state
+    from bowden.sim.musculoskeletal.myoarm import MyoArm
+    from bowden.sim.musculoskeletal.trial import DE_LEVA_ARM_FRACTION
+
+    table = load_table()
+    base = generate_cohort(0, muscles="musculoskeletal")[0]
+    subject = replace(base.subject, mass_kg=float(table.arm_mass_kg) / DE_LEVA_ARM_FRACTION)
+    participant = replace(base, subject=subject, gravity_scale=1.0, inertia_scale=1.0, hand_load_kg=0.5)
+    states = np.array([[21.3, 0.8, 3.0, 10.0], [47.9, -1.3, -6.0, 35.0], [88.1, 2.2, 1.5, 55.0],
+                       [109.6, -0.3, 0.0, 0.0]])
+    theta, velocity, acceleration, tension = np.radians(states[:, 0]), *states[:, 1:].T
+    capacity, required = required_and_capacity(
+        table, participant, theta, velocity, acceleration, tension, np.zeros(len(states))
+    )
+    rows = len(COORDINATES)  # without the co-contraction row, which solve_state does not have
+    tabled = solve_static_batch(capacity[:, :rows], required[:, :rows])
+    arm = MyoArm()
+    for n in range(len(states)):
+        direct = solve_state(arm, theta[n], velocity[n], acceleration[n], hand_load_kg=0.5,
+                             cable_tension_n=tension[n], geometry=CuffGeometry())
+        assert tabled.activations[n] == pytest.approx(direct.activations, abs=2e-3)
