@@ -85,7 +85,8 @@ def _open(args: argparse.Namespace) -> AbstractContextManager[Backend]:
         # name what the drivers expect, so a wrong id or model fails here as on the real bus.
         return open_sim_bench(announce=_say, mannequin_id=args.mannequin_id,
                               mannequin_motor=args.mannequin_motor,
-                              mannequin_direction=args.mannequin_direction)
+                              mannequin_direction=args.mannequin_direction,
+                              motor=args.motor, firmware=args.firmware)
     from bowden.cli._suit import CanSuitOptions, open_can_backend, require_hardware_extra
     from bowden.hardware.ak60 import AK60Config
     from bowden.hardware.ak60_codec import limits_for_motor

@@ -143,7 +143,8 @@ def _own_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, c
 @contextmanager
 def open_sim_bench(*, calibration_s: float = 0.3, announce: Callable[[str], None] | None = None,
                    mannequin_id: int = 2, mannequin_motor: str = "AK80-9",
-                   mannequin_direction: int = 1) -> Iterator[Backend]:
+                   mannequin_direction: int = 1, motor: str = "AK60-6",
+                   firmware: str | None = None) -> Iterator[Backend]:
     """The simulated mannequin bench in its own process, behind its wire peers: the TDU (AK60-6, CAN
     id 1) and the mannequin's motor (AK80-9, id 2) on one CAN bus, the NGIMU on the mannequin's arm,
     the ADS1115 load cell; driven by the real drivers of this process (``Backend.mannequin`` is the
@@ -151,7 +152,8 @@ def open_sim_bench(*, calibration_s: float = 0.3, announce: Callable[[str], None
 
     ``mannequin_id``, ``mannequin_motor`` and ``mannequin_direction`` configure the mannequin's
     *driver* (``bowden bench run``'s options), not the simulated motor: a driver set up for another
-    id hears no reply, as on the real bus."""
+    id hears no reply, as on the real bus. ``motor`` and ``firmware`` name the TDU's AK model
+    (``--motor``, ``--firmware``): the simulated TDU speaks its ranges and its driver expects them."""
     import can
 
     from bowden.hardware.ads1115 import ADS1115Config, ADS1115LoadCell, LoadCellCalibration
@@ -164,7 +166,12 @@ def open_sim_bench(*, calibration_s: float = 0.3, announce: Callable[[str], None
 
     with ExitStack() as stack:
         imu = stack.enter_context(NgimuClient(NgimuConfig(host="127.0.0.1", port=0)))
-        suit = SimulatedSuitProcess(imu_target=imu.address, bench=True)
+        from bowden.hardware.motors import motor_model
+
+        tdu_limits = motor_model(motor).limits(firmware)
+        tdu_config = AK60Config(limits=tdu_limits) if motor == "AK60-6" else \
+            AK60Config(limits=tdu_limits, torque_limit_nm=tdu_limits.torque_nm)
+        suit = SimulatedSuitProcess(imu_target=imu.address, bench=True, motor_limits=tdu_limits)
         stack.enter_context(suit.start(announce))
         tdu_bus = stack.enter_context(can.Bus(interface="bowden_loopback", channel=suit.can_channel))
         mannequin_bus = stack.enter_context(can.Bus(interface="bowden_loopback", channel=suit.can_channel))
@@ -180,7 +187,7 @@ def open_sim_bench(*, calibration_s: float = 0.3, announce: Callable[[str], None
         mannequin_config = AK60Config(motor_id=mannequin_id, limits=limits, direction=mannequin_direction,
                                       torque_limit_nm=limits.torque_nm)
         yield Backend(
-            motor=stack.enter_context(AK60Motor(tdu_bus, AK60Config())),
+            motor=stack.enter_context(AK60Motor(tdu_bus, tdu_config)),
             mannequin=stack.enter_context(AK60Motor(mannequin_bus, mannequin_config)),
             imu=imu, clock=MonotonicClock(), load_cell=load_cell,
             describe=f"simulated mannequin bench in its own process (pid {suit.pid}): TDU id 1 and "
