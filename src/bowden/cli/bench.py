@@ -66,6 +66,9 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                           "implemented yet)")
     validate.add_argument("--support", type=float, default=0.5, help="support fraction (default 0.5)")
     validate.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default 0)")
+    validate.add_argument("--fit", action="store_true",
+                          help="first refit the dynamic compensation on one run of the strokes, then "
+                          "validate on a second run held out of the fit")
     validate.add_argument("-o", "--output", type=Path,
                           help="write the model with its recommendation here (may be MODEL itself)")
     validate.set_defaults(handler=run_validate)
@@ -124,14 +127,18 @@ def run_validate(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     from bowden.model.model_file import load_model, save_model
-    from bowden.sim.bench_study import recommendation, validate_compensations
+    from bowden.sim.bench_study import fit_on_study_segment, recommendation, validate_compensations
     from bowden.sim.parameters import SuitParameters
 
     if not 0.0 < args.support <= 1.0:
         raise ParameterError(f"--support must be in (0, 1], got {args.support:g}")
     model = load_model(args.model)
     suit = SuitParameters()
-    results = validate_compensations(model, suit, seed=args.seed, support=args.support)
+    seed = args.seed
+    if args.fit:
+        model = fit_on_study_segment(model, suit, seed=seed, support=args.support)
+        seed += 1  # validated on strokes held out of the fit
+    results = validate_compensations(model, suit, seed=seed, support=args.support)
     print("speed  compensation  tension RMSE (N)  lowering-onset peak (%)")
     for speed, by_name in results.items():
         for name, result in by_name.items():

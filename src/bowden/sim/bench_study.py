@@ -134,3 +134,54 @@ def recommend_compensation(
 ) -> tuple[str, str]:
     """:func:`recommendation` from :func:`validate_compensations`."""
     return recommendation(validate_compensations(model, suit, seed=seed, support=support))
+
+
+# The grid the study-like fit searches: scale on the identified drag and inertia, shift of the lowering
+# line's intercept (Nm). Drag and a lower lowering line both release the cable earlier at a turn, which
+# the bench's steady strokes cannot show (presliding, capstan friction growing with tension, play).
+FIT_DRAG_SCALES = (1.0, 1.4, 1.8)
+FIT_INERTIA_SCALES = (1.0, 2.0)
+FIT_LOWERING_SHIFTS_NM = (0.0, -0.05)
+
+
+def study_cost(results: dict[str, dict[str, StrokeResult]]) -> float:
+    """Mean over speeds of the dynamic compensation's RMSE and onset peak, each relative to the paper's."""
+    terms = []
+    for by_name in results.values():
+        paper, dynamic = by_name["paper"], by_name["dynamic"]
+        terms.append(dynamic.tension_rmse_n / max(paper.tension_rmse_n, 1e-6)
+                     + max(dynamic.onset_peak_pct, 0.0) / max(paper.onset_peak_pct, 1.0))
+    return float(np.mean(terms))
+
+
+def fit_on_study_segment(
+    model: CompensationModel, suit: SuitParameters, *, seed: int = 0, support: float | str = 0.5
+) -> CompensationModel:
+    """The dynamic compensation refitted on the study-like strokes with the load cell as the target:
+    the grid point (drag and inertia scale, lowering-line shift) with the lowest :func:`study_cost`.
+    Returns ``model`` unchanged when it has no dynamic compensation."""
+    if model.dynamic is None:
+        return model
+    dynamic = model.dynamic
+    paper = {speed: run_study_segment(model, suit, compensation="paper", speed=speed, seed=seed,
+                                      support=support) for speed in c.SPEEDS}
+    best, best_cost = model, math.inf
+    for drag in FIT_DRAG_SCALES:
+        for inertia in FIT_INERTIA_SCALES:
+            for shift in FIT_LOWERING_SHIFTS_NM:
+                candidate = replace(model, dynamic=replace(
+                    dynamic,
+                    viscous_nm_s_rad=min(1.0, dynamic.viscous_nm_s_rad * drag),
+                    inertia_kg_m2=min(0.05, dynamic.inertia_kg_m2 * inertia),
+                    lowering=replace(dynamic.lowering, intercept_nm=dynamic.lowering.intercept_nm + shift),
+                ))
+                results = {
+                    speed: {"paper": paper[speed],
+                            "dynamic": run_study_segment(candidate, suit, compensation="dynamic", speed=speed,
+                                                         seed=seed, support=support)}
+                    for speed in c.SPEEDS
+                }
+                cost = study_cost(results)
+                if cost < best_cost:
+                    best, best_cost = candidate, cost
+    return best

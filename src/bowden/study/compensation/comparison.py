@@ -31,7 +31,7 @@ from bowden.sim import ProtocolSettings, generate_cohort, simulate_trial
 from bowden.sim.bench import run_bench
 from bowden.sim.bench_latency import ENCODER_ELEVATION, IMU_ELEVATION, run_latency_segment
 from bowden.sim.bench_latency import TIME as LATENCY_TIME
-from bowden.sim.bench_study import recommend_compensation
+from bowden.sim.bench_study import fit_on_study_segment, recommend_compensation
 from bowden.sim.parameters import SuitParameters
 from bowden.sim.participants import PAPER_COHORT_SIZE
 from bowden.sim.plant_family import FamilyPlant
@@ -138,8 +138,9 @@ def compared_trials(
 
 def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.DataFrame:
     """One row per participant, condition, speed and compensation on one suit."""
-    model = identify_plant(plant, settings)
-    recommended, why = recommend_compensation(model, plant.suit, seed=settings.bench_seed)
+    # Fitted on the bench's study-like strokes, then judged on strokes held out of that fit.
+    model = fit_on_study_segment(identify_plant(plant, settings), plant.suit, seed=settings.bench_seed)
+    recommended, why = recommend_compensation(model, plant.suit, seed=settings.bench_seed + 1)
     if model.dynamic is not None:  # what the lab's model.json would say
         model = replace(model, dynamic=replace(model.dynamic, recommended=recommended == "dynamic",
                                                recommendation=why))
