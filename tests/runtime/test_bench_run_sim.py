@@ -24,6 +24,9 @@ from bowden.runtime.bench import BenchDevices, BenchReport, BenchRun, BenchRunCo
 from bowden.runtime.bench_recording import BenchRecordingWriter
 from bowden.sim.backend import open_sim_bench
 
+# The strokes of these tests: 20°–70° at the positioning speed (a faster stroke to an end not yet learned
+# is preceded by a slow move there and back; the faults need a stroke, not the whole range).
+QUICK = {"spool_speeds_rad_s": (1.0,), "loads_nm": (1.0,), "high_rad": math.radians(70.0)}
 # Detection + 30 ms ramp + a cycle ≤ 100 ms (measured: 30–72 ms); the slack covers a busy host.
 SAFE_WITHIN_S = 0.1
 HOST_SLACK_S = 0.05
@@ -40,8 +43,7 @@ def bench() -> Iterator[object]:
 def run_bench(backend, tmp_path, *, protocol: BenchProtocol | None = None,
               after_stroke: Callable[[BenchStroke], None] | None = None, resume: bool = False,
               name: str = "bench.csv") -> BenchReport:
-    config = BenchRunConfig(protocol=protocol or BenchProtocol(spool_speeds_rad_s=(2.0,), loads_nm=(1.0,),
-                                                                repetitions=1))
+    config = BenchRunConfig(protocol=protocol or BenchProtocol(**QUICK, repetitions=1))
     devices = BenchDevices(tdu=backend.motor, mannequin=backend.mannequin, imu=backend.imu,
                            load_cell=backend.load_cell, clock=backend.clock)
     with BenchRecordingWriter(tmp_path / name, config.protocol_fingerprint(), resume=resume) as writer:
@@ -66,7 +68,7 @@ def exited(backend, since_s: float) -> dict[str, float]:
 
 
 def test_a_stopped_run_resumes_where_it_stopped(bench, tmp_path):
-    protocol = BenchProtocol(spool_speeds_rad_s=(2.0,), loads_nm=(1.0,), repetitions=2)
+    protocol = BenchProtocol(**QUICK, repetitions=2)
 
     def too_much_tension(stroke: BenchStroke) -> None:
         if stroke.index == 0:
@@ -107,7 +109,7 @@ def test_every_fault_reaches_the_safe_state(bench, tmp_path, name):
             injected[0] = time.monotonic()
             bench.inject(device, fault, *args)
 
-    protocol = BenchProtocol(spool_speeds_rad_s=(2.0,), loads_nm=(LOADS_NM.get(name, 1.0),), repetitions=1)
+    protocol = BenchProtocol(**{**QUICK, "loads_nm": (LOADS_NM.get(name, 1.0),)}, repetitions=1)
     try:
         report = run_bench(bench, tmp_path, protocol=protocol, after_stroke=inject, name=f"{name}.csv")
     finally:

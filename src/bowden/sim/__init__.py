@@ -11,24 +11,68 @@ The physics and its sources are in :mod:`bowden.sim._kernels` and :mod:`bowden.s
 ``docs/simulation.md`` explains the model and compares the simulated study with the paper.
 """
 
-from bowden.sim.arm import MannequinArm, ParticipantArm, PrescribedArm
-from bowden.sim.batch import ProtocolSettings, simulate_cohort, simulate_trial
-from bowden.sim.bench import BenchProtocol, run_bench
-from bowden.sim.emg import emg_synthesize
-from bowden.sim.muscles import muscle_activations
-from bowden.sim.parameters import (
-    ArmParameters,
-    ImuParameters,
-    LoadCellParameters,
-    MotorParameters,
-    SheathParameters,
-    SuitParameters,
-    TransmissionParameters,
-)
-from bowden.sim.participants import ExpectedAssistance, VirtualParticipant, generate_cohort
-from bowden.sim.plant import Plant, PlantState
-from bowden.sim.results import CohortSimulation, TrialSimulation
-from bowden.sim.suit import SimulatedSuit
+import importlib
+from typing import TYPE_CHECKING, Any
+
+# Imported on first use (PEP 562): the suit's own process imports bowden.sim.link and the peers, and
+# should not pay for the batch simulation's SciPy and pandas (a second of start-up per simulated suit).
+_EXPORTS = {
+    "ArmParameters": "bowden.sim.parameters",
+    "BenchProtocol": "bowden.sim.bench",
+    "CohortSimulation": "bowden.sim.results",
+    "ExpectedAssistance": "bowden.sim.participants",
+    "ImuParameters": "bowden.sim.parameters",
+    "LoadCellParameters": "bowden.sim.parameters",
+    "MannequinArm": "bowden.sim.arm",
+    "MotorParameters": "bowden.sim.parameters",
+    "ParticipantArm": "bowden.sim.arm",
+    "Plant": "bowden.sim.plant",
+    "PlantState": "bowden.sim.plant",
+    "PrescribedArm": "bowden.sim.arm",
+    "ProtocolSettings": "bowden.sim.batch",
+    "SheathParameters": "bowden.sim.parameters",
+    "SimulatedSuit": "bowden.sim.suit",
+    "SuitParameters": "bowden.sim.parameters",
+    "TransmissionParameters": "bowden.sim.parameters",
+    "TrialSimulation": "bowden.sim.results",
+    "VirtualParticipant": "bowden.sim.participants",
+    "emg_synthesize": "bowden.sim.emg",
+    "generate_cohort": "bowden.sim.participants",
+    "muscle_activations": "bowden.sim.muscles",
+    "run_bench": "bowden.sim.bench",
+    "simulate_cohort": "bowden.sim.batch",
+    "simulate_trial": "bowden.sim.batch",
+}
+
+if TYPE_CHECKING:
+    from bowden.sim.arm import MannequinArm, ParticipantArm, PrescribedArm
+    from bowden.sim.batch import ProtocolSettings, simulate_cohort, simulate_trial
+    from bowden.sim.bench import BenchProtocol, run_bench
+    from bowden.sim.emg import emg_synthesize
+    from bowden.sim.muscles import muscle_activations
+    from bowden.sim.parameters import (
+        ArmParameters,
+        ImuParameters,
+        LoadCellParameters,
+        MotorParameters,
+        SheathParameters,
+        SuitParameters,
+        TransmissionParameters,
+    )
+    from bowden.sim.participants import ExpectedAssistance, VirtualParticipant, generate_cohort
+    from bowden.sim.plant import Plant, PlantState
+    from bowden.sim.results import CohortSimulation, TrialSimulation
+    from bowden.sim.suit import SimulatedSuit
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'bowden.sim' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "ArmParameters",
