@@ -4,7 +4,7 @@ The batch path of :func:`~bowden.sim.musculoskeletal.static_optimisation.solve_s
 trial's thousands of small problems (5 rows × 25 muscles) cost more in numpy's per-call overhead
 than in arithmetic once only a few states are left iterating, so each state runs its own Newton
 iteration and backtracking here, compiled (numba, cached on disk like the batch kernels), starting
-from the previous state's answer where that fits better (states are given in time order).
+from the previous state's answer (states are given in time order).
 
 For multipliers λ the dual's maximiser gives ``a = clip(Aᵀλ/2, 0, 1)``, reserves ``s = λ/(2w)``;
 its gradient is the residual ``τ − A a − s`` and its Hessian on the free set F (0 < Aᵀλ/2 < 1) is
@@ -47,58 +47,113 @@ def _dual(
 
 
 @jit
+def _hessian(
+    capacity: NDArray[np.float64], activations: NDArray[np.float64], reserve_weight: float,
+    free_only: bool, out: NDArray[np.float64],
+) -> None:
+    """A_F A_Fᵀ/2 + I/(2w) over the free muscles (all muscles unless ``free_only``), symmetric."""
+    rows, muscles = capacity.shape
+    for k in range(rows):
+        for j in range(k, rows):
+            total = 0.0
+            for i in range(muscles):
+                if not free_only or 0.0 < activations[i] < 1.0:
+                    total += capacity[k, i] * capacity[j, i]
+            out[k, j] = total / 2.0
+            out[j, k] = total / 2.0
+        out[k, k] += 1.0 / (2.0 * reserve_weight)
+
+
+@jit
+def _solve_spd(matrix: NDArray[np.float64], rhs: NDArray[np.float64], out: NDArray[np.float64]) -> None:
+    """``matrix⁻¹ rhs`` by Cholesky, in place of ``matrix`` (symmetric positive definite: the ridge
+    1/(2w) keeps it so); LAPACK's general solver costs more than the arithmetic at 5 × 5."""
+    rows = matrix.shape[0]
+    for j in range(rows):
+        diagonal = matrix[j, j]
+        for p in range(j):
+            diagonal -= matrix[j, p] * matrix[j, p]
+        diagonal = np.sqrt(diagonal)
+        matrix[j, j] = diagonal
+        for i in range(j + 1, rows):
+            total = matrix[i, j]
+            for p in range(j):
+                total -= matrix[i, p] * matrix[j, p]
+            matrix[i, j] = total / diagonal
+    for i in range(rows):  # L y = rhs
+        total = rhs[i]
+        for p in range(i):
+            total -= matrix[i, p] * out[p]
+        out[i] = total / matrix[i, i]
+    for i in range(rows - 1, -1, -1):  # Lᵀ x = y
+        total = out[i]
+        for p in range(i + 1, rows):
+            total -= matrix[p, i] * out[p]
+        out[i] = total / matrix[i, i]
+
+
+@jit
+def _maximise(
+    cap: NDArray[np.float64], req: NDArray[np.float64], lam: NDArray[np.float64],
+    reserve_weight: float, tolerance_nm: float, max_iterations: int, halvings: int,
+    act: NDArray[np.float64], scratch_act: NDArray[np.float64], residual: NDArray[np.float64],
+    scratch_residual: NDArray[np.float64], hessian: NDArray[np.float64],
+) -> float:
+    """Newton from ``lam`` (updated in place, with ``act``); returns the largest residual, Nm."""
+    value = _dual(cap, req, lam, reserve_weight, act, residual)
+    step = np.empty(len(lam))
+    trial = np.empty(len(lam))
+    for _ in range(max_iterations):
+        if np.max(np.abs(residual)) <= tolerance_nm:
+            break
+        _hessian(cap, act, reserve_weight, True, hessian)
+        _solve_spd(hessian, residual, step)
+        size = 1.0
+        accepted = False
+        for _halving in range(halvings):
+            for k in range(len(lam)):
+                trial[k] = lam[k] + size * step[k]
+            new = _dual(cap, req, trial, reserve_weight, scratch_act, scratch_residual)
+            if new >= value - 1e-15 * max(1.0, abs(value)):
+                lam[:] = trial
+                act[:] = scratch_act
+                residual[:] = scratch_residual
+                value = new
+                accepted = True
+                break
+            size /= 2.0
+        if not accepted:
+            break
+    return float(np.max(np.abs(residual)))
+
+
+@jit
 def newton_states(
     capacity: NDArray[np.float64], required: NDArray[np.float64], multipliers: NDArray[np.float64],
     reserve_weight: float, tolerance_nm: float, max_iterations: int, halvings: int,
     activations: NDArray[np.float64], residual_nm: NDArray[np.float64],
 ) -> None:
-    """Maximise each state's dual from its ``multipliers`` (updated in place).
+    """Maximise each state's dual; fill ``multipliers``, activations and the largest residual (Nm).
 
-    Fills the activations and each state's largest remaining residual (Nm).
+    A state starts from the previous state's answer when that converged (consecutive states of a
+    trial are close, so Newton starts on nearly the right free set); where that does not converge,
+    or there is none, from the all-free multipliers ``(A Aᵀ/2 + I/(2w))⁻¹ τ``.
     """
     states, rows, muscles = capacity.shape
     residual = np.empty(rows)
-    trial_residual = np.empty(rows)
-    trial_activations = np.empty(muscles)
+    scratch_residual = np.empty(rows)
+    scratch_act = np.empty(muscles)
     hessian = np.empty((rows, rows))
     for n in range(states):
         cap, req, lam, act = capacity[n], required[n], multipliers[n], activations[n]
-        value = _dual(cap, req, lam, reserve_weight, act, residual)
-        # Consecutive states of a trial are close: the previous answer, where it fits better, starts
-        # Newton on (nearly) the right free set, which the all-free start often is far from.
+        left = np.inf
         if n > 0 and residual_nm[n - 1] <= tolerance_nm:
-            warm = _dual(cap, req, multipliers[n - 1], reserve_weight, trial_activations, trial_residual)
-            if np.max(np.abs(trial_residual)) < np.max(np.abs(residual)):
-                lam[:] = multipliers[n - 1]
-                act[:] = trial_activations
-                residual[:] = trial_residual
-                value = warm
-        for _ in range(max_iterations):
-            if np.max(np.abs(residual)) <= tolerance_nm:
-                break
-            for k in range(rows):
-                for j in range(rows):
-                    total = 0.0
-                    for i in range(muscles):
-                        drive = act[i]
-                        if 0.0 < drive < 1.0:
-                            total += cap[k, i] * cap[j, i]
-                    hessian[k, j] = total / 2.0
-                hessian[k, k] += 1.0 / (2.0 * reserve_weight)
-            step = np.linalg.solve(hessian, residual)
-            size = 1.0
-            accepted = False
-            for _halving in range(halvings):
-                trial = lam + size * step
-                new = _dual(cap, req, trial, reserve_weight, trial_activations, trial_residual)
-                if new >= value - 1e-15 * max(1.0, abs(value)):
-                    lam[:] = trial
-                    act[:] = trial_activations
-                    residual[:] = trial_residual
-                    value = new
-                    accepted = True
-                    break
-                size /= 2.0
-            if not accepted:
-                break
-        residual_nm[n] = np.max(np.abs(residual))
+            lam[:] = multipliers[n - 1]
+            left = _maximise(cap, req, lam, reserve_weight, tolerance_nm, max_iterations, halvings,
+                             act, scratch_act, residual, scratch_residual, hessian)
+        if left > tolerance_nm:
+            _hessian(cap, act, reserve_weight, False, hessian)
+            _solve_spd(hessian, req, lam)
+            left = _maximise(cap, req, lam, reserve_weight, tolerance_nm, max_iterations, halvings,
+                             act, scratch_act, residual, scratch_residual, hessian)
+        residual_nm[n] = left

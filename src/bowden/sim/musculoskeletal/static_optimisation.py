@@ -120,7 +120,8 @@ def solve_static_batch(
     backtracking (:func:`~bowden.sim.musculoskeletal._newton.newton_states`): the dual is piecewise
     quadratic, its Hessian on the current free set (muscles strictly between 0 and 1) is
     ``−(A_F A_Fᵀ/2 + I/(2w))``, and a full step is taken where it raises the dual, a halved one
-    otherwise. Most states converge in a few steps from the all-free start. The few where it stalls
+    otherwise. Most states converge in a step or two from the previous state's answer (a trial's
+states come in time order), the first from the all-free start. The few where it stalls
     (no step raises the dual) or that have not converged after ``max_iterations`` are solved one by
     one as the primal's bounded least squares (BVLS), exactly.
 
@@ -144,10 +145,8 @@ def solve_static_batch(
         )
     if not (np.isfinite(capacity).all() and np.isfinite(required).all() and reserve_weight > 0):
         raise ParameterError("static optimisation needs finite torques and a positive reserve weight")
-    rows = capacity.shape[1]
-    ridge = np.eye(rows)[None, :, :] / (2.0 * reserve_weight)
-    gram = np.matmul(capacity, np.swapaxes(capacity, 1, 2)) / 2.0 + ridge
-    multipliers = np.linalg.solve(gram, required[..., None])[..., 0]
+    capacity, required = np.ascontiguousarray(capacity), np.ascontiguousarray(required)
+    multipliers = np.empty(capacity.shape[:2])
     activations = np.empty((capacity.shape[0], capacity.shape[2]))
     residual_nm = np.empty(capacity.shape[0])
     newton_states(capacity, required, multipliers, reserve_weight, tolerance_nm, max_iterations,

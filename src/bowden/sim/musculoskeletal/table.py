@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bowden.model import CuffGeometry
+from bowden.sim._kernels import jit
 
 ELEVATION_GRID_RAD = np.radians(np.arange(-10.0, 150.0 + 1e-9, 2.5))
 VELOCITY_GRID_RAD_S = np.arange(-6.0, 6.0 + 1e-9, 0.5)
@@ -133,6 +134,21 @@ def _bracket(
     return index, weight
 
 
+@jit
+def _bilinear(
+    grid: NDArray[np.float64], i: NDArray[np.intp], j: NDArray[np.intp], u: NDArray[np.float64],
+    v: NDArray[np.float64], out: NDArray[np.float64],
+) -> None:
+    """``out[n] = `` the (θ, θ̇) grid's values (flattened after the two grid axes) at each state."""
+    for n in range(len(i)):
+        a, b = i[n], j[n]
+        w00, w10 = (1.0 - u[n]) * (1.0 - v[n]), u[n] * (1.0 - v[n])
+        w01, w11 = (1.0 - u[n]) * v[n], u[n] * v[n]
+        for f in range(out.shape[1]):
+            out[n, f] = (w00 * grid[a, b, f] + w10 * grid[a + 1, b, f] + w01 * grid[a, b + 1, f]
+                         + w11 * grid[a + 1, b + 1, f])
+
+
 def interpolate(
     table: MechanicsTable, elevation_rad: NDArray[np.float64], velocity_rad_s: NDArray[np.float64]
 ) -> dict[str, NDArray[np.float64]]:
@@ -142,10 +158,10 @@ def interpolate(
     out: dict[str, NDArray[np.float64]] = {}
     for name in ("capacity", "passive", "arm"):
         grid = getattr(table, name)
-        shape = (-1,) + (1,) * (grid.ndim - 2)
-        uu, vv = u.reshape(shape), v.reshape(shape)
-        out[name] = ((1 - uu) * (1 - vv) * grid[i, j] + uu * (1 - vv) * grid[i + 1, j]
-                     + (1 - uu) * vv * grid[i, j + 1] + uu * vv * grid[i + 1, j + 1])
+        flat = np.ascontiguousarray(grid.reshape(grid.shape[0], grid.shape[1], -1))
+        values = np.empty((len(i), flat.shape[2]))
+        _bilinear(flat, i, j, u, v, values)  # compiled: numpy's four gathers cost 5 ms a trial
+        out[name] = values.reshape((len(i), *grid.shape[2:]))
     for name in ("inertia", "hand", "cable"):
         grid = getattr(table, name)
         out[name] = (1 - u)[:, None] * grid[i] + u[:, None] * grid[i + 1]
