@@ -24,9 +24,9 @@ from bowden import __version__
 from bowden.contracts import SIMULATED_BACKENDS, TRIAL_TIME
 from bowden.errors import OutputFileError
 from bowden.share import layout
-from bowden.share.emg_file import emg_extension, write_emg_file
-from bowden.share.emg_sidecars import CHANNELS_SIDECAR, channels_table, emg_sidecar
+from bowden.share.emg_run import EmgRunFacts, write_emg_run
 from bowden.share.events import EVENTS_SIDECAR, trial_events
+from bowden.share.sessions import SESSIONS_SIDECAR, session_level
 from bowden.share.timeseries import (
     MOTION_CHANNELS,
     motion_sidecar,
@@ -45,35 +45,49 @@ class BidsExport:
     subjects: int
     runs: int
     emg_runs: int
+    sessions: bool = False  # whether the dataset has the ses- level
+
+
+@dataclass(frozen=True, kw_only=True)
+class BidsOptions:
+    """What ``bowden export`` adds to the store: mains frequency, authors, licence, EMG manufacturer."""
+
+    power_line_hz: float | None = None  # 50 or 60 where the EMG was recorded; n/a if None
+    authors: tuple[str, ...] = ()
+    license_id: str | None = None  # SPDX identifier (CC-BY-4.0, CC0-1.0, ...)
+    manufacturer: str | None = None  # the EMG amplifier's maker, where the import did not record it
 
 
 def export_bids(
-    store: StudyStore, directory: str | Path, *, power_line_hz: float | None = None
+    store: StudyStore, directory: str | Path, options: BidsOptions | None = None
 ) -> BidsExport:
     """Write the store as a BIDS dataset into ``directory`` (new, empty, or a previous bowden export).
-
-    ``power_line_hz`` is the mains frequency where the EMG was recorded (50 or 60), ``n/a`` if None.
 
     Raises
     ------
     StoreError
-        ``directory`` holds something else, participants whose labels clash, EMG that EDF/BDF cannot
-        hold without loss.
+        ``directory`` holds something else, or participants whose labels clash.
     OutputFileError
         A file cannot be written (names it).
     """
+    options = options or BidsOptions()
     out = Path(directory)
     layout.check_empty_target(out)
     trials = store.trial_table()
     with_samples = set(store.trials_with_samples())
     trials = trials[trials["id"].isin(with_samples)]
     labels = layout.subject_labels(sorted(trials["participant"].unique()))
+    level = session_level(store, zip(trials["id"].astype(int), trials["participant"], strict=True))
     model = _stored_model(store)
     try:
         out.mkdir(parents=True, exist_ok=True)
         simulated = [_is_simulated(meta) for meta in trials["metadata"]]
         description = layout.dataset_description(
-            __version__, simulated=bool(simulated) and all(simulated), source=store.path.name
+            __version__,
+            simulated=bool(simulated) and all(simulated),
+            source=store.path.name,
+            authors=options.authors,
+            license_id=options.license_id,
         )
         layout.write_json(out / "dataset_description.json", description)
         (out / "README.md").write_text(layout.README)
@@ -83,21 +97,35 @@ def export_bids(
         emg_runs = 0
         for participant, label in labels.items():
             rows = trials[trials["participant"] == participant]
-            scans = [_export_trial(store, out, label, row, model, power_line_hz) for row in rows.itertuples()]
-            emg_runs += sum(1 for files in scans if any(name.startswith("emg/") for name, _ in files))
-            table = pd.DataFrame(
-                [{"filename": name, "acq_time": when} for files in scans for name, when in files]
-            )
-            layout.write_table(out / f"sub-{label}" / f"sub-{label}_scans.tsv", table)
+            scans: dict[str | None, list[tuple[str, str]]] = {}
+            for row in rows.itertuples():
+                session = level.labels[int(str(row.id))]
+                files = _export_trial(store, out, (label, session), row, model, options)
+                emg_runs += any(name.startswith("emg/") for name, _ in files)
+                scans.setdefault(session, []).extend(files)
+            for session, files in scans.items():
+                stem = f"sub-{label}" + (f"_ses-{session}" if session is not None else "")
+                table = pd.DataFrame([{"filename": name, "acq_time": when} for name, when in files])
+                layout.write_table(_subject_dir(out, label, session) / f"{stem}_scans.tsv", table)
+            if level.used:
+                sessions = out / f"sub-{label}" / f"sub-{label}_sessions"
+                layout.write_table(sessions.with_suffix(".tsv"), level.tables[participant])
+                layout.write_json(sessions.with_suffix(".json"), SESSIONS_SIDECAR)
     except OSError as error:
         raise OutputFileError(f"cannot write the BIDS export to {out}: {error.strerror or error}") from None
-    return BidsExport(out, subjects=len(labels), runs=len(trials), emg_runs=emg_runs)
+    return BidsExport(out, subjects=len(labels), runs=len(trials), emg_runs=emg_runs, sessions=level.used)
+
+
+def _subject_dir(out: Path, label: str, session: str | None) -> Path:
+    return out / f"sub-{label}" / (f"ses-{session}" if session is not None else "")
 
 
 def _export_trial(
-    store: StudyStore, out: Path, label: str, row: Any, model: Any, power_line_hz: float | None
+    store: StudyStore, out: Path, where: tuple[str, str | None], row: Any, model: Any, options: BidsOptions
 ) -> list[tuple[str, str]]:
-    """One trial's files; returns their names relative to the subject directory with acq_time."""
+    """One trial's files (``where``: subject label, session label or None); returns their names
+    relative to the subject's (session's) directory with acq_time."""
+    label, session = where
     trial_id = int(row.id)
     meta = json.loads(row.metadata)
     simulated = _is_simulated(meta)
@@ -113,36 +141,29 @@ def _export_trial(
         "stop_reason": row.stop_reason,
     }
     time = samples[TRIAL_TIME].to_numpy(dtype=np.float64)
-    subject = out / f"sub-{label}"
+    subject = _subject_dir(out, label, session)
     files: list[tuple[str, str]] = []
 
     codes = store.trial_emg_codes(trial_id)
     emg_start = next(iter(codes.values())).start_time_s if codes else float(time[0])
     if codes:
         folder = _folder(subject, "emg")
-        stem = layout.run_stem(label, trial_id)
-        path = folder / f"{stem}_emg{emg_extension(codes)}"
-        written = write_emg_file(path, codes, start=pd.Timestamp(started).to_pydatetime())
-        samples_n = next(iter(codes.values())).codes.size
-        layout.write_json(
-            folder / f"{stem}_emg.json",
-            emg_sidecar(
-                written,
-                task=layout.TASK,
-                duration_s=samples_n / written[0].rate_hz,
-                power_line_hz=power_line_hz,
-                simulated=simulated,
-            ),
+        stem = layout.run_stem(label, trial_id, session=session)
+        facts = EmgRunFacts(
+            power_line_hz=options.power_line_hz,
+            simulated=simulated,
+            manufacturer=options.manufacturer,
         )
-        layout.write_table(folder / f"{stem}_channels.tsv", channels_table(written))
-        layout.write_json(folder / f"{stem}_channels.json", CHANNELS_SIDECAR)
+        path, _written = write_emg_run(
+            out, folder, stem, codes, start=pd.Timestamp(started).to_pydatetime(), facts=facts
+        )
         _write_events(
             folder / f"{stem}_events", trial_events(samples, events, labels=event_labels, start_s=emg_start)
         )
         files.append((f"emg/{path.name}", when))
 
     folder = _folder(subject, "motion")
-    stem = layout.run_stem(label, trial_id, tracksys=layout.TRACKING_SYSTEM)
+    stem = layout.run_stem(label, trial_id, session=session, tracksys=layout.TRACKING_SYSTEM)
     rates = write_motion(folder / f"{stem}_motion.tsv", samples)
     layout.write_json(
         folder / f"{stem}_motion.json", motion_sidecar(rates, task=layout.TASK, simulated=simulated)
@@ -154,7 +175,7 @@ def _export_trial(
     files.append((f"motion/{stem}_motion.tsv", when))
 
     folder = _folder(subject, "beh")
-    stem = layout.run_stem(label, trial_id)
+    stem = layout.run_stem(label, trial_id, session=session)
     physio = f"{stem}_recording-{layout.LOOP_RECORDING}_physio"
     write_physio(folder / f"{physio}.tsv.gz", samples)
     layout.write_json(

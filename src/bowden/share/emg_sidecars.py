@@ -46,11 +46,26 @@ CHANNELS_SIDECAR: Final[dict[str, Any]] = {
         "Units": "V",
     },
     "offset_v": {"Description": "Offset of the scaling (see gain_v).", "Units": "V"},
+    "stored_format": {
+        "Description": "How the bowden store keeps this channel's values: int16 or int32 codes, or "
+        "float32/float64 values (an XDF import)."
+    },
+    "code_step": {
+        "Description": "The store's value of one digital step of the file: stored value = digital "
+        "sample * code_step, rounded to stored_format (bit for bit; 1: the digital samples are the "
+        "stored codes). Then volts = stored value * gain_v + offset_v."
+    },
+    "exact_values": {
+        "Description": "n/a: the file's digital samples give the stored values bit for bit. Else the "
+        "file under sourcedata/ that holds the stored values exactly (the file holds them quantised "
+        "to 24 bits, which no 24-bit step reproduces)."
+    },
 }
 
 
-def channels_table(channels: Sequence[EmgFileChannel]) -> pd.DataFrame:
-    """``_channels.tsv``: one row per signal of the file, in the file's order."""
+def channels_table(channels: Sequence[EmgFileChannel], exact_values: str | None = None) -> pd.DataFrame:
+    """``_channels.tsv``: one row per signal of the file, in the file's order; ``exact_values`` names
+    the file that keeps the stored values of the channels the EMG file could not hold exactly."""
     return pd.DataFrame(
         {
             "name": [c.name for c in channels],
@@ -66,6 +81,9 @@ def channels_table(channels: Sequence[EmgFileChannel]) -> pd.DataFrame:
             "muscle": [c.muscle for c in channels],
             "gain_v": [repr(c.gain_v) for c in channels],
             "offset_v": [repr(c.offset_v) for c in channels],
+            "stored_format": [c.stored_format for c in channels],
+            "code_step": [repr(c.code_step) for c in channels],
+            "exact_values": [None if c.exact else exact_values for c in channels],
         }
     )
 
@@ -77,8 +95,10 @@ def emg_sidecar(
     duration_s: float,
     power_line_hz: float | None,
     simulated: bool,
+    manufacturer: str | None = None,
 ) -> dict[str, Any]:
-    """``_emg.json`` of one trial's EMG file."""
+    """``_emg.json`` of one trial's EMG file; ``RecordingDuration`` is the stored samples' (a padded
+    last record excluded); ``Manufacturer`` the amplifier's maker where known (RECOMMENDED)."""
     sidecar: dict[str, Any] = {
         "TaskName": task,
         "TaskDescription": "raise and lower the arm following a reference shown on a display, with the "
@@ -96,4 +116,6 @@ def emg_sidecar(
     }
     if simulated:
         sidecar["Manufacturer"] = "none: sEMG synthesised by bowden.sim"
+    elif manufacturer:
+        sidecar["Manufacturer"] = manufacturer
     return sidecar

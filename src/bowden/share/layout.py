@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final
 
@@ -55,10 +55,15 @@ def subject_labels(participants: Iterable[str]) -> dict[str, str]:
 
 
 def run_stem(
-    subject: str, trial_id: int, *, tracksys: str | None = None, recording: str | None = None
+    subject: str,
+    trial_id: int,
+    *,
+    session: str | None = None,
+    tracksys: str | None = None,
+    recording: str | None = None,
 ) -> str:
-    """The entities of one trial's files, in the spec's order (task, tracksys, run, recording)."""
-    parts = [f"sub-{subject}", f"task-{TASK}"]
+    """The entities of one trial's files, in the spec's order (ses, task, tracksys, run, recording)."""
+    parts = [f"sub-{subject}", *([f"ses-{session}"] if session is not None else []), f"task-{TASK}"]
     if tracksys is not None:
         parts.append(f"tracksys-{tracksys}")
     parts.append(f"run-{trial_id}")
@@ -76,9 +81,18 @@ def write_table(path: Path, frame: pd.DataFrame) -> None:
     frame.to_csv(path, sep="\t", index=False, na_rep="n/a", lineterminator="\n")
 
 
-def dataset_description(version: str, *, simulated: bool, source: str) -> dict[str, Any]:
+def dataset_description(
+    version: str,
+    *,
+    simulated: bool,
+    source: str,
+    authors: Sequence[str] = (),
+    license_id: str | None = None,
+) -> dict[str, Any]:
+    """``dataset_description.json``; ``Authors`` and ``License`` (an SPDX identifier, e.g. CC-BY-4.0)
+    as ``bowden export --authors/--license`` give them, left out when not given (both RECOMMENDED)."""
     kind = "simulated" if simulated else "recorded"
-    return {
+    described: dict[str, Any] = {
         "Name": f"bowden study ({kind}): arm elevation with a cable-driven shoulder exosuit",
         "BIDSVersion": BIDS_VERSION,
         "DatasetType": "raw",
@@ -90,6 +104,11 @@ def dataset_description(version: str, *, simulated: bool, source: str) -> dict[s
             }
         ],
     }
+    if authors:
+        described["Authors"] = list(authors)
+    if license_id:
+        described["License"] = license_id
+    return described
 
 
 README: Final = """# bowden study
