@@ -37,13 +37,18 @@ def _validator() -> str:
 
 def validation_errors(dataset: Path) -> list[dict[str, Any]]:
     """Every issue of severity ``error`` the official validator reports, every row of every TSV checked."""
+    return [issue for issue in validator_issues(dataset) if issue.get("severity") == "error"]
+
+
+def validator_issues(dataset: Path) -> list[dict[str, Any]]:
+    """Every issue the official validator reports (errors and warnings)."""
     run = subprocess.run(
         [_validator(), "--format", "json", "--max-rows", "-1", str(dataset)],
         capture_output=True, text=True, timeout=240, check=False,
     )
     issues = json.loads(run.stdout)["issues"]["issues"]
     assert isinstance(issues, list)
-    return [issue for issue in issues if issue.get("severity") == "error"]
+    return issues
 
 
 @pytest.fixture(scope="session")

@@ -25,7 +25,7 @@ from bowden.contracts import SIMULATED_BACKENDS, TRIAL_TIME
 from bowden.errors import OutputFileError
 from bowden.share import layout
 from bowden.share.emg_run import EmgRunFacts, write_emg_run
-from bowden.share.events import EVENTS_SIDECAR, trial_events
+from bowden.share.events import events_sidecar, trial_events
 from bowden.share.sessions import SESSIONS_SIDECAR, session_level
 from bowden.share.timeseries import (
     MOTION_CHANNELS,
@@ -216,7 +216,7 @@ def store_support(meta: dict[str, Any], row: Any) -> float | None:
 
 def _write_events(stem: Path, table: pd.DataFrame) -> None:
     layout.write_table(stem.with_name(stem.name + ".tsv"), table)
-    layout.write_json(stem.with_name(stem.name + ".json"), EVENTS_SIDECAR)
+    layout.write_json(stem.with_name(stem.name + ".json"), events_sidecar(table["trial_type"].unique()))
 
 
 def _write_phenotype(out: Path, answers: pd.DataFrame, labels: dict[str, str]) -> None:

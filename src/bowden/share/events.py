@@ -17,6 +17,7 @@ Rows, in onset order:
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from typing import Any, Final
 
 import numpy as np
@@ -64,6 +65,16 @@ EVENTS_SIDECAR: Final[dict[str, Any]] = {
     "stop_reason": {"Description": "Why the control loop stopped the trial."},
     "message": {"Description": "The control loop's message with a logged event."},
 }
+
+
+def events_sidecar(kinds: Iterable[str]) -> dict[str, Any]:
+    """:data:`EVENTS_SIDECAR` with a level for every ``trial_type`` of the file: the validator refuses a
+    value its ``Levels`` do not list, and the store's events have kinds of their own (an EMG import's
+    ``emg_import``, a trigger's ``sync``)."""
+    levels = dict(EVENTS_SIDECAR["trial_type"]["Levels"])
+    for kind in kinds:
+        levels.setdefault(str(kind), f"event bowden stored with the trial (kind {kind}; see message)")
+    return {**EVENTS_SIDECAR, "trial_type": {**EVENTS_SIDECAR["trial_type"], "Levels": levels}}
 
 
 def trial_events(
