@@ -71,7 +71,12 @@ def test_bench_simulate_writes_the_latency_segment_and_validate_recommends(
     assert "--support" in capsys.readouterr().err
 
 
-def test_the_fit_on_study_strokes_lowers_their_cost_on_a_suit_with_presliding() -> None:
+def test_the_fit_on_study_strokes_lowers_their_cost_on_a_suit_with_presliding(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import bowden.sim.bench_study as bench_study
+
+    monkeypatch.setattr(bench_study, "FIT_INERTIA_SCALES", (1.0,))  # a smaller grid: a faster test
     suit = next(plant.suit for plant in structural_plants() if plant.name == "dahl")
     identified = TransmissionIdentifier().fit(run_bench(suit, QUICK_BENCH, seed=0)).model_
     fitted = fit_on_study_segment(identified, suit, seed=0)
