@@ -118,7 +118,10 @@ Exported by `bowden export --bids` from a bowden study store.
 Each trial is one run of the task `armelevation` (its number is the trial's id in the store):
 
 - `emg/`: the raw sEMG as EDF+ (16-bit codes) or BDF+ (24-bit), one signal per muscle;
-  `_channels.tsv` gives each muscle's exact scaling (`volts = code * gain_v + offset_v`);
+  `_channels.tsv` gives each muscle's exact scaling (stored value = `code * code_step` in
+  `stored_format`, `volts = value * gain_v + offset_v`); a last data record padded to whole records
+  is marked `BAD_ACQ_SKIP` (an EDF+ annotation) and `RecordingDuration` is the stored length;
+  values 24 bits cannot hold exactly are kept under `sourcedata/` (`exact_values`);
 - `motion/`: the upper-arm elevation measured by the IMU, with each control cycle's time;
 - `beh/`: every signal of the control loop (reference and measured elevation, desired tension,
   commanded and measured motor torque, load cell, loop state), with the compensation model the
@@ -127,7 +130,8 @@ Each trial is one run of the task `armelevation` (its number is the trial's id i
   reference, the events the loop logged.
 
 `participants.tsv` holds the participants as registered; `phenotype/` the questionnaires, one
-column per item and condition.
+column per item and condition. Where a participant came for several sessions, each run is under its
+`ses-<n>` (`sub-*_sessions.tsv`; `ses-unplanned`: trials recorded outside a session plan).
 """
 
 
