@@ -1,4 +1,5 @@
-"""Peak memory of `bowden analyze --export` against the issue's 500 MB bound, before and after.
+"""Peak memory of `bowden analyze --export` against the issue's 500 MB bound, before and after;
+then the time and peak memory of `bowden export --bids` (issue 29) on the same store.
 
 Run: python benchmarks/export.py [--participants N | --store study.db] [--emg] [--before-rev REV]
 Each export runs in a fresh interpreter whose peak resident memory (ru_maxrss) is printed with its
@@ -36,6 +37,15 @@ old = types.ModuleType("old_export")
 exec(compile(open(sys.argv[5]).read(), "old_export.py", "exec"), old.__dict__)
 with StudyStore(sys.argv[1]) as store:
     old.export_store(store, sys.argv[2], file_format=sys.argv[3], include_emg=sys.argv[4] == "1")
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+"""
+
+_BIDS = """
+import resource, sys
+from bowden.share.bids import export_bids
+from bowden.store.study_store import StudyStore
+with StudyStore(sys.argv[1]) as store:
+    export_bids(store, sys.argv[2])
 print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
 """
 
@@ -82,6 +92,10 @@ def main() -> None:
                 line += (f"\n{'':<8} before peak {before:7.0f} MB  ratio {before / BOUND_MB:.2f}  "
                          f"({old_s:.1f} s); after/before {after / before:.2f}")
             print(line)
+        bids = work / "bids"
+        peak, seconds = run(_BIDS, store, bids, "bids", True)
+        size = sum(p.stat().st_size for p in bids.rglob("*") if p.is_file()) / 1e6
+        print(f"{'bids':<8} export --bids  peak {peak:7.0f} MB  ({seconds:.1f} s, {size:.0f} MB written)")
 
 
 if __name__ == "__main__":
