@@ -201,7 +201,8 @@ def test_the_real_suit_without_a_display_records_no_repetition_count() -> None:
     # Nobody follows the reference on the real suit unless --serve shows it: the trial holds the
     # cycles the wearer made, and the analysis takes them all (metadata "repetitions": null).
     args = argparse.Namespace(backend="can", serve=False, rate=500.0, model=Path("model.json"),
-                              speed="V2", duration=30.0, lead_in=2.0, hand_load=0.5)
+                              speed="V2", duration=30.0, lead_in=2.0, hand_load=0.5,
+                              motor="AK60-6", firmware=None, imu="ngimu")
     reference = run_reference(args)
     setup = TrialSetup(participant="P01", condition="support_50", speed="V2", support=0.5,
                        repetitions=reference.repetitions, lead_in_s=2.0,

@@ -17,6 +17,7 @@ from bowden import __version__
 from bowden.contracts import BACKEND_CAN, BACKEND_SIM, CONDITION_SUPPORT_50
 from bowden.control import ControllerLimits, build_controller
 from bowden.errors import ParameterError
+from bowden.hardware.device_record import device_record
 from bowden.model import CompensationModel, Subject
 from bowden.model.anthropometry import arm_model
 from bowden.model.model_file import load_model
@@ -274,6 +275,7 @@ def trial_info(
         "bowden_version": __version__,
         "model": str(args.model) if args.model else "ideal (simulation)",
         **(model_record(model, args.model) if model is not None else {}),
+        **device_record(args.motor, args.firmware, args.imu),  # which actuator and IMU it ran on
         **{k: v for k, v in setup.to_json().items() if k not in ("participant", "condition")},
     }
     if followed:

@@ -36,6 +36,7 @@ from bowden.cli._sync_options import SyncOutputs, add_sync_arguments, open_sync_
 from bowden.cli.check import preflight_report
 from bowden.contracts import BACKEND_CAN, REPETITIONS_PER_TRIAL, SPEEDS
 from bowden.errors import ParameterError
+from bowden.hardware.device_record import device_record
 from bowden.model.model_file import load_model
 from bowden.protocol.catalogue import catalogue_of
 from bowden.protocol.session_plan import MAX_BREAK_S, ORDERS, PAPER_BREAK_S, StudyProtocol
@@ -120,7 +121,8 @@ def can_backend(options: CanSuitOptions) -> SuitBackend:
     def open_suit(setup: TrialSetup) -> Iterator[OpenSuit]:
         with open_can_backend(options, announce=logging.getLogger(__name__).info) as backend:
             yield OpenSuit(motor=backend.motor, elevation_sensor=backend.imu, clock=backend.clock,
-                           tension_sensor=backend.load_cell, description=backend.describe)
+                           tension_sensor=backend.load_cell, description=backend.describe,
+                           devices=device_record(options.motor, options.firmware, options.imu))
 
     return ContextBackend(BACKEND_CAN, open_suit)
 
@@ -197,7 +199,9 @@ def _serve_config(args: argparse.Namespace) -> ServeConfig:
         require_hardware_extra("bowden serve", options)
         backend = can_backend(options)
     else:
-        backend = SimulatedBackend(time_scale=args.time_scale)
+        suit = CanSuitOptions.from_args(args)  # --motor, --firmware and --imu count on either backend
+        backend = SimulatedBackend(time_scale=args.time_scale, motor=suit.motor, firmware=suit.firmware,
+                                   imu=suit.imu)
     if args.model is not None:
         model = load_model(args.model)
     else:

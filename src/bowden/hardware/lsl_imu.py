@@ -172,6 +172,16 @@ class LslImuClient(StartedInWith):
             raise HardwareError(f"the LSL stream {name!r} has {channels} channels: bowden reads a quaternion "
                                 "(4: w, x, y, z) or an elevation (1) stream")
         self._inlet = pylsl.StreamInlet(info, max_buflen=2, processing_flags=pylsl.proc_clocksync)
+        # Connect and synchronise the clocks now: liblsl otherwise does both at the first pull and
+        # holds every sample until its first clock offset is measured (≈ 0.65 s on one machine), so
+        # the arm-down calibration that follows would get nothing, then only a stale backlog.
+        try:
+            self._inlet.open_stream(timeout=self.config.resolve_timeout_s)
+            self._inlet.time_correction(timeout=self.config.resolve_timeout_s)
+        except Exception as error:  # pylsl's TimeoutError/LostError; the inlet is of no use then
+            self._inlet = None
+            raise HardwareError(f"the LSL stream {name!r} was found but could not be opened within "
+                                f"{self.config.resolve_timeout_s:g} s (--imu lsl:{name}): {error}") from None
         self._local_clock = pylsl.local_clock
         self.kind = "quaternion" if channels == QUATERNION_CHANNELS else "elevation"
         if self.kind == "elevation":

@@ -22,10 +22,13 @@ from typing import Protocol
 
 from bowden.contracts import BACKEND_SIM
 from bowden.errors import ConflictError, ParameterError
+from bowden.hardware.lsl_imu import parse_imu
+from bowden.hardware.motors import DEFAULT_MOTOR, motor_model
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
 from bowden.sim.arm import ParticipantArm
 from bowden.sim.parameters import check_seed
 from bowden.sim.participants import ExpectedAssistance, VirtualParticipant
+from bowden.sim.peers.wall_time import WallTimePlant
 from bowden.sim.suit import SimulatedSuit
 from bowden.web.trial_setup import TrialSetup
 
@@ -44,6 +47,9 @@ class OpenSuit:
         What the control loop drives and reads.
     description
         One line for the console and the trial's metadata ("simulated suit", "AK60-6 on can0"...).
+    devices
+        What the trial's metadata records of the hardware: ``motor_model``, ``motor_firmware`` and
+        ``imu`` (``ngimu`` or ``lsl:NAME``), so the store says which actuator and IMU a trial ran on.
     health
         Backend-specific health figures for the console (e.g. wall-clock lag of a simulation).
     close
@@ -55,6 +61,7 @@ class OpenSuit:
     clock: Clock
     tension_sensor: TensionSensor | None = None
     description: str = ""
+    devices: dict[str, str] = field(default_factory=dict)
     health: Callable[[], dict[str, float]] = field(default=dict)
     close: Callable[[], None] = field(default=_nothing)
 
@@ -194,9 +201,37 @@ class WallPacedClock:
             self.worst_lag_s = -remaining
 
 
+LSL_MAX_TIME_SCALE = 5.0  # the simulated LSL IMU streams at most 1 kHz of wall time: 200 Hz simulated
+_LSL_SIM_RATE_HZ = 200.0  # the simulated IMU's rate in simulated time (the NGIMU's of bowden run)
+_CALIBRATION_S = 0.3  # the arm-down calibration of a simulated LSL IMU (wall time)
+
+
+class _LockedClock:
+    """The simulated suit's clock, advancing the physics under the lock that the IMU peer's thread
+    reads it under (:class:`~bowden.sim.peers.WallTimePlant`, never started: it only guards)."""
+
+    def __init__(self, inner: Clock, plant: WallTimePlant) -> None:
+        self._inner = inner
+        self._plant = plant
+
+    def now(self) -> float:
+        return self._inner.now()
+
+    def sleep_until(self, deadline_s: float) -> None:
+        self._plant.call(lambda _: self._inner.sleep_until(deadline_s))
+
+
 @dataclass(frozen=True, kw_only=True)
 class SimulatedBackend:
     """Each trial on a fresh simulated suit worn by a virtual participant following the reference.
+
+    The paper's AK60-6 is the simulator's own motor; another ``motor`` (or a ``firmware`` variant)
+    is driven as ``bowden run --backend sim`` drives it: the real driver
+    (:class:`~bowden.hardware.ak60.AK60Motor`, set up for that model's MIT-mode ranges) sends real
+    frames to that model's simulated peer, which answers within the send
+    (:mod:`bowden.sim.peers.inline_can`: the physics is paced, maybe faster than real time). With
+    ``imu`` ``lsl:NAME`` the arm's orientation is published as an LSL quaternion stream of that name
+    and read back by :class:`~bowden.hardware.lsl_imu.LslImuClient` after its arm-down calibration.
 
     Parameters
     ----------
@@ -204,15 +239,33 @@ class SimulatedBackend:
         Simulated seconds per wall second (1 = real time, what a watching person needs).
     seed
         Seed of sensor and motor noise (each trial adds its number so trials differ).
+    motor, firmware
+        ``--motor`` and ``--firmware``: the TDU's AK model and firmware variant.
+    imu
+        ``--imu``: ``ngimu`` (the simulator's IMU) or ``lsl:STREAM_NAME``.
     """
 
     time_scale: float = 1.0
     seed: int = 0
+    motor: str = DEFAULT_MOTOR
+    firmware: str | None = None
+    imu: str = "ngimu"
     name: str = BACKEND_SIM
 
     def __post_init__(self) -> None:  # refused when the server starts, not at every trial
         check_time_scale(self.time_scale)
         check_seed(self.seed)
+        motor_model(self.motor).limits(self.firmware)
+        if parse_imu(self.imu) is not None and self.time_scale > LSL_MAX_TIME_SCALE:
+            raise ParameterError(f"--imu {self.imu} streams in wall time: --time-scale must be at most "
+                                 f"{LSL_MAX_TIME_SCALE:g} with it, got {self.time_scale:g}")
+
+    @property
+    def devices(self) -> dict[str, str]:
+        """What each trial's metadata records of the hardware (:func:`device_record`)."""
+        from bowden.hardware.device_record import device_record
+
+        return device_record(self.motor, self.firmware, self.imu)
 
     def open(self, setup: TrialSetup) -> OpenSuit:
         reference = setup.reference
@@ -232,13 +285,61 @@ class SimulatedBackend:
             expected=expected,
         )
         suit = SimulatedSuit(arm=arm, seed=self.seed)
-        clock = WallPacedClock(suit.clock, time_scale=self.time_scale)
+        with ExitStack() as stack:
+            plant = WallTimePlant(suit)
+            clock = WallPacedClock(_LockedClock(suit.clock, plant), time_scale=self.time_scale)
+            stack.callback(suit.motor.disable)
+            motor: Motor = suit.motor
+            if (self.motor, self.firmware) != (DEFAULT_MOTOR, None):
+                motor = self._wired_motor(plant, clock, stack)
+            elevation_sensor: ElevationSensor = suit.elevation_sensor
+            stream = parse_imu(self.imu)
+            if stream is not None:
+                elevation_sensor = self._lsl_imu(plant, clock, stream, stack)
+            limits = motor_model(self.motor).limits(self.firmware)
+            devices = stack.pop_all()
         return OpenSuit(
-            motor=suit.motor,
-            elevation_sensor=suit.elevation_sensor,
+            motor=motor,
+            elevation_sensor=elevation_sensor,
             clock=clock,
             tension_sensor=suit.tension_sensor,
-            description=f"simulated suit, virtual participant, {self.time_scale:g}× real time",
+            description=f"simulated suit ({self.motor}, ±{limits.torque_nm:g} Nm; IMU {self.imu}), virtual "
+                        f"participant, {self.time_scale:g}× real time",
+            devices=self.devices,
             health=lambda: {"simulation_lag_ms": 1e3 * clock.worst_lag_s},
-            close=suit.motor.disable,
+            close=devices.close,
         )
+
+    def _wired_motor(self, plant: WallTimePlant, clock: WallPacedClock, stack: ExitStack) -> Motor:
+        """The real driver, set up for ``motor``'s ranges, and that model's peer on an inline bus."""
+        from bowden.hardware.ak60 import AK60Config, AK60Motor
+        from bowden.sim.peers import AK60Peer
+        from bowden.sim.peers.inline_can import inline_can_pair
+
+        limits = motor_model(self.motor).limits(self.firmware)
+        driver_bus, peer_bus = inline_can_pair(f"serve-{self.motor}")
+        stack.callback(peer_bus.shutdown)
+        stack.callback(driver_bus.shutdown)
+        peer = AK60Peer(peer_bus, plant, limits=limits, time_source=clock.now).power_on()
+        driver_bus.deliver = peer.answer
+        # As bowden run (cli._suit.motor_config): another model is clamped at its torque field's range.
+        config = AK60Config(limits=limits) if self.motor == DEFAULT_MOTOR else \
+            AK60Config(limits=limits, torque_limit_nm=limits.torque_nm)
+        # The driver's deadlines are wall time, as on a bus (the simulated clock stands still while
+        # it waits); the loop judges replies on its own clock (runtime.motor_link), not the driver's.
+        driver = AK60Motor(driver_bus, config)
+        stack.callback(driver.__exit__, None, None, None)  # leaves motor mode if the loop did not
+        return driver
+
+    def _lsl_imu(self, plant: WallTimePlant, clock: WallPacedClock, stream: str,
+                 stack: ExitStack) -> ElevationSensor:
+        """The arm published as an LSL quaternion stream, read back by the LSL client (calibrated)."""
+        from bowden.hardware.lsl_imu import LslImuClient, LslImuConfig
+        from bowden.sim.peers.lsl_imu_peer import LslImuPeer
+
+        peer = stack.enter_context(LslImuPeer(plant, stream, rate_hz=_LSL_SIM_RATE_HZ * self.time_scale))
+        client = stack.enter_context(LslImuClient(LslImuConfig(stream_name=stream), clock=clock.now))
+        peer.hold_arm_down()  # the participant stands with the arm hanging for the calibration
+        client.calibrate_arm_down(_CALIBRATION_S)
+        peer.hold_arm_down(False)
+        return client

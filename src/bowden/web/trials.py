@@ -290,6 +290,7 @@ class TrialManager:
                     "source": "bowden serve",
                     "backend": self.backend.name,
                     "suit": suit.description,
+                    **suit.devices,
                     "rate_hz": self.rate_hz,
                     "bowden_version": __version__,
                     "compensation": getattr(controller, "compensation", None),

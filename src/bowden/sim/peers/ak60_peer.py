@@ -137,10 +137,16 @@ class AK60Peer(StartedInWith):
     def start(self) -> Self:
         """Start answering frames in a background thread."""
         if not self._server.running:
-            # The plant's motor is the physics of a torque source: powered once, and "rest mode" is
-            # zero torque, as the firmware commands zero current when not in motor mode.
-            self._last_state = self._plant.enable_motor()
+            self.power_on()
             self._server.start()
+        return self
+
+    def power_on(self) -> Self:
+        """Power the plant's motor without a thread of its own: frames are then handed to
+        :meth:`answer` by their bus (:class:`~bowden.sim.peers.inline_can.InlineCanBus`)."""
+        # The plant's motor is the physics of a torque source: powered once, and "rest mode" is
+        # zero torque, as the firmware commands zero current when not in motor mode.
+        self._last_state = self._plant.enable_motor()
         return self
 
     def close(self) -> None:
@@ -192,11 +198,17 @@ class AK60Peer(StartedInWith):
     def _serve(self) -> None:
         while not self._server.stop_requested.is_set():
             message = self._bus.recv(timeout=0.02)
-            if message is None or message.is_extended_id or message.is_error_frame:
-                continue
-            if message.arbitration_id != self.motor_id or message.is_remote_frame:
-                continue
-            self._handle(bytes(message.data))
+            if message is not None:
+                self.answer(message)
+
+    def answer(self, message: can.Message) -> None:
+        """Handle one frame heard on the bus as the firmware does (frames for other ids, extended,
+        remote and error frames are not for it), replying on the bus."""
+        if message.is_extended_id or message.is_error_frame:
+            return
+        if message.arbitration_id != self.motor_id or message.is_remote_frame:
+            return
+        self._handle(bytes(message.data))
 
     def _handle(self, data: bytes) -> None:
         if self._ignore_left > 0:
