@@ -63,11 +63,15 @@ def test_a_dynamic_study_reports_both_compensations_on_the_same_trials(tmp_path)
     )
     result = run_study(settings, tmp_path / "study")
     report = result.report.read_text(encoding="utf-8")
-    section = report[report.index("Beyond the paper: dynamic compensation") :]
+    # The last occurrence: the table of contents names the section first.
+    section = report[report.rindex("Beyond the paper: dynamic compensation") :]
     assert "Paper against dynamic compensation" in section and "(simulated)" in section
     assert section.count("<img") == 1
     for label in ("pre", "25%", "50%"):
         assert f">{label}<" in section
+    # The musculoskeletal participants' posterior deltoid beside it (issue 30, item 5).
+    assert "posterior deltoid lowering, musculoskeletal" in section
+    assert "Musculoskeletal participants" in section or "not installed" in section
     # The study itself ran with the dynamic compensation, and says so in its settings.
     assert '"compensation": "dynamic"' in (tmp_path / "study" / "settings.json").read_text()
     with pytest.raises(ParameterError, match="other settings"):

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from bowden.errors import ParameterError
 from bowden.model import CuffGeometry
 from bowden.sim._kernels import jit
 
@@ -64,7 +65,12 @@ def _digest() -> str:
     for name in ("table.py", "myoarm.py"):
         h.update((here / name).read_bytes())
     for package in ("mujoco", "myo-sim"):
-        h.update(metadata.version(package).encode())
+        try:
+            h.update(metadata.version(package).encode())
+        except metadata.PackageNotFoundError:
+            raise ParameterError(
+                f"the musculoskeletal participants need {package}: pip install 'bowden[msk]'"
+            ) from None
     h.update(ELEVATION_GRID_RAD.tobytes() + VELOCITY_GRID_RAD_S.tobytes())
     h.update(repr(CuffGeometry()).encode())
     return h.hexdigest()[:16]

@@ -26,6 +26,11 @@ from bowden.study.compensation.comparison import (
     compared_trials,
     trial_errors,
 )
+from bowden.study.compensation.posterior_deltoid import COLUMN as POSTERIOR_DELTOID_MSK
+from bowden.study.compensation.posterior_deltoid import (
+    musculoskeletal_posterior_deltoid,
+    posterior_deltoid_paragraph,
+)
 from bowden.study.report.html import HtmlDocument
 
 _BINS = 100
@@ -51,6 +56,7 @@ def _row(item: ComparedTrial, geometry_arm: np.ndarray) -> dict[str, object]:
     row["posterior deltoid lowering"] = float(
         trial.activations()["posterior_deltoid"].to_numpy()[lowering].mean()
     )
+    row[POSTERIOR_DELTOID_MSK] = musculoskeletal_posterior_deltoid(trial)
     return row
 
 
@@ -134,4 +140,5 @@ def compensation_section(
         "they did not plan for (docs/simulation.md): the corrections a spike at the lowering onset "
         "calls for, which the paper held responsible for its +32 %."
     )
+    doc.paragraph(posterior_deltoid_paragraph(table))
     return table
