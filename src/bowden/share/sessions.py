@@ -26,10 +26,6 @@ from bowden.share.layout import acq_time
 from bowden.store.study_store import StudyStore
 
 UNPLANNED: Final = "unplanned"
-_QUERY: Final = (
-    "SELECT t.trial_id, s.id AS session, s.created_utc FROM session_trials t "
-    "JOIN sessions s ON s.id = t.session_id ORDER BY s.id, t.trial_id"
-)
 
 SESSIONS_SIDECAR: Final[dict[str, Any]] = {
     "session_id": {"Description": "BIDS session label: the participant's sessions numbered from 1 in the "
@@ -55,7 +51,7 @@ class SessionLevel:
 def session_level(store: StudyStore, trials: Iterable[tuple[int, str]]) -> SessionLevel:
     """The session level of the export of ``trials`` ((trial id, participant) pairs)."""
     pairs = list(trials)
-    rows = store.read_sql(_QUERY)  # the store makes the session tables as it opens (empty in older ones)
+    rows = store.trial_sessions()  # the store makes the session tables as it opens (empty in older ones)
     session_of = {
         int(trial): (int(session), str(created))
         for trial, session, created in rows.itertuples(index=False, name=None)

@@ -254,6 +254,15 @@ class StudyStore:
             params=(trial_id,),
         )
 
+    def trial_sessions(self) -> pd.DataFrame:
+        """Each trial started for a session's step: trial_id, session (its id), created_utc (when the
+        session was planned), by session then trial (empty in a store without session plans)."""
+        return pd.read_sql_query(
+            "SELECT t.trial_id, s.id AS session, s.created_utc FROM session_trials t "
+            "JOIN sessions s ON s.id = t.session_id ORDER BY s.id, t.trial_id",
+            self._db,
+        )
+
     def trial_times_utc(self, trial_id: int) -> tuple[str, str | None]:
         """When a trial started and ended (ISO 8601 UTC as recorded; the end None while open)."""
         query = "SELECT started_utc, ended_utc FROM trials WHERE id = ?"
