@@ -298,7 +298,7 @@ def test_analyze_reports_which_trials_had_emg_and_from_which_file(session, store
     assert main(["analyze", str(store), "--report", str(report), "--quiet"]) == 0
     assert "analysed 3 trials" in capsys.readouterr().out
     text = report.read_text()
-    assert "EMG of trials 1, 2: imported from P01_part.edf (synchronised by trigger: drift +80.0 ppm" in text
+    assert "EMG of trials #1–#2: imported from P01_part.edf (synchronised by trigger: drift +80.0 ppm" in text
     assert "EMG of trial 3: none" in text
 
 
