@@ -100,3 +100,14 @@ def test_bad_options_are_one_line(capsys: pytest.CaptureFixture[str]) -> None:
     assert len(err) == 1 and "--inject breaks the simulated suit only: give --backend sim" in err[0]
     assert main(["check", "--backend", "sim", "--session-min", "0"]) == 1
     assert "--session-min must be in" in capsys.readouterr().err
+
+
+def test_the_help_names_every_fault_the_simulated_rig_can_inject_and_an_unknown_one_is_one_line(capsys):
+    from bowden.cli.check import INJECTABLE
+    from bowden.sim.peers.check_rig import FAULTS
+
+    assert INJECTABLE.split(", ") == list(FAULTS)
+    assert main(["check", "--backend", "sim", "--inject", "loose-cable"]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    known = ", ".join(FAULTS)
+    assert err == [f"bowden: error: --inject loose-cable is not a simulated fault; known: {known}"]

@@ -40,11 +40,10 @@ if TYPE_CHECKING:
     from bowden.sim.peers.check_rig import SimulatedRig
 
 MAX_SESSION_MIN = 24 * 60.0
+INJECTABLE = "interface-down, silent-imu, load-cell-offset, hot-motor"  # bowden.sim.peers.check_rig.FAULTS
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from bowden.sim.peers.check_rig import FAULTS
-
     parser = subparsers.add_parser(
         "check", help="pre-flight: check every device of the suit before the participant arrives",
         description=__doc__.split("\n\n")[1] if __doc__ else None,
@@ -62,8 +61,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                         help="control rate of the runs, Hz (default 500)")
     parser.add_argument("--trigger", metavar="SPEC", help="the trigger line to toggle (as bowden run's)")
     parser.add_argument("--lsl", action="store_true", help="publish the LSL outlets and find them")
-    parser.add_argument("--inject", action="append", choices=FAULTS, default=[],
-                        help="--backend sim: break the simulated suit first (repeatable)")
+    # No choices= here: the simulated rig (which imports python-can) names the known faults itself,
+    # and building the command line must not import it.
+    parser.add_argument("--inject", action="append", default=[], metavar="FAULT",
+                        help=f"--backend sim: break the simulated suit first (repeatable): {INJECTABLE}")
     add_can_arguments(parser)
     parser.set_defaults(handler=check)
 

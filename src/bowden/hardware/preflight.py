@@ -18,13 +18,15 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 from bowden.errors import BowdenError
-from bowden.hardware.ak60 import AK60Motor
 from bowden.hardware.ak60_codec import MotorErrorCode
 from bowden.hardware.motors import AKMotorModel
 from bowden.hardware.protocols import ElevationSensor, TensionSensor
+
+if TYPE_CHECKING:  # the driver imports python-can: `bowden --help` lists `check` without it
+    from bowden.hardware.ak60 import AK60Motor
 
 CAN_BITRATE: Final = 1_000_000  # every AK model (CubeMars driver manual V1.0.8 §5.3: "CAN Speed: 1 MHZ")
 TEMPERATURE_MARGIN_C: Final = 10.0  # below the loop's over-temperature stop (80 °C): room for a session
