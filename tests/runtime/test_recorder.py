@@ -148,7 +148,11 @@ def test_chunks_are_merged_when_full_and_at_the_end(tmp_path: Path) -> None:
         for i in range(1050):
             recorder.record(record_child.row(i))
             if i % 40 == 0:
-                time.sleep(0.012)  # several commits, so small chunks are made and merged
+                # Several commits, so small chunks are made and merged: wait for each (a busy host's
+                # writer thread may sleep longer than any fixed pause).
+                deadline = time.monotonic() + 30.0
+                while recorder.stats.committed_rows < i + 1 and time.monotonic() < deadline:
+                    time.sleep(0.002)
     assert recorder.stats.commits > 10
     with sqlite3.connect(path) as connection:
         counts = chunk_sizes(connection)
