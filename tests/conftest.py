@@ -54,6 +54,7 @@ SERIAL_GROUPS = {
         "tests/web/test_preflight_route.py",
         "tests/web/test_real_suit.py",
         "tests/web/test_serve_sync.py",
+        "tests/web/test_sim_devices.py",
     ),
 }
 

@@ -7,7 +7,9 @@ Discovery stays on this machine (ResolveScope = machine). In the real-time group
 
 from __future__ import annotations
 
+import json
 import os
+import sqlite3
 import subprocess
 import sys
 from pathlib import Path
@@ -23,7 +25,8 @@ def test_a_trial_with_another_motor_and_an_lsl_imu(tmp_path: Path) -> None:
     name = f"bowden-test-arm-{os.getpid()}"
     run = subprocess.run(
         [sys.executable, "-m", "bowden", "run", "--backend", "sim", "--motor", "AK70-10",
-         "--imu", f"lsl:{name}", "--duration", "2", "--rate", "250", "--lead-in", "0.5"],
+         "--imu", f"lsl:{name}", "--duration", "2", "--rate", "250", "--lead-in", "0.5",
+         "--record", "study.db"],
         env={**os.environ, "LSLAPICFG": str(config)}, cwd=tmp_path, capture_output=True, text=True,
         timeout=240,
     )
@@ -31,3 +34,8 @@ def test_a_trial_with_another_motor_and_an_lsl_imu(tmp_path: Path) -> None:
     assert "AK70-10 (50 rad/s, 25 Nm ranges)" in run.stderr
     assert f"LSL quaternion stream '{name}'" in run.stderr
     assert "stopped: duration 2 s reached (no fault)" in run.stdout + run.stderr
+    with sqlite3.connect(tmp_path / "study.db") as connection:  # the store says what the trial ran on
+        (text,) = connection.execute("SELECT metadata FROM trials").fetchone()
+    metadata = json.loads(text)
+    assert (metadata["motor_model"], metadata["motor_firmware"], metadata["imu"]) == (
+        "AK70-10", "manual-v1.0.8", f"lsl:{name}")
