@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from bowden.cli import main
 
@@ -79,3 +80,29 @@ def test_bench_simulate_takes_the_range_bench_run_takes(tmp_path, capsys):
                  "--repetitions", "1", "--low-deg", "30", "--high-deg", "70"]) == 0
     elevation = np.degrees(pd.read_csv(path)["elevation_rad"].to_numpy())
     assert 65.0 < elevation.max() < 80.0 and 20.0 < elevation.min() < 35.0, (elevation.min(), elevation.max())
+
+
+def test_the_simulated_bench_runs_the_motor_option_s_model_on_both_ends() -> None:
+    # Commit 95368f1: --motor reaches the simulated bench's TDU driver *and* its simulated peer. A
+    # mismatch would not show in the replies (the peer's scaling of the command and of its reply
+    # cancel), so the torque the simulated TDU applied is read from its received-frame log: 6 Nm
+    # packed in the AK70-10's ±25 Nm field and read with the AK60-6's ±15 Nm would apply 3.6 Nm.
+    from bowden.cli import build_parser
+    from bowden.cli._bench_run import _open
+    from bowden.hardware.motors import motor_limits
+    from bowden.sim.peers.ak60_peer import COMMAND
+
+    args = build_parser().parse_args(["bench", "run", "--backend", "sim", "--motor", "AK70-10",
+                                      "-o", "unused.csv"])
+    with _open(args) as backend:
+        config = backend.motor.config
+        assert (config.limits, config.torque_limit_nm) == (motor_limits("AK70-10"), 25.0)
+        backend.motor.enable()
+        for _ in range(500):  # until a command of ours is answered (a busy host may delay the peer)
+            backend.motor.command_torque(6.0)
+            if backend.motor.poll(0.01) is not None:
+                break
+        applied = [frame.torque_nm for frame in backend.simulation.received_frames()
+                   if frame.kind == COMMAND]
+        backend.motor.command_torque(0.0)
+    assert applied and applied[-1] == pytest.approx(6.0, abs=25.0 / 2047)  # one step of the 12-bit field
