@@ -36,25 +36,34 @@ from .conftest import AUTH, BASE, SHORT_PROTOCOL, TOKEN, trial_request  # noqa: 
 from .test_app import WS, until  # noqa: E402
 
 
-def test_another_motor_is_driven_through_its_driver_and_peer_with_its_ranges() -> None:
-    suit = SimulatedBackend(motor="AK80-64", time_scale=50.0).open(
-        parse_setup(trial_request(condition="no_suit")))
+def _spool_after_4_nm(backend: SimulatedBackend) -> float:
+    """Spool position (rad) after 4 Nm for 80 ms of simulated time (under the suit's 9 Nm peak)."""
+    suit = backend.open(parse_setup(trial_request(condition="no_suit")))
     try:
-        assert isinstance(suit.motor, AK60Motor)
-        limits = motor_limits("AK80-64")
-        assert suit.motor.config.limits == limits and suit.motor.config.torque_limit_nm == 144.0
         suit.motor.enable()
         state = None
-        for k in range(1, 41):  # 4 Nm for 80 ms: under the suit's own 9 Nm peak
+        for k in range(1, 41):
             state = suit.motor.command_torque(4.0) or state
             suit.clock.sleep_until(0.002 * k)
-        # Both ends agree on the AK80-64's ±144 Nm field: a peer decoding with another range would
-        # apply (and report) a scaled torque. One 12-bit step of ±144 Nm is 0.07 Nm.
-        assert state is not None and state.torque_nm == pytest.approx(4.0, abs=0.15)
-        assert suit.devices == {"motor_model": "AK80-64", "motor_firmware": "manual-v1.0.8", "imu": "ngimu"}
+        assert state is not None
+        return state.position_rad
     finally:
         suit.close()
-    assert not suit.motor.enabled
+        assert not suit.motor.enabled
+
+
+def test_another_motor_is_driven_through_its_driver_and_peer_with_its_ranges() -> None:
+    backend = SimulatedBackend(motor="AK80-64", time_scale=50.0)
+    suit = backend.open(parse_setup(trial_request(condition="no_suit")))
+    suit.close()
+    assert isinstance(suit.motor, AK60Motor)
+    assert suit.motor.config.limits == motor_limits("AK80-64") and suit.motor.config.torque_limit_nm == 144.0
+    assert suit.devices == {"motor_model": "AK80-64", "motor_firmware": "manual-v1.0.8", "imu": "ngimu"}
+    # The peer applies what the driver packed: the spool moves as on the simulator's own motor (the
+    # 12-bit ±144 Nm field rounds 4 Nm to 3.97). A peer reading the frames with the AK60-6's ±15 Nm
+    # would apply 0.42 Nm, which the replies would not show (both scalings cancel), the spool would.
+    reference = _spool_after_4_nm(SimulatedBackend(time_scale=50.0))
+    assert _spool_after_4_nm(backend) == pytest.approx(reference, abs=0.01)
 
 
 def test_serve_passes_motor_firmware_and_imu_to_the_simulated_suit(tmp_path: Path) -> None:
