@@ -85,9 +85,12 @@ def electrode_activations(
     trapezius proxy).
     """
     activations = np.asarray(activations, dtype=np.float64)
-    weights = np.zeros((len(ARM_MUSCLES), len(MUSCLES)))
+    out = np.zeros((*activations.shape[:-1], len(MUSCLES)))
+    # Weighted sums column by column, not a matrix product: BLAS's threads, woken for a product this
+    # small, spin on the other core afterwards and cost a study's workers more than the product.
     for m, muscle in enumerate(MUSCLES):
         index = [ARM_MUSCLES.index(name) for name in ELECTRODES[muscle]]
         share = np.ones(len(index)) if muscle in UNWEIGHTED else np.asarray(max_force_n)[index]
-        weights[index, m] = share / share.sum()
-    return np.asarray(activations @ weights)
+        for i, weight in zip(index, share / share.sum(), strict=True):
+            out[..., m] += weight * activations[..., i]
+    return out
