@@ -109,10 +109,9 @@ def test_a_spoofer_sending_from_the_start_is_never_used(wall_plant: WallTimePlan
     with NgimuClient(NgimuConfig(port=0)) as client, \
             NgimuPeer(wall_plant, client.address, rate_hz=400.0) as peer:
         peer.hold_arm_down()
-        # Two more sends: a bundle of the arm at 70° built just before the flag (a preempted peer
-        # thread on a busy host) is then on the socket before the calibration, not inside it.
-        sent = peer.sent
-        wait_for(lambda: peer.sent >= sent + 2)  # the peer's bundles wait on the socket, nothing read yet
+        # A bundle of the arm at 70° read just before the flag (a preempted peer thread on a busy
+        # host) is then on the socket before the calibration, not inside it.
+        peer.wait_until_sent()  # the peer's bundles wait on the socket, nothing read yet
 
         def spoof() -> None:
             while not stop.is_set():
@@ -126,6 +125,11 @@ def test_a_spoofer_sending_from_the_start_is_never_used(wall_plant: WallTimePlan
             wait_for(lambda: spoofed[0] >= 1)
             calibration = client.calibrate_arm_down(0.1, min_samples=5)
             peer.hold_arm_down(False)
+            # The same after it: the arm-down bundles read before the flag cleared are all sent now,
+            # taken in here, and the samples judged below are the ones taken in after them.
+            peer.wait_until_sent()
+            assert client.poll() < client.config.max_datagrams_per_read
+            arm_down = client.read()
             # Every orientation collected was the peer's arm hanging down: the axis is the mounting's.
             assert all(abs(a - b) < 1e-6 for a, b in zip(calibration.axis, ARM_DOWN.axis, strict=True))
             assert client.counters.foreign >= 1
@@ -134,7 +138,8 @@ def test_a_spoofer_sending_from_the_start_is_never_used(wall_plant: WallTimePlan
 
             def gathered() -> bool:
                 sample = client.read()
-                if sample is not None and (not samples or sample.time_s > samples[-1].time_s):
+                last = samples[-1] if samples else arm_down
+                if sample is not None and (last is None or sample.time_s > last.time_s):
                     samples.append(sample)
                 return len(samples) >= 50 and client.counters.foreign >= foreign_before + 50
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import socket
+import threading
 import time
 from collections.abc import Callable, Iterator
 from typing import TYPE_CHECKING
@@ -45,6 +46,9 @@ def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
         time.sleep(0.005)
 
 
+ARM_DOWN_WIRE = ArmDownCalibration.from_quaternions([arm_orientation(0.0, 0.4, DEFAULT_MOUNTING)])
+
+
 @pytest.fixture
 def client() -> Iterator[NgimuClient]:
     with NgimuClient(NgimuConfig(host="127.0.0.1", port=0)) as running:
@@ -65,10 +69,50 @@ def peer(client: NgimuClient, wall_plant: WallTimePlant, arm: FixedArm) -> Itera
 
 
 def calibrate(client: NgimuClient, peer: NgimuPeer) -> ArmDownCalibration:
+    """The arm-down calibration, with the pose on the wire before it and off the wire after it.
+
+    The peer's thread may have read the arm's state just before a flag changed and send it after (a
+    preempted thread on a busy host): each change waits for a bundle read after it, and the arm-down
+    bundles still waiting at the end are taken in here, so no verdict after this sees them.
+    """
     peer.hold_arm_down()
+    peer.wait_until_sent()  # the calibration ignores what came before it
     calibration = client.calibrate_arm_down(0.1, min_samples=5)
     peer.hold_arm_down(False)
+    peer.wait_until_sent()
+    assert client.poll() < client.config.max_datagrams_per_read  # every arm-down bundle taken in
     return calibration
+
+
+class PreemptedPeer(NgimuPeer):
+    """A peer whose thread is held between reading the arm and sending it (a busy host's scheduler),
+    with a flag set while it is held, so a test can change a fault with an old state in flight."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self.holding = threading.Event()
+
+    def _emit(self, elevation_rad: float, elevation_velocity_rad_s: float) -> None:
+        self.holding.set()
+        time.sleep(0.02)
+        self.holding.clear()
+        super()._emit(elevation_rad, elevation_velocity_rad_s)
+
+
+def test_waiting_for_the_peer_covers_the_state_it_read_before_a_change(wall_plant: WallTimePlant,
+                                                                     arm: FixedArm) -> None:
+    # The arm is at 70°; the flag is set while the thread holds a 70° state it has not sent yet. After
+    # wait_until_sent that state is on the socket and taken in, and the newest sample hangs down.
+    with NgimuClient(NgimuConfig(host="127.0.0.1", port=0), calibration=ARM_DOWN_WIRE) as client, \
+            PreemptedPeer(wall_plant, client.address, rate_hz=400.0) as peer:
+        wait_for(lambda: client.read() is not None)
+        assert peer.holding.wait(5.0)
+        peer.hold_arm_down()
+        peer.wait_until_sent()
+        assert client.poll() < client.config.max_datagrams_per_read
+        sample = client.read()
+        assert sample is not None and abs(sample.elevation_rad) < 1e-4
+        assert client.counters.quaternions >= 2  # the 70° bundle in flight was taken in before it
 
 
 def fresh_sample(client: NgimuClient, after_s: float) -> ElevationSample:

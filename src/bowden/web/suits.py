@@ -340,6 +340,7 @@ class SimulatedBackend:
         peer = stack.enter_context(LslImuPeer(plant, stream, rate_hz=_LSL_SIM_RATE_HZ * self.time_scale))
         client = stack.enter_context(LslImuClient(LslImuConfig(stream_name=stream), clock=clock.now))
         peer.hold_arm_down()  # the participant stands with the arm hanging for the calibration
+        peer.wait_until_sent()  # no state read before the pose reaches the calibration
         client.calibrate_arm_down(_CALIBRATION_S)
-        peer.hold_arm_down(False)
+        peer.hold_arm_down(False)  # (the arm has no state to send until the trial advances it)
         return client

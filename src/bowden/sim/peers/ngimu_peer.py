@@ -107,6 +107,7 @@ class NgimuPeer(StartedInWith):
         self._frozen: tuple[float, float] | None = None
         self._streamer = StoppableThread(self._stream, "ngimu-peer")
         self.sent = 0
+        self._sent_changed = threading.Condition()
 
     def start(self) -> Self:
         """Start streaming in a background thread."""
@@ -147,6 +148,23 @@ class NgimuPeer(StartedInWith):
             self._frozen = (sample.elevation_rad if sample is not None else 0.0, 0.0)
         else:
             self._frozen = None
+
+    def wait_until_sent(self, timeout_s: float = 5.0) -> None:
+        """Return once a state read *after* this call has been sent, so that a fault set before it
+        (:meth:`hold_arm_down`, :meth:`send_nan`, :meth:`freeze`, resuming from :meth:`pause`) is on
+        the wire, and nothing from before it is still to come: the stream thread may have read the
+        state before the change and be about to send it (a preempted thread on a busy host).
+
+        Raises
+        ------
+        TimeoutError
+            Nothing was sent within ``timeout_s`` (paused, or not started).
+        """
+        with self._sent_changed:
+            # The bundle in flight may hold the old state; the one after it was read after this call.
+            target = self.sent + 2
+            if not self._sent_changed.wait_for(lambda: self.sent >= target, timeout_s):
+                raise TimeoutError(f"the simulated IMU sent nothing new within {timeout_s:g} s")
 
     def datagrams(self, elevation_rad: float, elevation_velocity_rad_s: float) -> tuple[bytes, bytes]:
         """The two bundles (``/sensors``, ``/quaternion``) for one arm state."""
@@ -193,7 +211,9 @@ class NgimuPeer(StartedInWith):
                     continue
                 elevation, velocity = sample.elevation_rad, sample.elevation_velocity_rad_s
             self._emit(elevation, velocity)
-            self.sent += 1
+            with self._sent_changed:
+                self.sent += 1
+                self._sent_changed.notify_all()
 
     def _emit(self, elevation_rad: float, elevation_velocity_rad_s: float) -> None:
         """Send one arm state (the LSL peer, :mod:`bowden.sim.peers.lsl_imu_peer`, pushes it instead)."""
