@@ -79,10 +79,11 @@ def main() -> None:
               f"peak ratio {part['peak_ratio'].max():.3f}")
     print("dynamic compensation everywhere:")
     print_cells(cell_table(rows))
-    choices = rows.groupby("plant", sort=False)[["recommended", "recommended_why"]].first()
-    for plant, choice in choices.iterrows():
-        print(f"  {plant}: {choice['recommended']} — {choice['recommended_why']}")
-    print("the compensation the bench's study-like segment recommends (the paper's where it picks it):")
+    choices = rows.groupby("plant", sort=False)["recommended_why"].first()
+    for plant, why in choices.items():
+        print(f"  {plant}: {why}")
+    print("the compensation the bench's study-like segment recommends per (support, speed) cell "
+          "(the paper's where it picks it):")
     print_cells(cell_table(rows, "recommended"))
     print(f"random suits' seed: {seed}; {len(plants)} suits in {time.perf_counter() - started:.0f} s")
 

@@ -124,3 +124,36 @@ def test_a_dynamic_compensation_not_recommended_leaves_the_controller_on_the_pap
     data["dynamic"]["recommended"] = "no"
     with pytest.raises(ModelFileError, match=r"dynamic\.recommended"):
         load_model(write(tmp_path, data))
+
+
+def test_the_recommendation_per_support_and_speed_is_stored_and_picks_the_controllers_compensation(
+    tmp_path: Path,
+) -> None:
+    from dataclasses import replace
+
+    from bowden.control import build_controller
+    from bowden.model import Subject
+
+    cells = (("pretension", "V1", True), ("pretension", "V3", False), ("50", "V1", True), ("50", "V3", True))
+    path = tmp_path / "model.json"
+    save_model(replace(MODEL, dynamic=replace(DYNAMIC, recommended=False, recommended_cells=cells)), path)
+    assert json.loads(path.read_text())["dynamic"]["recommended_cells"][1] == {
+        "support": "pretension", "speed": "V3", "dynamic": False}
+    loaded = load_model(path)
+    assert loaded.dynamic is not None and loaded.dynamic.recommended_cells == cells
+    subject = Subject(height_m=1.70, mass_kg=63.0, sex="female")
+
+    def chosen(support: float | str, speed: str | None) -> str:
+        return build_controller(model=path, support=support, subject=subject,  # type: ignore[arg-type]
+                                speed=speed).compensation
+
+    assert (chosen("pretension", "V1"), chosen("pretension", "V3")) == ("dynamic", "paper")
+    assert (chosen(0.5, "V3"), chosen(0.5, None)) == ("dynamic", "dynamic")
+    assert chosen("pretension", None) == "paper"  # speed unknown: it lost at one speed of this support
+    assert chosen(0.25, "V1") == "paper"  # a support the bench did not measure: `recommended`
+    # A file without the cells (before the per-cell rule) loads, with `recommended` for every cell.
+    assert "recommended_cells" not in model_to_dict(MODEL)["dynamic"]
+    data = model_to_dict(MODEL)
+    data["dynamic"]["recommended_cells"] = [{"support": 50, "speed": "V1", "dynamic": True}]
+    with pytest.raises(ModelFileError, match=r"dynamic\.recommended_cells\[0\]"):
+        load_model(write(tmp_path, data))

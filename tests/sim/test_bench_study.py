@@ -9,14 +9,17 @@ from pathlib import Path
 import pytest
 
 from bowden.cli import main
+from bowden.control import build_controller
 from bowden.identify import TransmissionIdentifier
-from bowden.model import CompensationModel
+from bowden.model import CompensationModel, Subject
 from bowden.model.model_file import load_model
 from bowden.protocol.bench import QUICK_BENCH
 from bowden.sim.bench import run_bench
 from bowden.sim.bench_study import (
+    StrokeResult,
     fit_on_study_segment,
     recommend_compensation,
+    recommendation,
     run_study_segment,
     study_cost,
     validate_compensations,
@@ -33,8 +36,47 @@ def model() -> CompensationModel:
 def test_the_identified_dynamic_compensation_is_recommended_where_it_beats_the_papers(
     model: CompensationModel,
 ) -> None:
-    choice, why = recommend_compensation(model, SuitParameters())
-    assert choice == "dynamic", why
+    choice = recommend_compensation(model, SuitParameters())
+    # Every support of the study at every speed, each cell judged on its own held-out strokes.
+    assert {(support, speed) for support, speed, _ in choice.cells} == {
+        (support, speed) for support in ("pretension", "25", "50") for speed in ("V1", "V2", "V3")}
+    assert all(chosen for support, _, chosen in choice.cells if support == "50"), choice.why
+
+
+def _stroke(rmse_n: float, peak_pct: float) -> StrokeResult:
+    return StrokeResult(tension_rmse_n=rmse_n, onset_peak_pct=peak_pct)
+
+
+def test_the_recommendation_is_per_support_and_speed_and_the_controller_follows_it(
+    model: CompensationModel,
+) -> None:
+    # Dynamic wins everywhere but at pretension V3 (onset peak) and 25 % V1 (RMSE).
+    results = {(support, speed): {"paper": _stroke(4.0, 40.0), "dynamic": _stroke(2.0, 20.0)}
+               for support in ("pretension", "25", "50") for speed in ("V1", "V2", "V3")}
+    results["pretension", "V3"]["dynamic"] = _stroke(2.0, 41.0)
+    results["25", "V1"]["dynamic"] = _stroke(4.1, 20.0)
+    choice = recommendation(results)
+    assert not choice.everywhere
+    assert [cell[:2] for cell in choice.cells if not cell[2]] == [("pretension", "V3"), ("25", "V1")]
+    assert choice.why.startswith("dynamic in 7 of 9 cells") and "pretension V3" in choice.why
+    chosen = choice.apply(model)
+    dynamic = chosen.dynamic
+    assert dynamic is not None and dynamic.recommended_cells == choice.cells
+    assert not dynamic.recommended_for("pretension", "V3") and dynamic.recommended_for("pretension", "V2")
+    assert not dynamic.recommended_for(0.25, "V1") and dynamic.recommended_for(0.25, "V3")
+    # Speed unknown: dynamic only where it won at every speed of that support; an unmeasured support:
+    # only if it won every cell.
+    assert dynamic.recommended_for(0.5, None) and not dynamic.recommended_for("pretension", None)
+    assert not dynamic.recommended_for(0.4, "V2")
+
+    def compensation(support: float | str, speed: str | None) -> str:
+        controller = build_controller(model=chosen, support=support,  # type: ignore[arg-type]
+                                      subject=Subject(height_m=1.7, mass_kg=63.0, sex="female"),
+                                      speed=speed)
+        return controller.compensation
+
+    assert compensation("pretension", "V3") == "paper" and compensation("pretension", "V1") == "dynamic"
+    assert compensation(0.25, "V1") == "paper" and compensation(0.5, None) == "dynamic"
 
 
 def test_a_dynamic_compensation_that_loses_on_the_bench_is_not_recommended(model: CompensationModel) -> None:
@@ -45,9 +87,10 @@ def test_a_dynamic_compensation_that_loses_on_the_bench_is_not_recommended(model
     paper = run_study_segment(wrong, SuitParameters(), compensation="paper", speed="V3")
     dynamic = run_study_segment(wrong, SuitParameters(), compensation="dynamic", speed="V3")
     assert dynamic.tension_rmse_n > paper.tension_rmse_n
-    choice, why = recommend_compensation(wrong, SuitParameters())
-    assert choice == "paper"
-    assert "does not beat the paper's" in why
+    choice = recommend_compensation(wrong, SuitParameters())
+    assert not choice.everywhere
+    assert ("50", "V3", False) in choice.cells  # the cell measured above
+    assert "the paper's lines where it does not beat them" in choice.why
 
 
 def test_bench_simulate_writes_the_latency_segment_and_validate_recommends(
@@ -62,11 +105,14 @@ def test_bench_simulate_writes_the_latency_segment_and_validate_recommends(
     capsys.readouterr()
     assert main(["bench", "validate", str(model_path), "-o", str(model_path)]) == 0
     out = capsys.readouterr().out
-    assert re.search(r"^V3\s+dynamic\s+\d+\.\d\d\s+-?\d+\.\d$", out, re.MULTILINE)
-    assert "recommended: dynamic" in out
+    for support in ("pretension", "25", "50"):
+        assert re.search(rf"^{support}\s+V3\s+dynamic\s+\d+\.\d\d\s+-?\d+\.\d$", out, re.MULTILINE)
+    recommended = r"^recommended: (dynamic in \d of 9 cells|the dynamic compensation beats)"
+    assert re.search(recommended, out, re.MULTILINE)
     validated = load_model(model_path).dynamic
-    assert validated is not None and validated.recommended
-    assert validated.recommendation.startswith("the dynamic compensation beats the paper's")
+    assert validated is not None and len(validated.recommended_cells) == 9
+    assert all(chosen for support, _, chosen in validated.recommended_cells if support == "50")
+    assert validated.recommendation in out
     assert main(["bench", "validate", str(model_path), "--support", "2"]) == 1
     assert "--support" in capsys.readouterr().err
 

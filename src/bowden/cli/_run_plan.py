@@ -144,17 +144,19 @@ def controller_for(
     *,
     compensation: Literal["paper", "dynamic"] | None = None,
     rate_hz: float = 500.0,
+    speed: str | None = None,
 ) -> StepController:
     """The condition's controller: none (zero torque) without the suit, else the sensorless one.
 
-    Its nominal period is the loop's, which the dynamic compensation's estimator is tuned for.
+    Its nominal period is the loop's, which the dynamic compensation's estimator is tuned for;
+    ``speed`` (``--speed``) picks the model's recommended compensation for that cell.
     """
     if support is None:
         return NoAssistance()
     limits = ControllerLimits(nominal_period_s=1.0 / rate_hz)
     return build_controller(
         model=model, support=support, subject=subject, hand_load_kg=hand_load_kg, limits=limits,
-        compensation=compensation,
+        compensation=compensation, speed=speed,
     )
 
 

@@ -64,7 +64,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     validate.add_argument("--backend", choices=("sim",), default="sim",
                           help="sim: the simulated bench (the real bench's study-like segment is not "
                           "implemented yet)")
-    validate.add_argument("--support", type=float, default=0.5, help="support fraction (default 0.5)")
+    validate.add_argument("--support", type=float,
+                          help="only this support fraction (default: the study's pretension, 0.25 and 0.5)")
     validate.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default 0)")
     validate.add_argument("--fit", action="store_true",
                           help="first refit the dynamic compensation on one run of the strokes, then "
@@ -124,32 +125,39 @@ def run_bench_command(args: argparse.Namespace) -> int:
 
 
 def run_validate(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
     from bowden.model.model_file import load_model, save_model
-    from bowden.sim.bench_study import fit_on_study_segment, recommendation, validate_compensations
+    from bowden.sim.bench_study import (
+        STUDY_SUPPORTS,
+        fit_on_study_segment,
+        recommendation,
+        validate_compensations,
+    )
     from bowden.sim.parameters import SuitParameters
 
-    if not 0.0 < args.support <= 1.0:
-        raise ParameterError(f"--support must be in (0, 1], got {args.support:g}")
+    supports: tuple[float | str, ...] = STUDY_SUPPORTS
+    if args.support is not None:
+        if not 0.0 < args.support <= 1.0:
+            raise ParameterError(f"--support must be in (0, 1], got {args.support:g}")
+        supports = (args.support,)
     model = load_model(args.model)
     suit = SuitParameters()
     seed = args.seed
     if args.fit:
-        model = fit_on_study_segment(model, suit, seed=seed, support=args.support)
+        fit_support = 0.5 if args.support is None else args.support
+        model = fit_on_study_segment(model, suit, seed=seed, support=fit_support)
         seed += 1  # validated on strokes held out of the fit
-    results = validate_compensations(model, suit, seed=seed, support=args.support)
-    print("speed  compensation  tension RMSE (N)  lowering-onset peak (%)")
-    for speed, by_name in results.items():
+    results = validate_compensations(model, suit, seed=seed, supports=supports)
+    print("support     speed  compensation  tension RMSE (N)  lowering-onset peak (%)")
+    for (support, speed), by_name in results.items():
         for name, result in by_name.items():
-            print(f"{speed:5s}  {name:12s}  {result.tension_rmse_n:16.2f}  {result.onset_peak_pct:23.1f}")
-    choice, why = recommendation(results)
-    print(f"recommended: {choice} ({why})")
+            print(f"{support:10s}  {speed:5s}  {name:12s}  {result.tension_rmse_n:16.2f}  "
+                  f"{result.onset_peak_pct:23.1f}")
+    choice = recommendation(results)
+    print(f"recommended: {choice.why}")
     if args.output is not None:
         if model.dynamic is None:
             raise ParameterError("-o: the model has no dynamic compensation to recommend or not")
-        dynamic = replace(model.dynamic, recommended=choice == "dynamic", recommendation=why)
-        save_model(replace(model, dynamic=dynamic), args.output)
+        save_model(choice.apply(model), args.output)
         print(f"Model written to {args.output}")
     return 0
 

@@ -329,7 +329,8 @@ def run(args: argparse.Namespace) -> int:
     fill_wearer(args, participant)
     subject = wearer(args)
     controller = controller_for(
-        model, support, subject, args.hand_load, compensation=args.compensation, rate_hz=args.rate
+        model, support, subject, args.hand_load, compensation=args.compensation, rate_hz=args.rate,
+        speed=args.speed,
     )
     setup = trial = None
     if condition is not None:

@@ -98,6 +98,7 @@ def build_controller(
     floor_tension_n: float = 10.0,
     pretension_n: float = 10.0,
     compensation: Literal["paper", "dynamic"] | None = None,
+    speed: str | None = None,
 ) -> Controller:
     """Build the controller for one wearer and condition.
 
@@ -118,7 +119,11 @@ def build_controller(
     compensation
         ``"paper"``: the paper's two lines and sigmoid, exactly; ``"dynamic"``: the model's dynamic
         compensation (:mod:`bowden.model.dynamic`); None: the model's recommendation (dynamic when
-        the model holds one and recommends it, :attr:`DynamicCompensation.recommended`).
+        the model holds one and recommends it at this support and ``speed``,
+        :meth:`DynamicCompensation.recommended_for`).
+    speed
+        The trial's speed ("V1"…), for the model's per-cell recommendation; None when unknown: then
+        the dynamic compensation only if the bench showed it winning at every speed of this support.
 
     Raises
     ------
@@ -127,7 +132,8 @@ def build_controller(
     """
     loaded = model if isinstance(model, CompensationModel) else load_model(model)
     if compensation is None:
-        compensation = "dynamic" if loaded.dynamic is not None and loaded.dynamic.recommended else "paper"
+        chosen = loaded.dynamic is not None and loaded.dynamic.recommended_for(support, speed)
+        compensation = "dynamic" if chosen else "paper"
     return Controller(
         model=loaded,
         compensation=compensation,

@@ -219,7 +219,11 @@ def format_dynamic(dynamic: DynamicCompensation) -> str:
         drag += f" ± {1e3 * fit.viscous_se_nm_s_rad:.2f}"
         inertia += f" ± {1e3 * fit.inertia_se_kg_m2:.3f}"
     up, down = dynamic.raising, dynamic.lowering
-    if dynamic.recommended:
+    if dynamic.recommended_cells and not dynamic.recommended:
+        cells = [f"{support} {speed}" for support, speed, chosen in dynamic.recommended_cells if chosen]
+        choice = (f"recommended where the bench showed it winning ({', '.join(cells) or 'no cell'}; "
+                  f"{dynamic.recommendation}); the paper's lines elsewhere")
+    elif dynamic.recommended:
         choice = f"recommended ({dynamic.recommendation}); compensation='paper' forces the paper's lines"
     else:
         choice = (f"NOT recommended ({dynamic.recommendation}); the controller uses the paper's lines "

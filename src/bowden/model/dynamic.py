@@ -97,6 +97,13 @@ class DynamicCompensation:
         it is only where the study-like bench segment showed it beating the paper's on held-out
         strokes at every speed (docs/dynamic_compensation.md, "Which compensation"); ``build_controller``
         uses the paper's lines by default when it is not. A model never validated says so.
+        With ``recommended_cells`` it is the choice for supports the bench did not measure: dynamic
+        only if it won every measured cell.
+    recommended_cells
+        The choice per (support, speed) cell the study-like segment measured: ``(support label, speed,
+        dynamic?)`` with the label of :func:`support_label` ("pretension", "25", "50") and the speed's
+        name ("V1"…). Empty (a model from before issue 28's per-cell rule): ``recommended`` everywhere.
+        :meth:`recommended_for` reads it.
     """
 
     raising: CompensationLine
@@ -110,6 +117,7 @@ class DynamicCompensation:
     fit: DynamicFitStats | None = None
     recommended: bool = True
     recommendation: str = "not validated on the bench's study-like segment"
+    recommended_cells: tuple[tuple[str, str, bool], ...] = ()
 
     def __post_init__(self) -> None:
         check_field(self, "viscous_nm_s_rad", 0.0, 1.0)
@@ -120,11 +128,36 @@ class DynamicCompensation:
         check_field(self, "max_dynamic_nm", 0.0, 5.0)
         if not isinstance(self.recommended, bool) or not isinstance(self.recommendation, str):
             raise ParameterError("DynamicCompensation.recommended must be a bool and recommendation a string")
+        for cell in self.recommended_cells:
+            if not (isinstance(cell, tuple) and len(cell) == 3 and isinstance(cell[0], str)
+                    and isinstance(cell[1], str) and isinstance(cell[2], bool)):
+                raise ParameterError(
+                    "DynamicCompensation.recommended_cells holds (support, speed, dynamic?) cells, "
+                    f"got {cell!r}"
+                )
         if self.raising.slope_m < self.lowering.slope_m:
             raise ParameterError(
                 f"DynamicCompensation: the raising slope ({self.raising.slope_m:.5g} m) is below the "
                 f"lowering slope ({self.lowering.slope_m:.5g} m); friction cannot explain that"
             )
+
+    def recommended_for(self, support: float | str, speed: str | None = None) -> bool:
+        """Whether the dynamic compensation is recommended at ``support`` and ``speed``.
+
+        The measured cell's choice; with the speed unknown (``None``, or a speed the bench did not
+        run), dynamic only if it won at every measured speed of that support; at a support the bench
+        did not measure, :attr:`recommended` (dynamic only if it won every measured cell).
+        """
+        if not self.recommended_cells:
+            return self.recommended
+        label = support_label(support)
+        by_speed = {cell_speed: dynamic for cell_label, cell_speed, dynamic in self.recommended_cells
+                    if cell_label == label}
+        if not by_speed:
+            return self.recommended
+        if speed in by_speed:
+            return by_speed[speed]
+        return all(by_speed.values())
 
     def torque_nm(
         self,
@@ -149,3 +182,11 @@ class DynamicCompensation:
         state = 1.0 if spool_velocity_rad_s > 0.0 else -1.0 if spool_velocity_rad_s < 0.0 else 0.0
         mean = 0.5 * (self.raising.torque_nm(tension_n) + self.lowering.torque_nm(tension_n))
         return self.torque_nm(tension_n, state, spool_velocity_rad_s) - mean
+
+
+def support_label(support: float | str) -> str:
+    """The label of a support in :attr:`DynamicCompensation.recommended_cells`: ``"pretension"`` or the
+    percentage rounded to a whole number (0.25 → ``"25"``)."""
+    if isinstance(support, str):
+        return support
+    return f"{round(100.0 * float(support)):d}"

@@ -15,6 +15,8 @@ Format (version 2; version 1 is the same without ``dynamic`` and still loads)::
                   "viscous_nm_s_rad": 0.04, "inertia_kg_m2": 0.0015, "imu_latency_s": 0.05,
                   "reversal_hysteresis_rad_s": 0.07, "reversal_time_s": 0.01, "max_dynamic_nm": 0.6,
                   "recommended": true, "recommendation": "why, one line" (both optional),
+                  "recommended_cells": [{"support": "pretension" | "25" | "50", "speed": "V1",
+                                         "dynamic": true}, ...] (optional: the choice per cell),
                   "fit": {"n": ..., "viscous_se_nm_s_rad": ..., "inertia_se_kg_m2": ...,
                           "regime_rms_nm": {...}, "paper_rms_nm": {...}}
                           | null} | null,
@@ -105,6 +107,9 @@ def _dynamic_to_dict(dynamic: DynamicCompensation) -> dict[str, Any]:
     out.update({name: getattr(dynamic, name) for name in _DYNAMIC_NUMBERS})
     out["recommended"] = dynamic.recommended
     out["recommendation"] = dynamic.recommendation
+    if dynamic.recommended_cells:
+        out["recommended_cells"] = [{"support": support, "speed": speed, "dynamic": choice}
+                                    for support, speed, choice in dynamic.recommended_cells]
     fit = dynamic.fit
     out["fit"] = None if fit is None else {
         "n": fit.n,
@@ -341,6 +346,8 @@ def _dynamic_from_dict(read: _Reader, data: Any) -> DynamicCompensation:
         choice["recommended"] = data["recommended"]
     if "recommendation" in data:
         choice["recommendation"] = read.string(data, "recommendation", "dynamic.")
+    if "recommended_cells" in data:
+        choice["recommended_cells"] = _recommended_cells(read, data["recommended_cells"])
     fit = None
     fit_data = read.get(data, "fit", "dynamic.")
     if fit_data is not None:
@@ -352,6 +359,20 @@ def _dynamic_from_dict(read: _Reader, data: Any) -> DynamicCompensation:
         return replace(compensation, **choice)
     except ParameterError as error:
         raise read.fail("dynamic", f"is invalid: {error}") from None
+
+
+def _recommended_cells(read: _Reader, data: Any) -> tuple[tuple[str, str, bool], ...]:
+    if not isinstance(data, list):
+        raise read.fail("dynamic.recommended_cells", "must be a list of {support, speed, dynamic} objects")
+    cells = []
+    for index, cell in enumerate(data):
+        field = f"dynamic.recommended_cells[{index}]"
+        if not (isinstance(cell, Mapping) and isinstance(cell.get("support"), str)
+                and isinstance(cell.get("speed"), str) and isinstance(cell.get("dynamic"), bool)):
+            raise read.fail(field, f"must be {{\"support\": text, \"speed\": text, \"dynamic\": true or "
+                                   f"false}}, got {cell!r}")
+        cells.append((cell["support"], cell["speed"], cell["dynamic"]))
+    return tuple(cells)
 
 
 def _dynamic_fit_from_dict(read: _Reader, data: Any) -> DynamicFitStats:

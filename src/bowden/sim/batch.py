@@ -179,6 +179,7 @@ def simulate_trial(
             floor_tension_n=settings.floor_tension_n,
             pretension_n=settings.pretension_n,
             compensation=settings.compensation,
+            speed=speed,
         )
         expected = ExpectedAssistance.for_condition(
             support,

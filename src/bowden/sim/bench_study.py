@@ -5,9 +5,10 @@ V1–V3 peak speeds) in impedance mode — stiff (300 Nm/rad, 25 Nm·s/rad) abou
 its own inertia and gravity fed forward, no lag, no noise — against the gravity-like load of an arm
 (the cohort's first participant's, with the hand load), while the tendon driver runs the
 *controller* with one compensation; the load cell gives the true tension. Each compensation runs the
-same strokes. :func:`recommend_compensation` turns the result into the recommendation rule of
-docs/dynamic_compensation.md: the dynamic compensation only where it beats the paper's at every
-speed, on held-out strokes (every repetition after the first).
+same strokes, at each support of the study (pretension, 25 %, 50 %) and V1–V3.
+:func:`recommend_compensation` turns the result into the recommendation rule of
+docs/dynamic_compensation.md: per (support, speed) cell, the dynamic compensation only where it
+beats the paper's in that cell on held-out strokes (every repetition after the first).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 from bowden import contracts as c
 from bowden.control import build_controller
 from bowden.model import AssistanceParameters, CompensationModel, arm_model, desired_tension_n
+from bowden.model.dynamic import support_label
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim import _batch_kernel as bk
 from bowden.sim import _kernels as k
@@ -101,39 +103,78 @@ def run_study_segment(model: CompensationModel, suit: SuitParameters, *, compens
     return StrokeResult(float(np.sqrt(np.mean(error**2))), float(curve[window].max()))
 
 
+# The supports of the study's conditions the segment runs (pretension, 25 %, 50 %), each at V1-V3.
+STUDY_SUPPORTS: tuple[float | str, ...] = ("pretension", 0.25, 0.5)
+
+Cell = tuple[str, str]  # (support label, speed)
+
+
 def validate_compensations(
-    model: CompensationModel, suit: SuitParameters, *, seed: int = 0, support: float | str = 0.5
-) -> dict[str, dict[str, StrokeResult]]:
-    """The study-like segment at every speed with each compensation the model has: speed → name → result."""
+    model: CompensationModel, suit: SuitParameters, *, seed: int = 0,
+    supports: tuple[float | str, ...] = STUDY_SUPPORTS,
+) -> dict[Cell, dict[str, StrokeResult]]:
+    """The study-like segment at every support and speed with each compensation the model has:
+    (support label, speed) → name → result."""
     names = ("paper", "dynamic") if model.dynamic is not None else ("paper",)
     return {
-        speed: {
+        (support_label(support), speed): {
             name: run_study_segment(model, suit, compensation=name, speed=speed, seed=seed, support=support)
             for name in names
         }
+        for support in supports
         for speed in c.SPEEDS
     }
 
 
-def recommendation(results: dict[str, dict[str, StrokeResult]]) -> tuple[str, str]:
-    """``("dynamic" | "paper", why)``: dynamic only if it beats the paper's in RMSE and onset peak at
-    every speed of the study-like segment (held-out repetitions); else the paper's lines."""
+@dataclass(frozen=True)
+class Recommendation:
+    """The choice per measured cell, whether dynamic won every cell, and one line why."""
+
+    cells: tuple[tuple[str, str, bool], ...]
+    everywhere: bool
+    why: str
+
+    def apply(self, model: CompensationModel) -> CompensationModel:
+        """``model`` with this recommendation in its dynamic compensation (unchanged without one)."""
+        if model.dynamic is None:
+            return model
+        return replace(model, dynamic=replace(model.dynamic, recommended=self.everywhere,
+                                              recommendation=self.why, recommended_cells=self.cells))
+
+
+def _label(cell: Cell) -> str:
+    support, speed = cell
+    return f"{support if support == 'pretension' else support + ' %'} {speed}"
+
+
+def recommendation(results: dict[Cell, dict[str, StrokeResult]]) -> Recommendation:
+    """Per (support, speed) cell: dynamic where it beats the paper's in RMSE and onset peak on the
+    held-out repetitions of that cell, the paper's lines elsewhere."""
     if any("dynamic" not in by_name for by_name in results.values()):
-        return "paper", "the model has no dynamic compensation"
-    for speed, by_name in results.items():
+        return Recommendation((), False, "the model has no dynamic compensation")
+    cells, lost = [], []
+    for cell, by_name in results.items():
         paper, dynamic = by_name["paper"], by_name["dynamic"]
-        if dynamic.tension_rmse_n >= paper.tension_rmse_n or dynamic.onset_peak_pct >= paper.onset_peak_pct:
-            return "paper", (f"at {speed} the dynamic compensation's RMSE {dynamic.tension_rmse_n:.2f} N / "
-                             f"onset peak {dynamic.onset_peak_pct:.1f} % does not beat the paper's "
-                             f"{paper.tension_rmse_n:.2f} N / {paper.onset_peak_pct:.1f} %")
-    return "dynamic", "the dynamic compensation beats the paper's in RMSE and onset peak at every speed"
+        wins = (dynamic.tension_rmse_n < paper.tension_rmse_n
+                and dynamic.onset_peak_pct < paper.onset_peak_pct)
+        cells.append((cell[0], cell[1], wins))
+        if not wins:
+            lost.append(f"{_label(cell)} ({dynamic.tension_rmse_n:.2f} N / {dynamic.onset_peak_pct:.1f} % "
+                        f"vs {paper.tension_rmse_n:.2f} N / {paper.onset_peak_pct:.1f} %)")
+    if not lost:
+        why = f"the dynamic compensation beats the paper's in RMSE and onset peak in all {len(cells)} cells"
+    else:
+        why = (f"dynamic in {len(cells) - len(lost)} of {len(cells)} cells; the paper's lines where it does "
+               f"not beat them in RMSE and onset peak: {'; '.join(lost)}")
+    return Recommendation(tuple(cells), not lost, why)
 
 
 def recommend_compensation(
-    model: CompensationModel, suit: SuitParameters, *, seed: int = 0, support: float | str = 0.5
-) -> tuple[str, str]:
+    model: CompensationModel, suit: SuitParameters, *, seed: int = 0,
+    supports: tuple[float | str, ...] = STUDY_SUPPORTS,
+) -> Recommendation:
     """:func:`recommendation` from :func:`validate_compensations`."""
-    return recommendation(validate_compensations(model, suit, seed=seed, support=support))
+    return recommendation(validate_compensations(model, suit, seed=seed, supports=supports))
 
 
 # The grid the study-like fit searches: scale on the identified drag and inertia, shift of the lowering
@@ -144,7 +185,7 @@ FIT_INERTIA_SCALES = (1.0, 2.0)
 FIT_LOWERING_SHIFTS_NM = (0.0, -0.05)
 
 
-def study_cost(results: dict[str, dict[str, StrokeResult]]) -> float:
+def study_cost(results: dict[Cell, dict[str, StrokeResult]]) -> float:
     """Mean over speeds of the dynamic compensation's RMSE and onset peak, each relative to the paper's."""
     terms = []
     for by_name in results.values():
@@ -176,7 +217,7 @@ def fit_on_study_segment(
                     lowering=replace(dynamic.lowering, intercept_nm=dynamic.lowering.intercept_nm + shift),
                 ))
                 results = {
-                    speed: {"paper": paper[speed],
+                    (support_label(support), speed): {"paper": paper[speed],
                             "dynamic": run_study_segment(candidate, suit, compensation="dynamic", speed=speed,
                                                          seed=seed, support=support)}
                     for speed in c.SPEEDS

@@ -206,7 +206,8 @@ def controller_for(setup: TrialSetup, model: CompensationModel) -> StepControlle
     if setup.support is None:
         return NoAssistance()
     return build_controller(
-        model=model, support=setup.support, subject=setup.subject, hand_load_kg=setup.hand_load_kg
+        model=model, support=setup.support, subject=setup.subject, hand_load_kg=setup.hand_load_kg,
+        speed=setup.speed,
     )
 
 

@@ -15,7 +15,7 @@ elevation (not the controller's own, delayed or predicted, view of it):
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -140,10 +140,8 @@ def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.Dat
     """One row per participant, condition, speed and compensation on one suit."""
     # Fitted on the bench's study-like strokes, then judged on strokes held out of that fit.
     model = fit_on_study_segment(identify_plant(plant, settings), plant.suit, seed=settings.bench_seed)
-    recommended, why = recommend_compensation(model, plant.suit, seed=settings.bench_seed + 1)
-    if model.dynamic is not None:  # what the lab's model.json would say
-        model = replace(model, dynamic=replace(model.dynamic, recommended=recommended == "dynamic",
-                                               recommendation=why))
+    choice = recommend_compensation(model, plant.suit, seed=settings.bench_seed + 1)
+    model = choice.apply(model)  # what the lab's model.json would say, per (support, speed) cell
     rows = [
         {
             "plant": plant.name,
@@ -151,13 +149,21 @@ def compare_on_plant(plant: FamilyPlant, settings: ComparisonSettings) -> pd.Dat
             "condition": item.trial.condition,
             "speed": item.trial.speed,
             "compensation": item.compensation,
-            "recommended": recommended,
-            "recommended_why": why,
+            "recommended": recommended_in(model, item.trial.condition, item.trial.speed),
+            "recommended_why": choice.why,
             **trial_errors(item.trial, item.reference_n),
         }
         for item in compared_trials(model, plant.suit, settings)
     ]
     return pd.DataFrame(rows)
+
+
+def recommended_in(model: CompensationModel, condition: str, speed: str) -> str:
+    """The compensation ``build_controller`` picks by default for a trial of ``condition`` at ``speed``."""
+    support = c.CONDITION_SUPPORT[condition]
+    assert support is not None  # the comparison's conditions all wear the suit
+    chosen = model.dynamic is not None and model.dynamic.recommended_for(support, speed)
+    return "dynamic" if chosen else "paper"
 
 
 def compare_compensations(
@@ -207,7 +213,8 @@ def cell_table(rows: pd.DataFrame, compensation: str = "dynamic") -> pd.DataFram
     """Per (suit, condition, speed) cell: each measure of ``compensation`` and of the paper's averaged
     over participants, their ratios, and whether the cell is worse than the paper's by more than
     :data:`WORSE_TOLERANCE` (RMSE or lowering-onset peak). ``"recommended"`` is, per suit, what the
-    bench's study-like segment recommended (``rows["recommended"]``): the dynamic rows or the paper's."""
+    bench's study-like segment recommended for that cell (``rows["recommended"]``): the dynamic rows or
+    the paper's."""
     if compensation == "recommended":
         chosen = rows[rows["compensation"] == rows["recommended"]].assign(compensation="recommended")
         rows = pd.concat([rows[rows["compensation"] == "paper"], chosen], ignore_index=True)
