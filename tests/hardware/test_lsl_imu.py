@@ -119,7 +119,15 @@ def test_a_silent_stream_leaves_the_last_sample_to_age(outlet: Outlet) -> None:
         client.calibrate_arm_down(0.3)
         until(client.read)
         outlet.say("silent")
-        time.sleep(0.2)  # what was already sent is taken in
+        # What was already sent is taken in: until no sample has arrived for 0.1 s (a fixed pause
+        # was not enough on a busy host, where LSL delivered the last samples later).
+        deadline, taken, quiet_since = time.monotonic() + 10.0, -1, 0.0
+        while time.monotonic() - quiet_since < 0.1:
+            assert time.monotonic() < deadline, "samples kept arriving after the outlet went silent"
+            client.read()
+            if client.counters.samples != taken:
+                taken, quiet_since = client.counters.samples, time.monotonic()
+            time.sleep(0.01)
         last = client.read()
         time.sleep(0.2)
         assert client.read() is last  # nothing new: its age grows, and the loop's IMU watchdog stops the suit

@@ -237,6 +237,7 @@ def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, ca
             ADS1115LoadCell(smbus, ADS1115Config(data_rate=6), calibration=calibration)
         )
         imu_peer.hold_arm_down()
+        imu_peer.wait_until_sent()  # nothing sent before the hold reaches the calibration
         imu.calibrate_arm_down(calibration_s)
         imu_peer.hold_arm_down(False)
         plant.start()
