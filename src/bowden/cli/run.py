@@ -23,6 +23,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -57,7 +58,7 @@ from bowden.errors import BowdenError, ParameterError, StoreError
 from bowden.hardware.lsl_imu import parse_imu
 from bowden.model import CompensationModel
 from bowden.protocol.catalogue import Catalogue
-from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row
+from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row, TrialInfo
 from bowden.runtime.loop import StepController
 from bowden.runtime.signals import stop_on_signals
 from bowden.runtime.slack import SlackTakeUp
@@ -293,7 +294,42 @@ def _trial_sync(
     )
 
 
+@dataclass
+class _Prepared:
+    """Everything a run needs, checked before any device is touched."""
+
+    suit: CanSuitOptions
+    real_suit: CanSuitOptions | None  # None: the simulated suit
+    participant: str
+    condition: str | None
+    reference: TrialReference
+    model: CompensationModel
+    slack: SlackTakeUp | None
+    controller: StepController
+    setup: TrialSetup | None
+    trial: TrialInfo | None
+
+
+@dataclass
+class _Outcome:
+    report: LoopReport
+    backend: Backend | None
+    recorder: Recorder | None
+    sync: TrialSync | None
+    recording_error: str
+
+
 def run(args: argparse.Namespace) -> int:
+    prepared = _prepare(args)
+    outcome = _execute(args, prepared)
+    _summarise(args, prepared, outcome)
+    return 0 if outcome.report.clean else 3
+
+
+def _prepare(args: argparse.Namespace) -> _Prepared:
+    """Find everything that can be wrong before any device is touched (on the real suit, opening it
+    enters motor mode): the limits, the reference, the model, the wearer, the controller, and the
+    store, which must open and take the participant."""
     # The conditions and speeds: the paper's, --define-condition/--define-speed and the store's own.
     catalogue: Catalogue = protocol_catalogue(
         args, args.record if args.record is not None and args.record.is_file() else None
@@ -301,19 +337,16 @@ def run(args: argparse.Namespace) -> int:
     support, condition = support_and_condition(args.support, args.condition, catalogue)
     participant = participant_id(args.participant, "--participant")
     suit = CanSuitOptions.from_args(args)  # the motor's model and firmware count on either backend
-    options = None
+    real_suit = None
     if args.backend == "can":
         if args.model is None:
             raise ParameterError("--backend can needs --model model.json (run `bowden identify` first)")
-        options = suit
-        require_hardware_extra("bowden run", options)
+        real_suit = suit
+        require_hardware_extra("bowden run", real_suit)
     if args.serve and args.record is None:
         raise ParameterError("--serve needs --record study.db (the trial and the questionnaires go there)")
     if args.record is not None and condition is None:
         raise ParameterError(f"no study condition for support {support}: give --condition")
-    # Everything that can be wrong is found before any device is touched (on the real suit,
-    # opening it enters motor mode): the limits, the reference, the model, the wearer, the
-    # controller, and the store, which must open and take the participant.
     if not (math.isfinite(args.rate) and 1.0 <= args.rate <= 2000.0):
         raise ParameterError(f"--rate must be 1–2000 Hz, got {args.rate:g}")
     if not (math.isfinite(args.duration) and args.duration > 0.0):
@@ -339,32 +372,30 @@ def run(args: argparse.Namespace) -> int:
         assert setup is not None  # a recorded trial has a condition (checked above)
         trial = trial_info(args, setup, reference, getattr(controller, "compensation", None), model)
         record_participant(args.record, participant, subject, args.hand_load)
+    return _Prepared(suit, real_suit, participant, condition, reference, model, slack, controller, setup,
+                     trial)
+
+
+def _execute(args: argparse.Namespace, prepared: _Prepared) -> _Outcome:
+    """Open the suit, run the trial, record it; the recording is closed whatever happens."""
+    p = prepared
     with ExitStack() as stack:
-        server = stack.enter_context(_serving(args, model)) if args.serve else None
-        recorder = Recorder(args.record, trial).start() if trial is not None else None
-        sync = _trial_sync(args, stack, recorder, reference, participant, condition)
+        server = stack.enter_context(_serving(args, p.model)) if args.serve else None
+        recorder = Recorder(args.record, p.trial).start() if p.trial is not None else None
+        sync = _trial_sync(args, stack, recorder, p.reference, p.participant, p.condition)
         report: LoopReport | None = None
         backend: Backend | None = None
         error = "the run did not finish"
         recording_error = ""
         try:
-            opener = (open_sim_backend(reference=reference, announce=_say, motor=suit.motor,
-                                       firmware=suit.firmware, motor_id=suit.motor_id,
-                                       imu_lsl_name=parse_imu(suit.imu))
-                      if options is None else open_can_backend(options))
+            opener = (open_sim_backend(reference=p.reference, announce=_say, motor=p.suit.motor,
+                                       firmware=p.suit.firmware, motor_id=p.suit.motor_id,
+                                       imu_lsl_name=parse_imu(p.suit.imu))
+                      if p.real_suit is None else open_can_backend(p.real_suit))
             backend = stack.enter_context(opener)
             print(f"bowden run: {backend.describe}", file=sys.stderr)
-            report = run_trial(
-                args,
-                backend,
-                recorder,
-                controller=controller,
-                reference=reference,
-                setup=setup,
-                server=server,
-                slack=slack,
-                sync=sync,
-            )
+            report = run_trial(args, backend, recorder, controller=p.controller, reference=p.reference,
+                               setup=p.setup, server=server, slack=p.slack, sync=sync)
             error = ""
             if recorder is not None:
                 fault = report.fault.name if report.fault else "NONE"
@@ -381,9 +412,15 @@ def run(args: argparse.Namespace) -> int:
                 except StoreError as exc:
                     if report is None:
                         raise
-                    recording_error = str(exc)  # said in the summary below; the stop stays the exit code
+                    recording_error = str(exc)  # said in the summary; the stop stays the exit code
             if server is not None:
                 server.web.manager.detach(report, error or None)
+    return _Outcome(report, backend, recorder, sync, recording_error)
+
+
+def _summarise(args: argparse.Namespace, prepared: _Prepared, outcome: _Outcome) -> None:
+    """The run's summary on stdout: the stop, the safe state, timing, health, sync, the recording."""
+    report, backend, recorder, sync = outcome.report, outcome.backend, outcome.recorder, outcome.sync
     print(f"stopped: {report.reason} ({report.fault.name if report.fault else 'no fault'})")
     ramp_ms = 1e3 * (report.zero_torque_time_s - report.stop_time_s)
     exited = "exited" if report.motor_disabled else "NOT confirmed exited"
@@ -391,7 +428,7 @@ def run(args: argparse.Namespace) -> int:
     exit_error = getattr(backend.motor, "exit_error", None) if backend is not None else None
     if exit_error:
         print(f"motor: {exit_error}")
-    if slack is not None:
+    if prepared.slack is not None:
         taken = (f"in {report.slack_take_up_s:.2f} s" if report.slack_take_up_s == report.slack_take_up_s
                  else "not completed")
         print(f"slack take-up: {taken}")
@@ -405,16 +442,19 @@ def run(args: argparse.Namespace) -> int:
         for line in _trigger_report(sync.edge_uncertainties_s):
             print(line)
     if recorder is not None:
-        gap_ms = 1e3 * recorder.stats.max_commit_gap_s
-        print(
-            f"recorded {recorder.stats.committed_rows} cycles into {args.record} "
-            f"(trial {recorder.trial_id}, longest gap between commits {gap_ms:.0f} ms)"
-        )
-        if recorder.stats.rejected_rows:
-            print(f"recording: {recorder.stats.rejected_rows} cycle(s) could not be stored and were dropped "
-                  "(the trial's rows_dropped events say why)")
-        if recorder.stats.dropped_rows:
-            print(f"recording: {recorder.stats.dropped_rows} cycle(s) were not written: the recording failed")
-        if recording_error:
-            print(f"recording: {recording_error}")
-    return 0 if report.clean else 3
+        _summarise_recording(args, recorder, outcome.recording_error)
+
+
+def _summarise_recording(args: argparse.Namespace, recorder: Recorder, recording_error: str) -> None:
+    gap_ms = 1e3 * recorder.stats.max_commit_gap_s
+    print(
+        f"recorded {recorder.stats.committed_rows} cycles into {args.record} "
+        f"(trial {recorder.trial_id}, longest gap between commits {gap_ms:.0f} ms)"
+    )
+    if recorder.stats.rejected_rows:
+        print(f"recording: {recorder.stats.rejected_rows} cycle(s) could not be stored and were dropped "
+              "(the trial's rows_dropped events say why)")
+    if recorder.stats.dropped_rows:
+        print(f"recording: {recorder.stats.dropped_rows} cycle(s) were not written: the recording failed")
+    if recording_error:
+        print(f"recording: {recording_error}")
