@@ -262,21 +262,24 @@
       return;
     }
     const scheme = location.protocol === "https:" ? "wss" : "ws";
+    const sent = Bowden.token();
     socket = new WebSocket(`${scheme}://${location.host}/ws/console`);
     socket.onopen = () => {
-      socket.send(JSON.stringify({ token: Bowden.token() }));
+      socket.send(JSON.stringify({ token: sent }));
       $("connection").textContent = "live";
       $("connection").classList.add("live");
     };
     socket.onclose = (event) => {
       socket = null;
-      if (event.code === 1008) {
+      // A refusal of a token that has since been replaced (the operator pasted the new one while
+      // the server was still refusing the old) is not a refusal of the new one: connect with it.
+      if (event.code === 1008 && sent === Bowden.token()) {
         refused();
         return;
       }
       $("connection").textContent = "offline";
       $("connection").classList.remove("live");
-      setTimeout(connect, 1000);
+      setTimeout(connect, event.code === 1008 ? 0 : 1000);
     };
     socket.onmessage = (event) => handle(JSON.parse(event.data));
   }
