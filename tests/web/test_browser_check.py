@@ -122,6 +122,31 @@ def test_after_a_restart_a_console_with_the_old_token_can_paste_the_new_one(serv
     console.context.close()
 
 
+def test_a_refusal_of_the_old_token_arriving_after_the_paste_does_not_refuse_the_new_one(server, browser):
+    # The race the restart test met on a busy host: the operator pastes the new token while the server's
+    # refusal (close code 1008) of the socket that sent the old one is still on its way. Here the route
+    # answers the page's own close of that socket with the server's 1008, so the refusal arrives after
+    # the paste every time; it must not be taken for a refusal of the new token.
+    console = browser.new_page()
+    sockets = []
+
+    def route(ws) -> None:
+        sockets.append(ws)
+        upstream = ws.connect_to_server()
+        if len(sockets) == 1:  # the old token's socket: the server's verdict is held back
+            upstream.on_close(lambda code, reason: None)
+            ws.on_close(lambda code, reason: ws.close(code=1008, reason="wrong session token"))
+
+    console.route_web_socket("**/ws/console", route)
+    console.goto(f"{server.url}/console#token=the-token-of-the-server-before-its-restart")
+    console.wait_for_function("() => document.getElementById('connection').textContent === 'token refused'")
+    console.fill("#token", TOKEN)
+    console.press("#token", "Enter")
+    console.wait_for_function("() => document.getElementById('connection').textContent === 'live'")
+    assert len(sockets) == 2 and not console.is_visible("#token")
+    console.context.close()
+
+
 def test_a_portrait_tablet_reads_well_and_meets_the_contrast_and_target_sizes(server, browser):
     display = browser.new_page(TABLET_PORTRAIT)
     display.goto(f"{server.url}/display")
