@@ -39,6 +39,7 @@ SERIAL_GROUPS = {
         "tests/runtime/test_cli_full_disk.py",
         "tests/runtime/test_cli_run.py",
         "tests/runtime/test_host_stall.py",
+        "tests/runtime/test_interrupt_signals.py",
         "tests/runtime/test_lsl_run.py",
         "tests/runtime/test_realtime.py",
         "tests/runtime/test_run_trigger_report.py",

@@ -15,6 +15,7 @@ import sys
 from bowden.protocol.bench import BenchProtocol
 from bowden.runtime.bench import PHASE_STROKE, BenchDevices, BenchRun, BenchRunConfig, BenchSafety
 from bowden.runtime.bench_recording import BenchRecordingWriter
+from bowden.runtime.signals import interrupt_on_signals
 from bowden.sim.backend import open_sim_bench
 
 
@@ -51,7 +52,8 @@ def main(path: str, speeds: str, loads: str, repetitions: str, high_deg: str, re
         with BenchRecordingWriter(path, config.protocol_fingerprint(), resume=resume) as writer:
             run = BenchRun(devices, config, writer)
             clock.run = run
-            report = run.run()
+            with interrupt_on_signals():  # as `bowden bench run`: Ctrl-C even if started in the background
+                report = run.run()
             if report.complete:
                 writer.finish()
     print(f"done {report.complete} {report.fault} scouted {run.scouting_moves}", flush=True)

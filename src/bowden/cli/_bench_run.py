@@ -20,6 +20,7 @@ from bowden.hardware.backend import Backend
 from bowden.protocol.bench import BenchProtocol, BenchStroke
 from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig, BenchSafety
 from bowden.runtime.bench_recording import BenchRecordingWriter
+from bowden.runtime.signals import interrupt_on_signals
 from bowden.runtime.slack import SlackTakeUp
 
 EXIT_FAULT = 3
@@ -151,7 +152,7 @@ def run_bench_on_backend(args: argparse.Namespace) -> int:
             tdu: Any = backend.motor  # an AK60Motor on the bench (command_mit; checked by the run's use)
             devices = BenchDevices(tdu=tdu, mannequin=backend.mannequin, imu=backend.imu,
                                    load_cell=backend.load_cell, clock=backend.clock)
-            with _realtime(args) as settings:
+            with _realtime(args) as settings, interrupt_on_signals():
                 if settings:
                     _say(f"real-time settings: {settings}")
                 report = BenchRun(devices, config, writer, progress=progress).run()

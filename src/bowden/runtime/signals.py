@@ -37,3 +37,23 @@ def stop_on_signals(
     finally:
         for sig, old in previous.items():
             signal.signal(sig, old)
+
+
+@contextmanager
+def interrupt_on_signals(
+    signals: Sequence[signal.Signals] = (signal.SIGINT, signal.SIGTERM),
+) -> Iterator[None]:
+    """Within the block, each of ``signals`` raises KeyboardInterrupt in the main thread (Python's own
+    Ctrl-C), whatever the process inherited: a command started in the background by a script ignores
+    SIGINT (POSIX), and SIGTERM would end it without its safe stop. For code whose safe stop is a
+    ``KeyboardInterrupt`` handler (the bench run); restored after."""
+    if threading.current_thread() is not threading.main_thread():
+        _log.warning("signal handlers can only be installed from the main thread; not installed")
+        yield
+        return
+    previous = {sig: signal.signal(sig, signal.default_int_handler) for sig in signals}
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
