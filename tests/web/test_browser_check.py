@@ -128,22 +128,32 @@ def test_a_refusal_of_the_old_token_arriving_after_the_paste_does_not_refuse_the
     # answers the page's own close of that socket with the server's 1008, so the refusal arrives after
     # the paste every time; it must not be taken for a refusal of the new token.
     console = browser.new_page()
-    sockets = []
+    sockets, sent = [], []
 
     def route(ws) -> None:
         sockets.append(ws)
         upstream = ws.connect_to_server()
         if len(sockets) == 1:  # the old token's socket: the server's verdict is held back
+            ws.on_message(lambda message: (sent.append(message), upstream.send(message)))
             upstream.on_close(lambda code, reason: None)
             ws.on_close(lambda code, reason: ws.close(code=1008, reason="wrong session token"))
 
+    def wait_until(condition) -> None:
+        for _ in range(400):  # 20 s
+            if condition():
+                return
+            console.wait_for_timeout(50)
+        raise AssertionError("the console never got there")
+
     console.route_web_socket("**/ws/console", route)
     console.goto(f"{server.url}/console#token=the-token-of-the-server-before-its-restart")
-    console.wait_for_function("() => document.getElementById('connection').textContent === 'token refused'")
+    console.wait_for_selector("#token", state="visible")  # refused over HTTP
+    wait_until(lambda: bool(sent))  # and the old token's socket is open, its refusal held back
     console.fill("#token", TOKEN)
     console.press("#token", "Enter")
+    wait_until(lambda: len(sockets) == 2)  # a refusal taken for the new token's never reconnects
     console.wait_for_function("() => document.getElementById('connection').textContent === 'live'")
-    assert len(sockets) == 2 and not console.is_visible("#token")
+    assert not console.is_visible("#token")
     console.context.close()
 
 
