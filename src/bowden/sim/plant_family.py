@@ -100,12 +100,17 @@ def named_plants() -> tuple[FamilyPlant, ...]:
     )
 
 
-def random_plants(count: int, seed: int) -> tuple[FamilyPlant, ...]:
-    """``count`` suits drawn uniformly (log-uniformly for stiffness and drag) from documented ranges."""
+def family_rng(count: int, seed: int) -> np.random.Generator:
+    """The generator a family of ``count`` random suits is drawn from (1–100 suits, a valid seed)."""
     check_seed(seed)
     if not 1 <= count <= 100:
         raise ParameterError(f"count must be in [1, 100], got {count}")
-    rng = np.random.default_rng(seed)
+    return np.random.default_rng(seed)
+
+
+def random_plants(count: int, seed: int) -> tuple[FamilyPlant, ...]:
+    """``count`` suits drawn uniformly (log-uniformly for stiffness and drag) from documented ranges."""
+    rng = family_rng(count, seed)
     plants = []
     for index in range(count):
         kinetic = float(rng.uniform(0.05, 0.2))

@@ -21,7 +21,6 @@ from typing import Final
 
 import numpy as np
 
-from bowden.errors import ParameterError
 from bowden.model import CuffGeometry
 from bowden.sim.parameters import (
     ImuParameters,
@@ -29,9 +28,8 @@ from bowden.sim.parameters import (
     SheathParameters,
     SuitParameters,
     TransmissionParameters,
-    check_seed,
 )
-from bowden.sim.plant_family import FamilyPlant
+from bowden.sim.plant_family import FamilyPlant, family_rng
 from bowden.sim.plant_structure import PlantStructure
 
 # (low, high) of each drawn quantity; "log" ones are drawn log-uniformly. Fixed before evaluation.
@@ -121,10 +119,7 @@ def _uniform(rng: np.random.Generator, name: str) -> float:
 
 def random_structural_plants(count: int, seed: int) -> tuple[FamilyPlant, ...]:
     """``count`` suits with every structure drawn from :data:`RANGES` at once."""
-    check_seed(seed)
-    if not 1 <= count <= 100:
-        raise ParameterError(f"count must be in [1, 100], got {count}")
-    rng = np.random.default_rng(seed)
+    rng = family_rng(count, seed)
     plants = []
     for index in range(count):
         u = {name: _uniform(rng, name) for name in RANGES}
