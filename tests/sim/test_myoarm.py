@@ -72,12 +72,10 @@ def test_holding_still_the_muscles_make_the_gravity_torque_by_virtual_work(
 def test_the_cable_torque_is_its_tension_times_the_shortening_of_the_cable(arm: MyoArm) -> None:
     geometry = CuffGeometry()
     theta, tension = math.radians(60.0), 50.0
-    arm.set_state(theta)
-    _, exit_point = arm.cuff_points(geometry)  # fixed to the trunk
 
-    def length(angle: float) -> float:
+    def length(angle: float) -> float:  # the exit rides with the glenohumeral centre
         arm.set_state(angle)
-        anchor, _ = arm.cuff_points(geometry)
+        anchor, exit_point = arm.cuff_points(geometry)
         return float(np.linalg.norm(exit_point - anchor))
 
     shortening = -(length(theta + STEP_RAD) - length(theta - STEP_RAD)) / (2 * STEP_RAD)
@@ -86,6 +84,17 @@ def test_the_cable_torque_is_its_tension_times_the_shortening_of_the_cable(arm: 
     without = arm.required_torques_nm(theta, 0.0, 0.0, hand_load_kg=0.5)
     k = COORDINATES.index(ELEVATION)
     assert without[k] - with_cable[k] == pytest.approx(tension * shortening, rel=1e-4)
+
+
+@pytest.mark.parametrize("elevation_deg", [20.0, 60.0, 100.0, 130.0])
+def test_the_cable_torque_is_the_controllers_moment_arm_times_the_tension(
+    arm: MyoArm, elevation_deg: float
+) -> None:
+    # The simulated plant moves the arm with r(θ)·T (CuffGeometry); the muscles must balance the same
+    # cable. With the exit fixed to the trunk it was 3-35 % larger (the joint centre rises).
+    geometry, theta = CuffGeometry(), math.radians(elevation_deg)
+    expected = 50.0 * geometry.moment_arm_m(theta)
+    assert arm.cable_torque_nm(theta, 50.0, geometry) == pytest.approx(expected, rel=0.04)
 
 
 def test_static_optimisation_balances_the_arm_and_the_cable_relieves_the_deltoid(arm: MyoArm) -> None:
