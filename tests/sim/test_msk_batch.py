@@ -127,3 +127,15 @@ def test_the_table_gives_the_direct_mujoco_solve_between_its_grid_points() -> No
         direct = solve_state(arm, theta[n], velocity[n], acceleration[n], hand_load_kg=0.5,
                              cable_tension_n=tension[n], geometry=CuffGeometry())
         assert tabled.activations[n] == pytest.approx(direct.activations, abs=2e-3)
+
+
+def test_the_table_digest_is_that_of_the_imported_sources_not_of_the_files_on_disk(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A study's process computed a table with the myoarm.py it had imported and filed it under the
+    # digest of the file edited since: the digest must not follow the file on disk.
+    from bowden.sim.musculoskeletal import table
+
+    before = table._digest()
+    monkeypatch.setattr(table.Path, "read_bytes", lambda self: b"edited since the import")
+    assert table._digest() == before

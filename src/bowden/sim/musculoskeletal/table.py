@@ -59,11 +59,18 @@ class MechanicsTable:
     max_force_n: NDArray[np.float64]  # the muscles' maximal isometric forces, N
 
 
+# The sources as they were imported, not as they are on disk when the digest is taken: a process that
+# imported an older myoarm.py must not file its table under the digest of a newer one (it did once,
+# when the file was edited while a study ran).
+_SOURCES = tuple(
+    (Path(__file__).parent / name).read_bytes() for name in ("table.py", "myoarm.py")
+)
+
+
 def _digest() -> str:
-    here = Path(__file__).parent
     h = hashlib.sha256()
-    for name in ("table.py", "myoarm.py"):
-        h.update((here / name).read_bytes())
+    for source in _SOURCES:
+        h.update(source)
     for package in ("mujoco", "myo-sim"):
         try:
             h.update(metadata.version(package).encode())
