@@ -16,10 +16,12 @@ issue's targets: mean RMSE ≤ 0.60×, mean lowering-onset peak ≤ 0.50× the p
 the paper's by more than 5 %. ``--family parametric`` is issue 17's family: "default" is the suit the
 dynamic compensation was developed on, the other named suits vary its parameters.
 ``--random N`` adds suits drawn from the family's ranges with a seed nobody chose in advance (the
-current time unless ``--seed``).
+current time unless ``--seed``). ``--seeds 28,29,30,31`` judges several seeds in one run: the named
+suits once, N random suits per seed, each seed's 144 cells reported as its own evaluation, then one
+line per seed (mean ratios, cells > 5 % worse, worst cell) of the compensation the bench recommends.
 
-Run: python benchmarks/compensation.py [--family structural] [--participants 17] [--random 6] [--seed S]
-     [--plants a,b]
+Run: python benchmarks/compensation.py [--family structural] [--participants 17] [--random 6]
+     [--seed S | --seeds S1,S2,...] [--plants a,b]
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import time
 import pandas as pd
 
 from bowden.sim.participants import PAPER_COHORT_SIZE
-from bowden.sim.plant_family import DEVELOPMENT_PLANT, named_plants, random_plants
+from bowden.sim.plant_family import DEVELOPMENT_PLANT, FamilyPlant, named_plants, random_plants
 from bowden.sim.plant_family_structural import random_structural_plants, structural_plants
 from bowden.study.compensation.comparison import (
     WORSE_TOLERANCE,
@@ -47,6 +49,7 @@ def main() -> None:
     parser.add_argument("--participants", type=int, default=PAPER_COHORT_SIZE)
     parser.add_argument("--random", type=int, default=6, help="suits drawn at random (0: none)")
     parser.add_argument("--seed", type=int, default=None, help="seed of the random suits (default: the time)")
+    parser.add_argument("--seeds", help="several seeds, comma-separated, each judged on its own")
     parser.add_argument("--plants", help="only these named suits, comma-separated")
     args = parser.parse_args()
 
@@ -55,15 +58,40 @@ def main() -> None:
     if args.plants:
         wanted = set(args.plants.split(","))
         plants = [plant for plant in plants if plant.name in wanted]
-    seed = args.seed if args.seed is not None else int(time.time()) % 2**32
-    if args.random:
-        plants += (random_structural_plants if structural else random_plants)(args.random, seed)
+    if args.seeds:
+        try:
+            seeds = [int(seed) for seed in args.seeds.split(",")]
+        except ValueError:
+            parser.error(f"--seeds takes whole numbers separated by commas, got {args.seeds!r}")
+    else:
+        seeds = [args.seed if args.seed is not None else int(time.time()) % 2**32]
     started = time.perf_counter()
-    rows = compare_compensations(
-        plants,
-        ComparisonSettings(participants=args.participants),
-        progress=lambda plant: print(f"  {plant.name}: {plant.description}", flush=True),
-    )
+    settings = ComparisonSettings(participants=args.participants)
+
+    def compare(suits: list[FamilyPlant]) -> pd.DataFrame:
+        return compare_compensations(
+            suits, settings, progress=lambda plant: print(f"  {plant.name}: {plant.description}", flush=True)
+        )
+
+    named_rows = compare(plants)
+    summaries = []
+    for seed in seeds:
+        drawn = list((random_structural_plants if structural else random_plants)(args.random, seed)) \
+            if args.random else []
+        rows = pd.concat([named_rows, compare(drawn)], ignore_index=True) if drawn else named_rows
+        print(f"=== random suits' seed {seed}: {len(plants) + len(drawn)} suits ===")
+        summaries.append((seed, report_seed(rows)))
+    print("the recommended compensation, per seed (issue 28: mean RMSE ≤ 0.60×, onset peak ≤ 0.50×, "
+          "no cell > 5 % worse):")
+    for seed, line in summaries:
+        print(f"  seed {seed}: {line}")
+    elapsed_s = time.perf_counter() - started
+    print(f"{len(plants)} named suits and {args.random} random per seed in {elapsed_s:.0f} s")
+
+
+def report_seed(rows: pd.DataFrame) -> str:
+    """Everything of one evaluation (its suits' rows); returns the one-line summary of the recommended
+    compensation's cells."""
     table = summarise(rows)
     pd.set_option("display.width", 200)
     columns = ["plant", "tension_rmse_n_paper", "tension_rmse_n_dynamic", "rmse_ratio",
@@ -84,12 +112,12 @@ def main() -> None:
         print(f"  {plant}: {why}")
     print("the compensation the bench's study-like segment recommends per (support, speed) cell "
           "(the paper's where it picks it):")
-    print_cells(cell_table(rows, "recommended"))
-    print(f"random suits' seed: {seed}; {len(plants)} suits in {time.perf_counter() - started:.0f} s")
+    return print_cells(cell_table(rows, "recommended"))
 
 
-def print_cells(cells: pd.DataFrame) -> None:
-    """Every (suit, condition, speed) cell, then the means over cells and the worst cell."""
+def print_cells(cells: pd.DataFrame) -> str:
+    """Every (suit, condition, speed) cell, then the means over cells and the worst cell; returns them
+    in one line."""
     cells = cells.rename(columns=lambda name: name.replace("_recommended", "_dynamic"))
     print(cells.round(3).to_string(index=False))
     rmse = cells["tension_rmse_n_dynamic"].mean() / cells["tension_rmse_n_paper"].mean()
@@ -97,12 +125,17 @@ def print_cells(cells: pd.DataFrame) -> None:
     print(f"over {len(cells)} cells: mean RMSE ratio {rmse:.3f} (target ≤ 0.60; mean of cell ratios "
           f"{cells['rmse_ratio'].mean():.3f}), mean lowering-onset peak ratio {peak:.3f} (target ≤ 0.50; "
           f"mean of cell ratios {cells['peak_ratio'].mean():.3f})")
+    worst_cells = []
     for ratio, label in (("rmse_ratio", "RMSE"), ("peak_ratio", "lowering-onset peak")):
-        worst = cells.loc[cells[ratio].idxmax()]
-        print(f"worst cell by {label}: {worst['plant']} {worst['condition']} {worst['speed']}: "
-              f"{worst[ratio]:.3f}× the paper's")
+        worst = cells.iloc[int(cells[ratio].to_numpy().argmax())]
+        where = f"{worst['plant']} {worst['condition']} {worst['speed']}"
+        worst_cells.append(f"{label} {where} {worst[ratio]:.3f}×")
+        print(f"worst cell by {label}: {where}: {worst[ratio]:.3f}× the paper's")
+    worse = int(cells["worse"].sum())
     print(f"cells worse than the paper's by more than {100 * WORSE_TOLERANCE:.0f} % (RMSE or peak): "
-          f"{int(cells['worse'].sum())} of {len(cells)} (target 0)")
+          f"{worse} of {len(cells)} (target 0)")
+    return (f"mean RMSE ratio {rmse:.3f}, onset peak ratio {peak:.3f}, {worse} of {len(cells)} cells "
+            f"> {100 * WORSE_TOLERANCE:.0f} % worse; worst: {'; '.join(worst_cells)}")
 
 
 if __name__ == "__main__":

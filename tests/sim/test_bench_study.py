@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from bowden.cli import main
@@ -14,10 +16,12 @@ from bowden.identify import TransmissionIdentifier
 from bowden.model import CompensationModel, Subject
 from bowden.model.model_file import load_model
 from bowden.protocol.bench import QUICK_BENCH
+from bowden.sim import ProtocolSettings, generate_cohort, simulate_trial
 from bowden.sim.bench import run_bench
 from bowden.sim.bench_study import (
     StrokeResult,
     fit_on_study_segment,
+    ratio_upper_bound,
     recommend_compensation,
     recommendation,
     run_study_segment,
@@ -25,7 +29,8 @@ from bowden.sim.bench_study import (
     validate_compensations,
 )
 from bowden.sim.parameters import SuitParameters
-from bowden.sim.plant_family_structural import structural_plants
+from bowden.sim.plant_family_structural import random_structural_plants, structural_plants
+from bowden.study.compensation.comparison import reference_tension, trial_errors
 
 
 @pytest.fixture(scope="module")
@@ -40,11 +45,44 @@ def test_the_identified_dynamic_compensation_is_recommended_where_it_beats_the_p
     # Every support of the study at every speed, each cell judged on its own held-out strokes.
     assert {(support, speed) for support, speed, _ in choice.cells} == {
         (support, speed) for support in ("pretension", "25", "50") for speed in ("V1", "V2", "V3")}
-    assert all(chosen for support, _, chosen in choice.cells if support == "50"), choice.why
+    # At 50 % and the faster speeds the dynamic compensation's win is far outside the strokes' scatter.
+    assert {("50", "V2", True), ("50", "V3", True)} <= set(choice.cells), choice.why
 
 
-def _stroke(rmse_n: float, peak_pct: float) -> StrokeResult:
-    return StrokeResult(tension_rmse_n=rmse_n, onset_peak_pct=peak_pct)
+def _stroke(rmse_n: float, peak_pct: float, scatter: tuple[float, ...] = (-0.02, 0.0, 0.01, 0.02, -0.01, 0.0)
+            ) -> StrokeResult:
+    """A cell's result with six held-out strokes scattered about its values by the given fractions."""
+    return StrokeResult(tension_rmse_n=rmse_n, onset_peak_pct=peak_pct,
+                        stroke_rmse_n=tuple(rmse_n * (1 + f) for f in scatter),
+                        stroke_peak_pct=tuple(peak_pct * (1 + f) for f in scatter))
+
+
+def test_the_ratio_bound_is_students_on_the_paired_stroke_differences() -> None:
+    # d = (-1, -1, -2): mean -4/3, s_d = sqrt(1/3), s_d/sqrt(3) = 1/3, t(0.95, 2) = 2.919986;
+    # mean paper 10/3: bound 1 + (-4/3 + 2.919986/3) / (10/3) = 1 + (-4 + 2.919986) / 10.
+    assert ratio_upper_bound((1.0, 2.0, 3.0), (2.0, 3.0, 5.0)) == pytest.approx(0.8919986, abs=1e-6)
+    assert ratio_upper_bound((1.0, 2.0, 3.0), (2.0, 3.0, 5.0), confidence=0.5) == pytest.approx(0.6)
+    # Nothing is shown by one stroke, unpaired strokes or a paper's value that is not positive.
+    assert ratio_upper_bound((1.0,), (2.0,)) == math.inf
+    assert ratio_upper_bound((1.0, 2.0), (2.0, 3.0, 4.0)) == math.inf
+    assert ratio_upper_bound((1.0, 2.0), (-2.0, 1.0)) == math.inf
+
+
+def test_a_cell_won_on_average_but_not_with_confidence_goes_to_the_papers_lines() -> None:
+    # The dynamic compensation's mean RMSE (9.5 N) is below the paper's (10 N) on the six strokes,
+    # but its strokes scatter by ±4 N about the paper's: the upper bound of the ratio is above 1.
+    results = {("50", "V2"): {
+        "paper": StrokeResult(10.0, 40.0, (10.0,) * 6, (40.0,) * 6),
+        "dynamic": StrokeResult(9.5, 20.0, (6.0, 14.0, 5.0, 13.0, 7.0, 12.0), (20.0,) * 6),
+    }}
+    choice = recommendation(results)
+    assert choice.cells == (("50", "V2", False),)
+    rmse_bound = ratio_upper_bound((6.0, 14.0, 5.0, 13.0, 7.0, 12.0), (10.0,) * 6)
+    assert rmse_bound > 1.0
+    assert f"50 % V2 (RMSE ≤ {rmse_bound:.2f}×, onset peak ≤ 0.50×)" in choice.why
+    # The same mean with the strokes close together: a win.
+    results["50", "V2"]["dynamic"] = StrokeResult(9.5, 20.0, (9.4, 9.6, 9.5, 9.5, 9.4, 9.6), (20.0,) * 6)
+    assert recommendation(results).cells == (("50", "V2", True),)
 
 
 def test_the_recommendation_is_per_support_and_speed_and_the_controller_follows_it(
@@ -58,7 +96,8 @@ def test_the_recommendation_is_per_support_and_speed_and_the_controller_follows_
     choice = recommendation(results)
     assert not choice.everywhere
     assert [cell[:2] for cell in choice.cells if not cell[2]] == [("pretension", "V3"), ("25", "V1")]
-    assert choice.why.startswith("dynamic in 7 of 9 cells") and "pretension V3" in choice.why
+    assert choice.why.startswith("dynamic in 7 of 9 cells (the 95 % upper bound")
+    assert "pretension V3" in choice.why
     chosen = choice.apply(model)
     dynamic = chosen.dynamic
     assert dynamic is not None and dynamic.recommended_cells == choice.cells
@@ -90,7 +129,7 @@ def test_a_dynamic_compensation_that_loses_on_the_bench_is_not_recommended(model
     choice = recommend_compensation(wrong, SuitParameters())
     assert not choice.everywhere
     assert ("50", "V3", False) in choice.cells  # the cell measured above
-    assert "the paper's lines where it does not beat them" in choice.why
+    assert "the paper's lines in: " in choice.why and "50 % V3 (RMSE ≤ " in choice.why
 
 
 def test_bench_simulate_writes_the_latency_segment_and_validate_recommends(
@@ -111,7 +150,7 @@ def test_bench_simulate_writes_the_latency_segment_and_validate_recommends(
     assert re.search(recommended, out, re.MULTILINE)
     validated = load_model(model_path).dynamic
     assert validated is not None and len(validated.recommended_cells) == 9
-    assert all(chosen for support, _, chosen in validated.recommended_cells if support == "50")
+    assert {("50", "V2", True), ("50", "V3", True)} <= set(validated.recommended_cells)
     assert validated.recommendation in out
     assert main(["bench", "validate", str(model_path), "--support", "2"]) == 1
     assert "--support" in capsys.readouterr().err
@@ -132,3 +171,20 @@ def test_the_fit_on_study_strokes_lowers_their_cost_on_a_suit_with_presliding(
     before = study_cost(validate_compensations(identified, suit, seed=1))
     after = study_cost(validate_compensations(fitted, suit, seed=1))
     assert after < before
+
+
+def test_the_mannequin_yields_like_a_wearer_so_the_bench_shows_the_cohorts_errors() -> None:
+    # structural-28-1 (presliding, capstan, play, high drag): with the mannequin stiff (300 Nm/rad) the
+    # paper's onset peak at pretension/V3 on the bench was 1.5 times the cohort's, and the bench ranked
+    # the two compensations otherwise than the cohort did in that cell.
+    suit = random_structural_plants(6, 28)[1].suit
+    model = TransmissionIdentifier().fit(run_bench(suit, QUICK_BENCH, seed=0)).model_
+    settings = ProtocolSettings(conditions=("pretension",), speeds=("V3",), repetitions=5,
+                                compensation="paper")
+    cohort = [trial_errors(trial, reference_tension(trial, settings, suit.geometry)) for trial in (
+        simulate_trial(participant, "pretension", "V3", model=model, suit=suit, settings=settings, seed=index)
+        for index, participant in enumerate(generate_cohort(0)[:6]))]
+    bench = run_study_segment(model, suit, compensation="paper", speed="V3", support="pretension")
+    peak = bench.onset_peak_pct / np.mean([errors["onset_peak_pct"] for errors in cohort])
+    rmse = bench.tension_rmse_n / np.mean([errors["tension_rmse_n"] for errors in cohort])
+    assert 0.8 < peak < 1.2 and 0.8 < rmse < 1.2, (peak, rmse)

@@ -17,6 +17,8 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import NDArray
+from scipy.stats import t as student_t
 
 from bowden import contracts as c
 from bowden.control import build_controller
@@ -26,21 +28,68 @@ from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim import _batch_kernel as bk
 from bowden.sim import _kernels as k
 from bowden.sim.parameters import SuitParameters
-from bowden.sim.participants import generate_cohort
+from bowden.sim.participants import ExpectedAssistance, generate_cohort
 from bowden.sim.plant import equilibrium_state, pack_parameters
 
-MANNEQUIN_STIFFNESS_NM_RAD = 300.0
-MANNEQUIN_DAMPING_NMS_RAD = 25.0
+# The mannequin's impedance about the reference: a wearer's shoulder (10-50 Nm/rad while reaching,
+# Burdet et al. 2001, Nature 414:446; the simulated cohort's mean, sim/participants.py). At 300 Nm/rad
+# and 25 Nm·s/rad (before) the arm could not yield to the cable: the paper's onset peak on the bench
+# was 1.6 times the cohort's on structural-28-1 and the dynamic compensation's ranking differed.
+MANNEQUIN_STIFFNESS_NM_RAD = 25.0
+MANNEQUIN_DAMPING_NMS_RAD = 2.5
+# A minimal adaptation time: the mannequin feeds the support law's torque forward from its first step.
+_MANNEQUIN_ADAPT_S = 1e-3
 ONSET_WINDOW = (0.45, 0.75)
 
 
 @dataclass(frozen=True)
 class StrokeResult:
     """Tension RMSE (N) against the support law at the true elevation, and the lowering-onset peak (%
-    of the reference, repetition-mean curve between 45 % and 75 % of the cycle), held-out repetitions."""
+    of the reference, repetition-mean curve between 45 % and 75 % of the cycle), held-out repetitions;
+    ``stroke_rmse_n`` and ``stroke_peak_pct`` are the same measures of each held-out repetition alone,
+    in order (the paired differences the recommendation's bound is taken from)."""
 
     tension_rmse_n: float
     onset_peak_pct: float
+    stroke_rmse_n: tuple[float, ...] = ()
+    stroke_peak_pct: tuple[float, ...] = ()
+
+
+def mannequin_vector(support: float | str, cycle: MinimumJerkCycle, *, repetitions: int,
+                     start_s: float) -> NDArray[np.float64]:
+    """The mannequin motor's controller as the kernel's human vector: impedance about the reference
+    (:data:`MANNEQUIN_STIFFNESS_NM_RAD`, :data:`MANNEQUIN_DAMPING_NMS_RAD`), the arm's own inertia and
+    gravity and the support law's nominal torque fed forward (as a wearer who knows the suit), no lag,
+    no noise, no co-contraction, no learning."""
+    mannequin = generate_cohort(0)[0]
+    arm = mannequin.arm_parameters()
+    expected = ExpectedAssistance.for_condition(support, mannequin.subject, hand_load_kg=0.5)
+    h = np.zeros(k.N_HUMAN)
+    h[k.H_AMPLITUDE] = 1.0
+    h[k.H_INERTIA_EST] = arm.inertia_kgm2
+    h[k.H_GRAVITY_EST] = arm.gravity_torque_nm
+    h[k.H_STIFFNESS] = MANNEQUIN_STIFFNESS_NM_RAD
+    h[k.H_DAMPING] = MANNEQUIN_DAMPING_NMS_RAD
+    h[k.H_NOISE_TAU] = h[k.H_LAG_TIME_S] = h[k.H_COCON_TIME_S] = 1.0
+    h[k.H_EXP_SUPPORT] = expected.support
+    h[k.H_EXP_GRAVITY] = expected.controller_gravity_torque_nm
+    h[k.H_EXP_FLOOR_N] = expected.floor_tension_n
+    h[k.H_EXP_ADAPT_S] = _MANNEQUIN_ADAPT_S
+    h[k.H_REF_LOW], h[k.H_REF_HIGH] = cycle.low_rad, cycle.high_rad
+    h[k.H_REF_MOVE_S] = cycle.movement_duration_s
+    h[k.H_REF_START] = start_s
+    h[k.H_REF_CYCLES] = float(repetitions)
+    return h
+
+
+def _onset_peak_pct(fraction: NDArray[np.float64], percent: NDArray[np.float64]) -> float:
+    """Largest percent error of the curve binned over the cycle (1 % bins) inside the onset window."""
+    bins = np.minimum((fraction * 100).astype(int), 99)
+    counts = np.bincount(bins, minlength=100)
+    curve = np.bincount(bins, weights=percent, minlength=100) / np.maximum(counts, 1)
+    centres = (np.arange(100) + 0.5) / 100
+    window = (centres >= ONSET_WINDOW[0]) & (centres <= ONSET_WINDOW[1]) & (counts > 0)
+    return float(curve[window].max())
 
 
 def run_study_segment(model: CompensationModel, suit: SuitParameters, *, compensation: str, speed: str,
@@ -56,18 +105,8 @@ def run_study_segment(model: CompensationModel, suit: SuitParameters, *, compens
         geometry=suit.geometry, compensation=compensation,  # type: ignore[arg-type]
     )
     arm = mannequin.arm_parameters()
-    h = np.zeros(k.N_HUMAN)
-    h[k.H_AMPLITUDE] = 1.0
-    h[k.H_INERTIA_EST] = arm.inertia_kgm2
-    h[k.H_GRAVITY_EST] = arm.gravity_torque_nm
-    h[k.H_STIFFNESS] = MANNEQUIN_STIFFNESS_NM_RAD
-    h[k.H_DAMPING] = MANNEQUIN_DAMPING_NMS_RAD
-    h[k.H_NOISE_TAU] = h[k.H_LAG_TIME_S] = h[k.H_COCON_TIME_S] = h[k.H_EXP_ADAPT_S] = 1.0
-    h[k.H_REF_LOW], h[k.H_REF_HIGH] = cycle.low_rad, cycle.high_rad
-    h[k.H_REF_MOVE_S] = cycle.movement_duration_s
     lead_in = 1.0
-    h[k.H_REF_START] = lead_in
-    h[k.H_REF_CYCLES] = float(repetitions)
+    h = mannequin_vector(support, cycle, repetitions=repetitions, start_s=lead_in)
     period, substeps = 0.002, 8
     n = math.ceil((lead_in + repetitions * cycle.period_s + 0.5) / period)
     p = pack_parameters(replace(suit, substep_s=period / substeps), arm)
@@ -93,14 +132,15 @@ def run_study_segment(model: CompensationModel, suit: SuitParameters, *, compens
     truth = out[held_out, bk.O_TRUE_ELEVATION]
     reference = np.array([desired_tension_n(float(th), body, suit.geometry, assistance) for th in truth])
     error = out[held_out, bk.O_TENSION] - reference  # the load cell, as on the bench
-    fraction = phase[held_out] % 1.0
+    fraction = np.asarray(phase[held_out] % 1.0, dtype=np.float64)
     percent = 100.0 * error / reference
-    bins = np.minimum((fraction * 100).astype(int), 99)
-    counts = np.bincount(bins, minlength=100)
-    curve = np.bincount(bins, weights=percent, minlength=100) / np.maximum(counts, 1)
-    centres = (np.arange(100) + 0.5) / 100
-    window = (centres >= ONSET_WINDOW[0]) & (centres <= ONSET_WINDOW[1]) & (counts > 0)
-    return StrokeResult(float(np.sqrt(np.mean(error**2))), float(curve[window].max()))
+    stroke = np.floor(phase[held_out]).astype(int)
+    strokes = [stroke == r for r in range(1, repetitions)]
+    return StrokeResult(
+        float(np.sqrt(np.mean(error**2))), _onset_peak_pct(fraction, percent),
+        tuple(float(np.sqrt(np.mean(error[one] ** 2))) for one in strokes),
+        tuple(_onset_peak_pct(fraction[one], percent[one]) for one in strokes),
+    )
 
 
 # The supports of the study's conditions the segment runs (pretension, 25 %, 50 %), each at V1-V3.
@@ -109,16 +149,24 @@ STUDY_SUPPORTS: tuple[float | str, ...] = ("pretension", 0.25, 0.5)
 Cell = tuple[str, str]  # (support label, speed)
 
 
+# Repetitions per cell of the validation run: the first is dropped, the other six are the paired
+# held-out strokes the recommendation's confidence bound is taken from (t quantile 2.02 with 5 degrees
+# of freedom, against 2.92 with the fit's three).
+VALIDATION_REPETITIONS = 7
+CONFIDENCE = 0.95
+
+
 def validate_compensations(
     model: CompensationModel, suit: SuitParameters, *, seed: int = 0,
-    supports: tuple[float | str, ...] = STUDY_SUPPORTS,
+    supports: tuple[float | str, ...] = STUDY_SUPPORTS, repetitions: int = VALIDATION_REPETITIONS,
 ) -> dict[Cell, dict[str, StrokeResult]]:
-    """The study-like segment at every support and speed with each compensation the model has:
-    (support label, speed) → name → result."""
+    """The study-like segment at every support and speed with each compensation the model has, the
+    same strokes and sensor noise for both: (support label, speed) → name → result."""
     names = ("paper", "dynamic") if model.dynamic is not None else ("paper",)
     return {
         (support_label(support), speed): {
-            name: run_study_segment(model, suit, compensation=name, speed=speed, seed=seed, support=support)
+            name: run_study_segment(model, suit, compensation=name, speed=speed, seed=seed, support=support,
+                                    repetitions=repetitions)
             for name in names
         }
         for support in supports
@@ -147,25 +195,50 @@ def _label(cell: Cell) -> str:
     return f"{support if support == 'pretension' else support + ' %'} {speed}"
 
 
+def ratio_upper_bound(dynamic: tuple[float, ...], paper: tuple[float, ...],
+                      confidence: float = CONFIDENCE) -> float:
+    """One-sided upper confidence bound of mean(dynamic) / mean(paper) from paired strokes.
+
+    The strokes are paired (the same stroke and sensor noise under either compensation), so the
+    bound is taken on the mean paired difference d = dynamic − paper with Student's t (n − 1 degrees
+    of freedom) and expressed relative to the paper's mean: 1 + (d̄ + t·s_d/√n) / mean(paper).
+    Infinite (nothing is shown) with fewer than two strokes, unequal counts, or a paper's mean ≤ 0.
+    """
+    n = len(dynamic)
+    if n < 2 or len(paper) != n or float(np.mean(paper)) <= 0.0:
+        return math.inf
+    difference = np.asarray(dynamic) - np.asarray(paper)
+    spread = float(np.std(difference, ddof=1)) / math.sqrt(n)
+    bound = float(np.mean(difference)) + float(student_t.ppf(confidence, n - 1)) * spread
+    return 1.0 + bound / float(np.mean(paper))
+
+
+def cell_bounds(paper: StrokeResult, dynamic: StrokeResult) -> tuple[float, float]:
+    """Upper confidence bounds of the dynamic/paper ratio of RMSE and of onset peak in one cell."""
+    return (ratio_upper_bound(dynamic.stroke_rmse_n, paper.stroke_rmse_n),
+            ratio_upper_bound(dynamic.stroke_peak_pct, paper.stroke_peak_pct))
+
+
 def recommendation(results: dict[Cell, dict[str, StrokeResult]]) -> Recommendation:
-    """Per (support, speed) cell: dynamic where it beats the paper's in RMSE and onset peak on the
-    held-out repetitions of that cell, the paper's lines elsewhere."""
+    """Per (support, speed) cell: dynamic where it beats the paper's with confidence on the held-out
+    strokes of that cell — the upper 95 % bound (:func:`ratio_upper_bound`) of its RMSE and of its
+    onset peak, each over the paper's, below 1 — the paper's lines elsewhere."""
     if any("dynamic" not in by_name for by_name in results.values()):
         return Recommendation((), False, "the model has no dynamic compensation")
     cells, lost = [], []
     for cell, by_name in results.items():
-        paper, dynamic = by_name["paper"], by_name["dynamic"]
-        wins = (dynamic.tension_rmse_n < paper.tension_rmse_n
-                and dynamic.onset_peak_pct < paper.onset_peak_pct)
+        rmse_bound, peak_bound = cell_bounds(by_name["paper"], by_name["dynamic"])
+        wins = rmse_bound < 1.0 and peak_bound < 1.0
         cells.append((cell[0], cell[1], wins))
         if not wins:
-            lost.append(f"{_label(cell)} ({dynamic.tension_rmse_n:.2f} N / {dynamic.onset_peak_pct:.1f} % "
-                        f"vs {paper.tension_rmse_n:.2f} N / {paper.onset_peak_pct:.1f} %)")
+            lost.append(f"{_label(cell)} (RMSE ≤ {rmse_bound:.2f}×, onset peak ≤ {peak_bound:.2f}×)")
+    rule = (f"the {100 * CONFIDENCE:.0f} % upper bound of its RMSE and onset peak over the paper's, "
+            "from paired held-out strokes, below 1")
     if not lost:
-        why = f"the dynamic compensation beats the paper's in RMSE and onset peak in all {len(cells)} cells"
+        why = f"the dynamic compensation beats the paper's in all {len(cells)} cells ({rule})"
     else:
-        why = (f"dynamic in {len(cells) - len(lost)} of {len(cells)} cells; the paper's lines where it does "
-               f"not beat them in RMSE and onset peak: {'; '.join(lost)}")
+        why = (f"dynamic in {len(cells) - len(lost)} of {len(cells)} cells ({rule}); the paper's lines in: "
+               f"{'; '.join(lost)}")
     return Recommendation(tuple(cells), not lost, why)
 
 
