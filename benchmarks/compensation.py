@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import time
+from pathlib import Path
 
 import pandas as pd
 
@@ -50,13 +51,19 @@ def main() -> None:
     parser.add_argument("--random", type=int, default=6, help="suits drawn at random (0: none)")
     parser.add_argument("--seed", type=int, default=None, help="seed of the random suits (default: the time)")
     parser.add_argument("--seeds", help="several seeds, comma-separated, each judged on its own")
-    parser.add_argument("--plants", help="only these named suits, comma-separated")
+    parser.add_argument("--plants", help="only these named suits, comma-separated ('none': no named suit)")
+    parser.add_argument("--save-rows", type=Path, help="write every trial's row to this CSV")
+    parser.add_argument("--rows", type=Path, nargs="+", default=[],
+                        help="CSVs of --save-rows: suits found there are not simulated again")
     args = parser.parse_args()
 
     structural = args.family == "structural"
     plants = list(structural_plants() if structural else named_plants())
     if args.plants:
         wanted = set(args.plants.split(","))
+        unknown = wanted - {plant.name for plant in plants} - {"none"}
+        if unknown:
+            parser.error(f"--plants: no named suit {', '.join(sorted(unknown))}")
         plants = [plant for plant in plants if plant.name in wanted]
     if args.seeds:
         try:
@@ -68,19 +75,30 @@ def main() -> None:
     started = time.perf_counter()
     settings = ComparisonSettings(participants=args.participants)
 
-    def compare(suits: list[FamilyPlant]) -> pd.DataFrame:
-        return compare_compensations(
-            suits, settings, progress=lambda plant: print(f"  {plant.name}: {plant.description}", flush=True)
-        )
+    def progress(plant: FamilyPlant) -> None:
+        print(f"  {plant.name}: {plant.description}", flush=True)
 
-    named_rows = compare(plants)
+    saved = pd.concat([pd.read_csv(path) for path in args.rows], ignore_index=True) if args.rows else None
+
+    def compare(suits: list[FamilyPlant]) -> pd.DataFrame:
+        known = set() if saved is None else set(saved["plant"])
+        fresh = [plant for plant in suits if plant.name not in known]
+        frames = [] if saved is None else [saved[saved["plant"].isin([plant.name for plant in suits])]]
+        if fresh:
+            frames.append(compare_compensations(fresh, settings, progress=progress))
+        return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+    judged = [compare(plants)]  # the named suits, then each seed's random suits
     summaries = []
     for seed in seeds:
         drawn = list((random_structural_plants if structural else random_plants)(args.random, seed)) \
             if args.random else []
-        rows = pd.concat([named_rows, compare(drawn)], ignore_index=True) if drawn else named_rows
+        judged.append(compare(drawn))
         print(f"=== random suits' seed {seed}: {len(plants) + len(drawn)} suits ===")
-        summaries.append((seed, report_seed(rows)))
+        rows = pd.concat([judged[0], judged[-1]], ignore_index=True)
+        summaries.append((seed, report_seed(rows) if len(rows) else "no suits"))
+    if args.save_rows is not None:
+        pd.concat(judged, ignore_index=True).to_csv(args.save_rows, index=False)
     print("the recommended compensation, per seed (issue 28: mean RMSE ≤ 0.60×, onset peak ≤ 0.50×, "
           "no cell > 5 % worse):")
     for seed, line in summaries:
