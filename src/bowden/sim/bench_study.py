@@ -1,14 +1,16 @@
 """The study-like bench segment on the simulated bench: the controller on the mannequin (issue 28).
 
 The mannequin's motor moves the arm along the study's minimum-jerk cycle (20° → 100° → 20° at the
-V1–V3 peak speeds) in impedance mode — stiff (300 Nm/rad, 25 Nm·s/rad) about the reference with
-its own inertia and gravity fed forward, no lag, no noise — against the gravity-like load of an arm
-(the cohort's first participant's, with the hand load), while the tendon driver runs the
-*controller* with one compensation; the load cell gives the true tension. Each compensation runs the
-same strokes, at each support of the study (pretension, 25 %, 50 %) and V1–V3.
-:func:`recommend_compensation` turns the result into the recommendation rule of
-docs/dynamic_compensation.md: per (support, speed) cell, the dynamic compensation only where it
-beats the paper's in that cell on held-out strokes (every repetition after the first).
+V1–V3 peak speeds) in impedance mode — yielding like a wearer's shoulder (25 Nm/rad, 2.5 Nm·s/rad)
+about the reference, with its own inertia and gravity and the support law's torque fed forward, no
+lag, no noise — against the gravity-like load of an arm (the cohort's first participant's, with the
+hand load), while the tendon driver runs the *controller* with one compensation; the load cell gives
+the true tension. Each compensation runs the same strokes, at each support of the study
+(pretension, 25 %, 50 %) and V1–V3. :func:`recommend_compensation` turns the result into the
+recommendation rule of docs/dynamic_compensation.md: per (support, speed) cell, the dynamic
+compensation only where it beats the paper's with confidence on held-out strokes (every repetition
+after the first): the upper 95 % bound of its RMSE and of its onset peak over the paper's, from the
+paired strokes, below 1 (:func:`ratio_upper_bound`).
 """
 
 from __future__ import annotations
