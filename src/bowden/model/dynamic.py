@@ -94,8 +94,9 @@ class DynamicCompensation:
         never add more than this to the command.
     recommended, recommendation
         Whether the dynamic compensation is recommended over the paper's lines and the one line why:
-        it is only where the study-like bench segment showed it beating the paper's on held-out
-        strokes at every speed (docs/dynamic_compensation.md, "Which compensation"); ``build_controller``
+        it is only where the study-like bench segment showed it beating the paper's with confidence
+        on paired held-out strokes (the 95 % upper bound of its RMSE and onset peak over the paper's
+        below 1; docs/dynamic_compensation.md, "Which compensation"); ``build_controller``
         uses the paper's lines by default when it is not. A model never validated says so.
         With ``recommended_cells`` it is the choice for supports the bench did not measure: dynamic
         only if it won every measured cell.
