@@ -344,3 +344,35 @@ def test_stopping_the_loops_process_does_not_stop_the_suit_which_ends_with_it() 
             process.wait()
         process.stdin.close()
         process.stdout.close()
+
+
+@pytest.mark.parametrize("bench", [False, True], ids=["suit", "bench"])
+def test_opening_the_simulated_suit_starts_one_process(monkeypatch, bench: bool) -> None:
+    # Both backends started the suit with ``enter_context(suit.start(...))``, whose __enter__ started
+    # it again: two children on one socket directory, the first removing it as it ended.
+    from bowden.sim.backend import open_sim_bench
+
+    spawned: list[int] = []
+    real_popen = subprocess.Popen
+
+    def counting_popen(args, *rest, **kwargs):
+        process = real_popen(args, *rest, **kwargs)
+        if "bowden.sim.link.suit_process" in args:
+            spawned.append(process.pid)
+        return process
+
+    monkeypatch.setattr(subprocess, "Popen", counting_popen)
+    with open_sim_bench() if bench else open_sim_backend(speed="V1") as backend:
+        assert spawned == [backend.simulation.pid]
+        assert Path(backend.simulation.can_channel).parent.is_dir()
+
+
+def test_a_started_suit_is_not_started_twice() -> None:
+    suit = SimulatedSuitProcess(imu_target=("127.0.0.1", 9), cycle=CYCLE)
+    with suit.start() as entered:
+        assert entered is suit
+        pid = suit.pid
+        with pytest.raises(RuntimeError, match="already started"):
+            suit.start()
+        assert suit.pid == pid
+    assert suit.pid is None

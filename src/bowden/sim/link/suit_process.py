@@ -159,6 +159,10 @@ class SimulatedSuitProcess:
         HardwareError
             If the child dies or is not ready in time (with its own error message).
         """
+        if self._process is not None:
+            # A second child would share the first's socket directory, and the first, orphaned,
+            # would remove it when it ends.
+            raise RuntimeError("the simulated suit's process is already started")
         # A fresh interpreter (not a fork of this one with its threads and sockets, and not
         # multiprocessing's spawn, which would re-run the caller's main script), talking over two
         # socket pairs: requests and replies, and one-way notices from the loop.
@@ -273,7 +277,8 @@ class SimulatedSuitProcess:
         shutil.rmtree(self._directory, ignore_errors=True)
 
     def __enter__(self) -> Self:
-        return self.start()
+        # ``with suit.start(...)`` (start to pass an announcer, then manage) enters a running suit.
+        return self if self._process is not None else self.start()
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
