@@ -36,6 +36,7 @@ SERIAL_GROUPS = {
         "tests/runtime/test_bench_full_disk.py",
         "tests/runtime/test_bench_protocol.py",
         "tests/runtime/test_bench_run_sim.py",
+        "tests/runtime/test_bench_segments_sim.py",
         "tests/runtime/test_cli_full_disk.py",
         "tests/runtime/test_cli_run.py",
         "tests/runtime/test_host_stall.py",

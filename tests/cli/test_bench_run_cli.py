@@ -106,3 +106,15 @@ def test_the_simulated_bench_runs_the_motor_option_s_model_on_both_ends() -> Non
                    if frame.kind == COMMAND]
         backend.motor.command_torque(0.0)
     assert applied and applied[-1] == pytest.approx(6.0, abs=25.0 / 2047)  # one step of the 12-bit field
+
+
+def test_bad_options_of_the_later_segments_are_one_line_before_anything_opens(tmp_path, capsys):
+    for options, named in ((["--study-supports", "half"], "--study-supports: 'half'"),
+                           (["--study-supports", "1.5"], "--study-supports: 1.5"),
+                           (["--study-repetitions", "1"], "--study-repetitions must be in [2, 50]"),
+                           (["--chirp-s", "0.5"], "--chirp-s must be in [2, 120] s")):
+        code = main(["bench", "run", "--backend", "sim", "-o", str(tmp_path / "b.csv"), *options])
+        err = capsys.readouterr().err
+        assert code == 1 and named in err and "Traceback" not in err, err
+        assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "b.csv").exists()

@@ -121,3 +121,32 @@ def test_a_recording_without_a_stroke_does_not_block_the_next_start(tmp_path):
     assert json.loads((tmp_path / "bench.csv.journal").read_text())["protocol"] == PROTOCOL
     assert len(pd.read_csv(tmp_path / "bench.log.csv")) == 100
     assert pd.read_csv(tmp_path / "bench.log.csv")["time_s"].is_monotonic_increasing
+
+
+def test_a_crash_in_a_later_segment_resumes_into_it_with_its_complete_blocks(tmp_path):
+    from bowden.runtime.bench_recording import STUDY_COLUMNS
+
+    path = tmp_path / "bench.csv"
+    writer = BenchRecordingWriter(path, PROTOCOL)
+    writer.write_stroke(*stroke(0, 0.0), strokes_done=1)
+    chirp = np.column_stack([1.0 + np.arange(20) * 0.005, np.full(20, 1.0), np.full(20, 1.01)])
+    writer.write_segment("latency", chirp, np.empty((0, len(LOG_COLUMNS))), units_done=2)
+    block = np.zeros((10, len(STUDY_COLUMNS)))
+    block[:, 0] = 2.0 + np.arange(10) * 0.005
+    writer.write_segment("study", block, np.empty((0, len(LOG_COLUMNS))), units_done=3)
+    writer.close()
+    study = tmp_path / "bench.study.csv"
+    with study.open("a") as handle:  # the second block under way when the run crashed
+        handle.write("3.0,1,0.5,3,1,0.1,0.2")
+    resumed = BenchRecordingWriter(path, PROTOCOL, resume=True)
+    assert resumed.resume_point.strokes_done == 3  # the next unit: the second study-like block
+    assert resumed.resume_point.last_time_s == pytest.approx(2.045)
+    later = block.copy()
+    later[:, 0] += 1.0
+    resumed.write_segment("study", later,
+                          np.empty((0, len(LOG_COLUMNS))), units_done=4)
+    resumed.finish()
+    frame = pd.read_csv(study)
+    assert tuple(frame.columns) == STUDY_COLUMNS and len(frame) == 20  # the partial line is gone
+    assert len(pd.read_csv(tmp_path / "bench.latency.csv")) == 20
+    assert pd.read_csv(path)["trial"].nunique() == 1  # the strokes' recording holds only strokes

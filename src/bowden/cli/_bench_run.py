@@ -11,13 +11,15 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import AbstractContextManager, contextmanager
+from pathlib import Path
 from typing import Any
 
 from bowden.errors import ParameterError
 from bowden.hardware.backend import Backend
-from bowden.protocol.bench import BenchProtocol, BenchStroke
+from bowden.model import CompensationModel
+from bowden.protocol.bench import BenchProtocol, BenchStroke, LatencyChirp, StudyStrokes
 from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig, BenchSafety
 from bowden.runtime.bench_recording import BenchRecordingWriter
 from bowden.runtime.signals import interrupt_on_signals
@@ -58,7 +60,67 @@ def bench_config(args: argparse.Namespace) -> BenchRunConfig:
     safety = BenchSafety(max_tension_n=args.max_tension)
     if getattr(args, "backend", "can") == "sim":  # its devices share this host's CPUs
         safety = safety.on_shared_host()
-    return BenchRunConfig(protocol=protocol, spool_radius_m=args.spool_radius, slack=slack, safety=safety)
+    later = not getattr(args, "no_later_segments", True)
+    return BenchRunConfig(protocol=protocol, spool_radius_m=args.spool_radius, slack=slack, safety=safety,
+                          latency=latency_chirp(args) if later else None,
+                          study=study_strokes(args) if later else None)
+
+
+def latency_chirp(args: argparse.Namespace) -> LatencyChirp:
+    """The latency segment from ``--chirp-s`` (validated)."""
+    if args.chirp_s is None:
+        return LatencyChirp()
+    if not 2.0 <= args.chirp_s <= 120.0:
+        raise ParameterError(f"--chirp-s must be in [2, 120] s, got {args.chirp_s:g}")
+    return LatencyChirp(duration_s=args.chirp_s)
+
+
+def study_strokes(args: argparse.Namespace) -> StudyStrokes:
+    """The study-like segment from ``--study-supports``, ``--study-speeds``, ``--study-repetitions``."""
+    overrides: dict[str, object] = {}
+    if args.study_supports:
+        supports: list[float | str] = []
+        for text in args.study_supports:
+            try:
+                value: float | str = text if text == "pretension" else float(text)
+            except ValueError:
+                raise ParameterError(f"--study-supports: {text!r} is neither 'pretension' nor a "
+                                     "fraction") from None
+            if isinstance(value, float) and not 0.0 < value <= 1.0:
+                raise ParameterError(f"--study-supports: {text} is not a fraction in (0, 1]")
+            supports.append(value)
+        overrides["supports"] = tuple(supports)
+    if args.study_speeds:
+        overrides["speeds"] = tuple(args.study_speeds)
+    if args.study_repetitions is not None:
+        if not 2 <= args.study_repetitions <= 50:
+            raise ParameterError(f"--study-repetitions must be in [2, 50], got {args.study_repetitions}")
+        overrides["repetitions"] = args.study_repetitions
+    return StudyStrokes(**overrides)  # type: ignore[arg-type]
+
+
+def bench_model_source(args: argparse.Namespace) -> Callable[[Path, Path | None], CompensationModel]:
+    """What gives the study-like segment its model: the identification of what this run recorded
+    (its strokes, the IMU latency from its chirp), as ``bowden identify`` would with its defaults and
+    ``--pulley-radius-mm`` of ``--spool-radius``; written beside the recording (``<stem>.model.json``)."""
+    def identify(recording: Path, latency: Path | None) -> CompensationModel:
+        from bowden.identify import TransmissionIdentifier
+        from bowden.identify.latency import read_latency_segment
+        from bowden.model.model_file import save_model
+
+        options: dict[str, Any] = {"pulley_radius_m": args.spool_radius}
+        if latency is not None:
+            estimate = read_latency_segment(str(latency), flag="the bench's latency segment")
+            options["imu_latency_s"] = estimate.latency_s
+            _say(f"IMU latency identified from the chirp: {1e3 * estimate.latency_s:.1f} ms")
+        identifier = TransmissionIdentifier(**options)
+        identifier.fit(recording)
+        model_path = Path(args.output).with_name(Path(args.output).stem + ".model.json")
+        save_model(identifier.model_, model_path)
+        _say(f"the study-like segment runs the controller on the model identified now ({model_path})")
+        return identifier.model_
+
+    return identify
 
 
 def _check_loads(protocol: BenchProtocol, motor: str) -> None:
@@ -129,14 +191,21 @@ def _discard_if_unused(writer: BenchRecordingWriter) -> Iterator[None]:
 
 def run_bench_on_backend(args: argparse.Namespace) -> int:
     config = bench_config(args)
-    total = config.protocol.n_strokes
+    return run_bench_config(args, config, model_source=bench_model_source(args))
+
+
+def run_bench_config(args: argparse.Namespace, config: BenchRunConfig, *,
+                     model_source: Callable[[Path, Path | None], CompensationModel]) -> int:
+    """Open the bench of ``args``, run ``config``'s protocol into ``args.output``, report; the exit code."""
+    strokes = config.protocol.n_strokes if config.identification else 0
+    total = config.n_units
     opener = _open(args)  # checks the options; the devices open below
     with BenchRecordingWriter(args.output, config.protocol_fingerprint(), resume=args.resume) as writer, \
             _discard_if_unused(writer):
         done = writer.resume_point.strokes_done
         if done:
-            _say(f"resuming {args.output}: {done} of {total} strokes recorded, "
-                 f"going on with stroke {done + 1}")
+            _say(f"resuming {args.output}: {done} of {total} units recorded ({strokes} strokes, then the "
+                 f"later segments' blocks), going on with unit {done + 1}")
         live = sys.stderr.isatty()
 
         def progress(stroke: BenchStroke, strokes: int) -> None:
@@ -155,7 +224,8 @@ def run_bench_on_backend(args: argparse.Namespace) -> int:
             with _realtime(args) as settings, interrupt_on_signals():
                 if settings:
                     _say(f"real-time settings: {settings}")
-                report = BenchRun(devices, config, writer, progress=progress).run()
+                report = BenchRun(devices, config, writer, progress=progress, model_source=model_source,
+                                  announce=_say).run()
         if live:
             print(file=sys.stderr)
         for error in report.exit_errors:
@@ -165,12 +235,31 @@ def run_bench_on_backend(args: argparse.Namespace) -> int:
                  "the strokes recorded then were run again")
         if report.complete:
             path = writer.finish()
-            print(f"wrote {report.strokes_total} strokes to {path}; identify them with "
-                  f"`bowden identify {path} -o model.json`")
+            _say_written(config, writer, path)
             return 0
-    recorded = f"{report.strokes_done} of {report.strokes_total} strokes are recorded in {args.output}"
+    recorded = f"{min(report.strokes_done, strokes)} of {strokes} strokes are recorded in {args.output}"
+    if total > strokes:
+        blocks = max(report.strokes_done - strokes, 0)
+        recorded += f" (the later segments: {blocks} of {total - strokes} blocks)"
     if report.fault == "interrupted":
         _say(f"bowden: interrupted; both motors are out of motor mode. {recorded}; add --resume to go on")
         return 130
     _say(f"bowden: bench stopped safely: {report.fault}. {recorded}; fix the cause and add --resume to go on")
     return EXIT_FAULT
+
+
+def _say_written(config: BenchRunConfig, writer: BenchRecordingWriter, path: Path) -> None:
+    """What the run wrote and how ``bowden identify`` reads it."""
+    if config.identification:
+        print(f"wrote {config.protocol.n_strokes} strokes to {path}")
+    latency, study = writer.segment_path("latency"), writer.segment_path("study")
+    if config.latency is not None:
+        print(f"wrote the latency chirp to {latency}")
+    if config.study is not None:
+        print(f"wrote {len(config.study.blocks())} study-like blocks to {study}")
+    command = f"bowden identify {path} -o model.json"
+    if config.latency is not None:
+        command += f" --latency-recording {latency}"
+    if config.study is not None:
+        command += f" --study-recording {study}"
+    print(f"identify them with `{command}`")

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import Any
 
 from bowden.errors import OutputFileError, ParameterError
 
@@ -61,9 +62,23 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "peak per speed against the load cell, and which compensation the model should recommend.",
     )
     validate.add_argument("model", type=Path, help="the model.json to validate")
-    validate.add_argument("--backend", choices=("sim",), default="sim",
-                          help="sim: the simulated bench (the real bench's study-like segment is not "
-                          "implemented yet)")
+    validate.add_argument("--backend", choices=("sim", "can", "sim-wire"), default="sim",
+                          help="sim: the batch simulated bench (default); can: the real bench over its "
+                          "wires, in real time; sim-wire: the simulated bench over its wire peers, in real "
+                          "time (as `bench run --backend sim`)")
+    validate.add_argument("--recording", type=Path,
+                          help="judge this recorded study-like segment (`bench run`'s <stem>.study.csv) "
+                          "instead of running one")
+    validate.add_argument("--bench-output", type=Path,
+                          help="--backend can/sim-wire: where the run is recorded (default: "
+                          "<MODEL stem>.validate.csv; the study-like strokes in <stem>.study.csv)")
+    validate.add_argument("--resume", action="store_true", help="continue an interrupted --bench-output")
+    validate.add_argument("--study-speeds", nargs="+", choices=("V1", "V2", "V3"),
+                          help="--backend can/sim-wire: speeds (default: V1 V2 V3)")
+    validate.add_argument("--study-repetitions", type=int,
+                          help="--backend can/sim-wire: cycles per support, speed and compensation "
+                          "(default 7)")
+    _add_bench_devices(validate)
     validate.add_argument("--support", type=float,
                           help="only this support fraction (default: the study's pretension, 0.25 and 0.5)")
     validate.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default 0)")
@@ -82,8 +97,6 @@ def _usage(parser: argparse.ArgumentParser) -> int:
 
 
 def _register_run(actions: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    from bowden.cli._suit import add_can_arguments
-
     run = actions.add_parser(
         "run",
         help="run the identification protocol in real time on a bench (real or simulated)",
@@ -104,18 +117,37 @@ def _register_run(actions: argparse._SubParsersAction[argparse.ArgumentParser]) 
     run.add_argument("--high-deg", type=float, help="high end of the strokes, degrees (default 110)")
     run.add_argument("--kp", type=float, help="TDU position gain, Nm/rad (default 30)")
     run.add_argument("--kd", type=float, help="TDU velocity gain, Nm·s/rad (default 0.6)")
-    run.add_argument("--max-tension", type=float, default=250.0, help="tension limit, N (default 250)")
-    run.add_argument("--pretension", type=float, default=5.0,
-                     help="tension at which the slack counts as taken up, N (default 5)")
-    run.add_argument("--spool-radius", type=float, default=0.035, help="TDU pulley radius, m (default 0.035)")
-    mannequin = run.add_argument_group("mannequin motor (--backend can)")
+    later = run.add_argument_group("the later segments (docs/identification.md, \"The protocol, exactly\")")
+    later.add_argument("--no-later-segments", action="store_true",
+                       help="run the identification strokes only (no latency chirp, no study-like strokes)")
+    later.add_argument("--chirp-s", type=float, help="duration of the latency chirp, s (default 12)")
+    later.add_argument("--study-supports", nargs="+", metavar="SUPPORT",
+                       help="supports of the study-like strokes: pretension and/or fractions "
+                       "(default: pretension 0.25 0.5)")
+    later.add_argument("--study-speeds", nargs="+", choices=("V1", "V2", "V3"),
+                       help="speeds of the study-like strokes (default: V1 V2 V3)")
+    later.add_argument("--study-repetitions", type=int,
+                       help="cycles per support, speed and compensation (default 7; the first is not judged)")
+    _add_bench_devices(run)
+    run.set_defaults(handler=run_bench_command)
+
+
+def _add_bench_devices(parser: argparse.ArgumentParser) -> None:
+    """The options of a bench's devices (``bench run``, and ``bench validate`` on a bench)."""
+    from bowden.cli._suit import add_can_arguments
+
+    parser.add_argument("--max-tension", type=float, default=250.0, help="tension limit, N (default 250)")
+    parser.add_argument("--pretension", type=float, default=5.0,
+                        help="tension at which the slack counts as taken up, N (default 5)")
+    parser.add_argument("--spool-radius", type=float, default=0.035,
+                        help="TDU pulley radius, m (default 0.035)")
+    mannequin = parser.add_argument_group("mannequin motor (--backend can)")
     mannequin.add_argument("--mannequin-id", type=int, default=2, help="its CAN id (default 2)")
     mannequin.add_argument("--mannequin-motor", default="AK80-9",
                            help="its model, for the MIT field ranges (default AK80-9)")
     mannequin.add_argument("--mannequin-direction", type=int, choices=(1, -1), default=1,
                            help="+1 if its positive torque pulls the arm down (default 1)")
-    add_can_arguments(run)
-    run.set_defaults(handler=run_bench_command)
+    add_can_arguments(parser)
 
 
 def run_bench_command(args: argparse.Namespace) -> int:
@@ -125,13 +157,8 @@ def run_bench_command(args: argparse.Namespace) -> int:
 
 
 def run_validate(args: argparse.Namespace) -> int:
-    from bowden.model.model_file import load_model, save_model
-    from bowden.sim.bench_study import (
-        STUDY_SUPPORTS,
-        fit_on_study_segment,
-        recommendation,
-        validate_compensations,
-    )
+    from bowden.model.model_file import load_model
+    from bowden.sim.bench_study import STUDY_SUPPORTS, fit_on_study_segment, validate_compensations
     from bowden.sim.parameters import SuitParameters
 
     supports: tuple[float | str, ...] = STUDY_SUPPORTS
@@ -140,6 +167,11 @@ def run_validate(args: argparse.Namespace) -> int:
             raise ParameterError(f"--support must be in (0, 1], got {args.support:g}")
         supports = (args.support,)
     model = load_model(args.model)
+    if args.recording is not None or args.backend != "sim":
+        if args.fit:
+            raise ParameterError("--fit refits on the batch simulated bench only (--backend sim, "
+                                 "no --recording)")
+        return _validate_recorded(args, model, supports)
     suit = SuitParameters()
     seed = args.seed
     if args.fit:
@@ -147,11 +179,30 @@ def run_validate(args: argparse.Namespace) -> int:
         model = fit_on_study_segment(model, suit, seed=seed, support=fit_support)
         seed += 1  # validated on strokes held out of the fit
     results = validate_compensations(model, suit, seed=seed, supports=supports)
-    print("support     speed  compensation  tension RMSE (N)  lowering-onset peak (%)")
-    for (support, speed), by_name in results.items():
-        for name, result in by_name.items():
-            print(f"{support:10s}  {speed:5s}  {name:12s}  {result.tension_rmse_n:16.2f}  "
-                  f"{result.onset_peak_pct:23.1f}")
+    return _report_validation(args, model, results)
+
+
+def _validate_recorded(args: argparse.Namespace, model: Any, supports: tuple[float | str, ...]) -> int:
+    """``bench validate`` on a recorded study-like segment: the one given (``--recording``), or one
+    run now on a bench over its wires (``--backend can`` or ``sim-wire``) with both compensations."""
+    from bowden.identify.study_recording import read_study_recording
+
+    path = args.recording
+    if path is None:
+        from bowden.cli._bench_validate import run_study_on_bench
+
+        path = run_study_on_bench(args, model, supports)
+        if path is None:
+            return 3
+    return _report_validation(args, model, read_study_recording(path, flag="--recording"))
+
+
+def _report_validation(args: argparse.Namespace, model: Any, results: dict[Any, Any]) -> int:
+    from bowden.cli.identify import print_study_results
+    from bowden.model.model_file import save_model
+    from bowden.sim.bench_study import recommendation
+
+    print_study_results(results)
     choice = recommendation(results)
     print(f"recommended: {choice.why}")
     if args.output is not None:

@@ -15,6 +15,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 from bowden.cli._outputs import check_output_file, refuse_overwriting_inputs
 from bowden.errors import FitError, OutputFileError, ParameterError
@@ -24,6 +25,7 @@ from bowden.identify.estimator import TransmissionIdentifier
 from bowden.identify.figure import save_identification_figure
 from bowden.identify.friction_figure import save_friction_figure
 from bowden.identify.preprocess import LOWERING, RAISING, PreprocessSettings
+from bowden.model.compensation import CompensationModel
 from bowden.model.model_file import save_model
 
 _DEFAULTS = PreprocessSettings()
@@ -81,6 +83,12 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         help="age of the suit's IMU samples on arrival, for the dynamic compensation's estimator (50)",
     )
     parser.add_argument(
+        "--study-recording",
+        type=Path,
+        help="the bench's study-like segment (`bowden bench run`'s <stem>.study.csv): recommend the "
+        "dynamic compensation per (support, speed) cell from it (docs/identification.md)",
+    )
+    parser.add_argument(
         "--latency-recording",
         type=Path,
         help="the bench's latency segment (time_s, elevation_rad, mannequin_elevation_rad): identify the "
@@ -131,9 +139,12 @@ def run(args: argparse.Namespace) -> int:
         identifier.fit(read_bench_recording(args.bench, limits=identifier.limits, allow_extra_columns=True))
     else:
         identifier.fit(args.bench)
-    save_model(identifier.model_, args.output, motor=args.motor)
+    model = identifier.model_
+    if args.study_recording is not None:
+        model = recommend_from_study_recording(model, args.study_recording)
+    save_model(model, args.output, motor=args.motor)
     print(identifier.summary_.format())
-    dynamic = identifier.model_.dynamic
+    dynamic = model.dynamic
     if dynamic is not None:
         print(format_dynamic(dynamic))
     elif identifier.dynamic_error_ is not None:
@@ -152,6 +163,31 @@ def run(args: argparse.Namespace) -> int:
     if identifier.summary_.warnings:
         print(f"bowden identify: {len(identifier.summary_.warnings)} warning(s), see above", file=sys.stderr)
     return 0
+
+
+def recommend_from_study_recording(model: CompensationModel, path: Path) -> CompensationModel:
+    """``model`` with the recommendation the recorded study-like strokes give (the per-cell table
+    printed); unchanged, and said so, when it has no dynamic compensation."""
+    from bowden.identify.study_recording import read_study_recording
+    from bowden.sim.bench_study import recommendation
+
+    results = read_study_recording(path)
+    print_study_results(results)
+    if model.dynamic is None:
+        print("the model has no dynamic compensation: the study-like strokes recommend nothing")
+        return model
+    choice = recommendation(results)
+    print(f"recommended: {choice.why}")
+    return choice.apply(model)
+
+
+def print_study_results(results: dict[tuple[str, str], dict[str, Any]]) -> None:
+    """The study-like segment's table: support, speed, compensation, tension RMSE, onset peak."""
+    print("support     speed  compensation  tension RMSE (N)  lowering-onset peak (%)")
+    for (support, speed), by_name in results.items():
+        for name, result in by_name.items():
+            print(f"{support:10s}  {speed:5s}  {name:12s}  {result.tension_rmse_n:16.2f}  "
+                  f"{result.onset_peak_pct:23.1f}")
 
 
 def _check_outputs(model: Path, figure: Path | None, benches: list[Path]) -> None:

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 
 from bowden.errors import ParameterError
+from bowden.protocol.minimum_jerk import MinimumJerkCycle
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -105,3 +106,131 @@ class BenchStroke:
 # A protocol a tenth the size of the paper's (2 loads × 4 speeds × 2 repetitions), for quick runs of
 # the study and the sweep.
 QUICK_BENCH = BenchProtocol(spool_speeds_rad_s=(0.5, 1.0, 3.0, 6.0), loads_nm=(1.0, 3.0), repetitions=2)
+
+
+@dataclass(frozen=True, kw_only=True)
+class LatencyChirp:
+    """Segment 2 of the bench protocol (docs/identification.md, "The protocol, exactly"): the
+    mannequin's motor moves the arm in position mode along a linear chirp about ``centre_rad`` of
+    ±``amplitude_rad``, from ``start_hz`` to ``end_hz`` over ``duration_s``, faded in and out over the
+    first and last second, while the TDU holds ``holding_torque_nm`` (the cable stays taut). The same
+    numbers as the batch bench's :class:`bowden.sim.bench_latency.LatencySegment`."""
+
+    centre_rad: float = math.radians(60.0)
+    amplitude_rad: float = math.radians(15.0)
+    start_hz: float = 0.3
+    end_hz: float = 2.0
+    duration_s: float = 12.0
+    holding_torque_nm: float = 0.5
+
+    def __post_init__(self) -> None:
+        low, high = self.centre_rad - self.amplitude_rad, self.centre_rad + self.amplitude_rad
+        if not 0.0 < low < high < math.radians(115.0):
+            raise ParameterError("LatencyChirp: the chirp must stay within 0°–115°")
+        if not 0.05 <= self.start_hz < self.end_hz <= 5.0:
+            raise ParameterError("LatencyChirp: frequencies must rise within 0.05–5 Hz")
+        if not 2.0 <= self.duration_s <= 120.0:
+            raise ParameterError(f"the chirp's duration must be in [2, 120] s, got {self.duration_s:g}")
+        if not 0.05 <= self.holding_torque_nm <= 2.0:
+            raise ParameterError("LatencyChirp.holding_torque_nm must be in [0.05, 2] Nm")
+
+    def elevation(self, time_s: float) -> tuple[float, float]:
+        """Elevation (rad) and its velocity (rad/s) at ``time_s`` from the chirp's start; at rest at the
+        centre before it and after it."""
+        t = min(max(time_s, 0.0), self.duration_s)
+        rate = (self.end_hz - self.start_hz) / self.duration_s
+        phase = 2.0 * math.pi * (self.start_hz * t + 0.5 * rate * t * t)
+        omega = 2.0 * math.pi * (self.start_hz + rate * t)
+        fade = min(max(min(t, self.duration_s - t), 0.0), 1.0)
+        fade_rate = 0.0 if fade >= 1.0 else (1.0 if t < 1.0 else -1.0)
+        theta = self.centre_rad + self.amplitude_rad * fade * math.sin(phase)
+        theta_d = self.amplitude_rad * (fade_rate * math.sin(phase) + fade * omega * math.cos(phase))
+        return theta, theta_d
+
+
+@dataclass(frozen=True)
+class StudyBlock:
+    """One block of the study-like segment: its number (from 0), the controller's support and
+    compensation, the study speed (``"V1"``…), all repetitions of the cycle at that speed."""
+
+    index: int
+    support: float | str
+    speed: str
+    compensation: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class StudyStrokes:
+    """Segment 3 of the bench protocol: the study's minimum-jerk cycle (20° → 100° → 20° at the V1–V3
+    peak speeds) driven by the mannequin's motor in impedance mode (MIT mode about the reference:
+    ``stiffness_nm_rad``, ``damping_nms_rad``, the mannequin arm's inertia and the support law's
+    nominal torque fed forward) while the TDU runs the controller at ``controller_rate_hz`` with one
+    compensation. For each support, each speed, each compensation in turn: ``rest_s`` at rest at the
+    low end, then ``repetitions`` cycles. The same numbers as the batch bench's
+    :mod:`bowden.sim.bench_study`.
+
+    Parameters
+    ----------
+    supports
+        The controller's supports: ``"pretension"`` or fractions.
+    speeds
+        Study speeds (``contracts.SPEEDS``).
+    compensations
+        Run in this order on the same strokes.
+    repetitions
+        Cycles per block (the first is not judged).
+    hand_load_kg, subject_height_m, subject_mass_kg, subject_sex
+        The wearer the controller is built for (its support law), and the load in the hand.
+    """
+
+    supports: tuple[float | str, ...] = ("pretension", 0.25, 0.5)
+    speeds: tuple[str, ...] = ("V1", "V2", "V3")
+    compensations: tuple[str, ...] = ("paper", "dynamic")
+    repetitions: int = 7
+    rest_s: float = 1.0
+    low_rad: float = math.radians(20.0)
+    high_rad: float = math.radians(100.0)
+    stiffness_nm_rad: float = 25.0
+    damping_nms_rad: float = 2.5
+    hand_load_kg: float = 0.5
+    controller_rate_hz: float = 500.0
+    # The wearer the controller is built for: the simulated cohort's first participant (rounded), the
+    # batch segment's mannequin.
+    subject_height_m: float = 1.64
+    subject_mass_kg: float = 49.4
+    subject_sex: str = "female"
+
+    def __post_init__(self) -> None:
+        from bowden.contracts import SPEEDS
+
+        if not self.supports or not all(s == "pretension" or (isinstance(s, float | int) and 0.0 < s <= 1.0)
+                                        for s in self.supports):
+            raise ParameterError("the study-like segment's supports must be 'pretension' or in (0, 1]")
+        if not self.speeds or any(speed not in SPEEDS for speed in self.speeds):
+            raise ParameterError(f"the study-like segment's speeds must be among {', '.join(SPEEDS)}")
+        if not self.compensations or any(name not in ("paper", "dynamic") for name in self.compensations):
+            raise ParameterError("the study-like segment's compensations must be 'paper' and/or 'dynamic'")
+        if not 2 <= self.repetitions <= 50:
+            raise ParameterError(f"the study-like segment needs 2-50 repetitions, got {self.repetitions}")
+        if not (0.0 < self.low_rad < self.high_rad < math.pi and 0.2 <= self.rest_s <= 10.0):
+            raise ParameterError("StudyStrokes needs 0 < low_rad < high_rad < 180° and rest_s in [0.2, 10] s")
+        if not (0.0 < self.stiffness_nm_rad <= 500.0 and 0.0 <= self.damping_nms_rad <= 5.0):
+            raise ParameterError("the mannequin's gains must be within the AK80-9's MIT ranges: "
+                                 "kp 0–500, kd 0–5")
+
+    def blocks(self) -> list[StudyBlock]:
+        """Every block in the order run: for each support, each speed, each compensation."""
+        return [StudyBlock(index=i, support=support, speed=speed, compensation=name)
+                for i, (support, speed, name) in enumerate(
+                    (s, v, n) for s in self.supports for v in self.speeds for n in self.compensations)]
+
+    def cycle(self, speed: str) -> MinimumJerkCycle:
+        """The minimum-jerk cycle of ``speed``."""
+        from bowden.contracts import SPEED_PEAK_DEG_S
+
+        return MinimumJerkCycle(low_rad=self.low_rad, high_rad=self.high_rad,
+                                peak_speed_rad_s=math.radians(SPEED_PEAK_DEG_S[speed]))
+
+    def block_duration_s(self, speed: str) -> float:
+        """How long a block at ``speed`` is recorded: the rest, the cycles, half a second after."""
+        return self.rest_s + self.repetitions * self.cycle(speed).period_s + 0.5

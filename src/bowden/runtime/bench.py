@@ -36,10 +36,14 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
+from bowden.control import Controller, build_controller
 from bowden.errors import BowdenError, HardwareError, OutputFileError
+from bowden.model import CompensationModel, Subject
+from bowden.protocol.bench import StudyBlock
 from bowden.runtime.bench_config import (
     BenchDevices,
     BenchFault,
@@ -48,8 +52,9 @@ from bowden.runtime.bench_config import (
     BenchRunConfig,
     BenchSafety,
 )
-from bowden.runtime.bench_recording import LOG_COLUMNS, RECORDING_COLUMNS
+from bowden.runtime.bench_recording import LOG_COLUMNS, RECORDING_COLUMNS, BenchRecordingWriter
 from bowden.runtime.bench_safe_stop import safe_stop
+from bowden.runtime.bench_segments import BenchSegments
 from bowden.runtime.bench_state import (
     PHASE_HOLD,
     PHASE_POSITION,
@@ -58,7 +63,6 @@ from bowden.runtime.bench_state import (
     PHASE_TAKE_UP,
     Progress,
 )
-from bowden.runtime.bench_strokes import BenchStrokes
 from bowden.runtime.slack import take_up_slack
 
 _log = logging.getLogger(__name__)
@@ -67,8 +71,24 @@ _FIRST_SAMPLE_WAIT_S = 0.5
 _TAKE_UP_LIFT_RAD = math.radians(3.0)
 
 
-class BenchRun(BenchStrokes):
-    """Runs the protocol's strokes from ``writer.resume_point`` on, recording each as it completes."""
+class BenchRun(BenchSegments):
+    """Runs the protocol's units (the identification strokes, the latency chirp, the study-like
+    blocks) from ``writer.resume_point`` on, recording each as it completes.
+
+    ``model_source(recording, latency_recording)`` gives the model the study-like blocks run the
+    controller on, called once before the first of them (the CLI identifies it from what the run
+    recorded); ``announce`` is told each later segment's block as it starts."""
+
+    def __init__(self, devices: BenchDevices, config: BenchRunConfig, writer: BenchRecordingWriter, *,
+                 progress: Progress | None = None,
+                 model_source: Callable[[Path, Path | None], CompensationModel] | None = None,
+                 announce: Callable[[str], None] | None = None) -> None:
+        super().__init__(devices, config, writer, progress=progress)
+        if not config.identification:
+            self.strokes = []
+        self.model_source = model_source
+        self.announce = announce
+        self._model: CompensationModel | None = None
 
     def run(self) -> BenchReport:
         """Enable both motors, take up the slack, run the remaining strokes, leave both safe.
@@ -77,7 +97,7 @@ class BenchRun(BenchStrokes):
         does not answer when enabled raises :class:`~bowden.errors.HardwareError` with nothing enabled.
         """
         done = self.writer.resume_point.strokes_done
-        report = BenchReport(strokes_done=done, strokes_total=len(self.strokes))
+        report = BenchReport(strokes_done=done, strokes_total=self.config.n_units)
         # Times continue a second after everything written before (the device log included).
         last = self.writer.resume_point.last_time_s
         self._time_offset_s = last + (1.0 if last > 0.0 else 0.0)
@@ -85,20 +105,13 @@ class BenchRun(BenchStrokes):
         try:
             self._start_clock()
             self._take_up_slack()
-            for stroke in self.strokes[done:]:
-                self._stroke = stroke
+            for index in range(done, self.config.n_units):
                 self._log_rows = []
-                self._run_covering(stroke)
-                try:
-                    self.writer.write_stroke(np.array(self._rows), np.array(self._log_rows), stroke.index + 1,
-                                             learned=self._ends.to_json())
-                except OutputFileError as error:  # a full disk: stop safely, the strokes before stay
-                    raise BenchFault(f"recording failed: {error}") from None
-                report.strokes_done = stroke.index + 1
-                if self.progress is not None:
-                    self.progress(stroke, len(self.strokes))
+                self._run_unit(index)
+                report.strokes_done = index + 1
             self._stroke = None
-            self._finish_load()
+            if self.config.n_units == len(self.strokes):  # no later segment: the load off, held still
+                self._finish_load()
         except BenchFault as fault:
             report.fault = str(fault)
             report.fault_at_s = self.devices.clock.now()
@@ -117,6 +130,71 @@ class BenchRun(BenchStrokes):
         report.safe_at_s = self._safe_stop(report.exit_errors)
         report.data_gaps = self._cell_watch.gaps
         return report
+
+    def _run_unit(self, index: int) -> None:
+        """Run and record unit ``index`` of the protocol: an identification stroke, the latency chirp
+        or a study-like block (``BenchRunConfig.n_units``)."""
+        strokes = len(self.strokes)
+        if index < strokes:
+            stroke = self._stroke = self.strokes[index]
+            self._run_covering(stroke)
+            self._write(lambda: self.writer.write_stroke(np.array(self._rows), np.array(self._log_rows),
+                                                         index + 1, learned=self._ends.to_json()))
+            if self.progress is not None:
+                self.progress(stroke, strokes)
+            return
+        self._stroke = None
+        self._target_rad = self._spool_position()  # the TDU runs in torque mode from here on
+        self._velocity_rad_s = 0.0
+        latency = self.config.latency
+        if index == strokes and latency is not None:
+            self._say(f"latency chirp: {latency.duration_s:g} s, the mannequin moves the arm")
+            rows = self._run_latency()
+            self._write(lambda: self.writer.write_segment("latency", rows, np.array(self._log_rows),
+                                                          index + 1))
+            return
+        study = self.config.study
+        assert study is not None
+        blocks = study.blocks()
+        block = blocks[index - strokes - (latency is not None)]
+        self._say(f"study-like block {block.index + 1} of {len(blocks)}: support {block.support}, "
+                  f"{block.speed}, {block.compensation} compensation")
+        rows = self._run_study_block(block, self._controller_for(block))
+        self._write(lambda: self.writer.write_segment("study", rows, np.array(self._log_rows), index + 1))
+
+    def _write(self, action: Callable[[], None]) -> None:
+        try:
+            action()
+        except OutputFileError as error:  # a full disk: stop safely, what was written before stays
+            raise BenchFault(f"recording failed: {error}") from None
+
+    def _say(self, text: str) -> None:
+        if self.announce is not None:
+            self.announce(text)
+
+    def _controller_for(self, block: StudyBlock) -> Controller:
+        """The controller ``bowden run`` would build for the block's support and compensation, on the
+        model the bench identified (or was given)."""
+        study = self.config.study
+        assert study is not None
+        if self._model is None:
+            if self.model_source is None:
+                raise BenchFault("the study-like segment needs a model (none was given)")
+            latency = self.writer.segment_path("latency") if self.config.latency is not None else None
+            try:
+                source = self.model_source
+                self._model = self._hold_while(lambda: source(self.writer.data_path, latency))
+            except BowdenError as error:  # a recording identify refuses: said, the motors safe
+                raise BenchFault(f"no model for the study-like segment from what was recorded: "
+                                 f"{error}") from None
+        if block.compensation == "dynamic" and self._model.dynamic is None:
+            raise BenchFault("the model has no dynamic compensation for the study-like segment")
+        subject = Subject(height_m=study.subject_height_m, mass_kg=study.subject_mass_kg,
+                          sex=study.subject_sex)  # type: ignore[arg-type]
+        return build_controller(model=self._model, support=block.support,  # type: ignore[arg-type]
+                                subject=subject, hand_load_kg=study.hand_load_kg,
+                                geometry=self.config.geometry,
+                                compensation=block.compensation)  # type: ignore[arg-type]
 
     def _keep_partial_log(self) -> None:
         """The device log of the stroke under way when the run stopped (the stroke is not recorded)."""

@@ -13,7 +13,7 @@ from typing import Protocol
 from bowden.errors import BowdenError, ParameterError
 from bowden.hardware.protocols import Clock, ElevationSensor, MotorState, TensionSensor
 from bowden.model.geometry import CuffGeometry
-from bowden.protocol.bench import BenchProtocol
+from bowden.protocol.bench import BenchProtocol, LatencyChirp, StudyStrokes
 from bowden.runtime.slack import SlackTakeUp
 
 
@@ -161,6 +161,16 @@ class BenchRunConfig:
         A stroke that takes longer than this times its expected duration (plus 2 s) is a fault.
     safety
         :class:`BenchSafety`.
+    latency, study
+        The protocol's later segments, run after the identification strokes in this order (None: left
+        out): the latency chirp (:class:`~bowden.protocol.bench.LatencyChirp`) and the study-like
+        strokes (:class:`~bowden.protocol.bench.StudyStrokes`, the controller on the TDU). None by
+        default here; ``bowden bench run`` runs both (its default protocol is all three segments).
+    identification
+        Run the identification strokes (False: only the later segments, e.g. ``bench validate``).
+    mannequin_inertia_kgm2
+        The mannequin arm's moment of inertia about the shoulder, fed forward by its motor along the
+        study's reference (the simulated mannequin's: 0.08 kg·m²).
     """
 
     protocol: BenchProtocol = field(default_factory=BenchProtocol)
@@ -175,6 +185,10 @@ class BenchRunConfig:
     wall_damping_nms_rad: float = 1.0
     geometry: CuffGeometry = field(default_factory=CuffGeometry)
     safety: BenchSafety = field(default_factory=BenchSafety)
+    latency: LatencyChirp | None = None
+    study: StudyStrokes | None = None
+    identification: bool = True
+    mannequin_inertia_kgm2: float = 0.08
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 50.0 <= self.rate_hz <= 2000.0):
@@ -184,7 +198,8 @@ class BenchRunConfig:
             raise ParameterError(f"the recording rate ({self.protocol.sample_rate_hz:g} Hz) must divide the "
                                  f"loop rate ({self.rate_hz:g} Hz)")
         for name in ("spool_radius_m", "take_up_load_nm", "load_ramp_s", "position_speed_rad_s",
-                     "stroke_timeout_factor", "wall_stiffness_nm_rad", "wall_damping_nms_rad"):
+                     "stroke_timeout_factor", "wall_stiffness_nm_rad", "wall_damping_nms_rad",
+                     "mannequin_inertia_kgm2"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ParameterError(f"BenchRunConfig.{name} must be positive, got {value!r}")
@@ -197,7 +212,20 @@ class BenchRunConfig:
                 "hold_s": p.hold_s, "sample_rate_hz": p.sample_rate_hz,
                 "spool_acceleration_rad_s2": p.spool_acceleration_rad_s2,
                 "position_gain_nm_rad": p.position_gain_nm_rad,
-                "velocity_gain_nms_rad": p.velocity_gain_nms_rad}
+                "velocity_gain_nms_rad": p.velocity_gain_nms_rad, "identification": self.identification,
+                "latency": None if self.latency is None else asdict(self.latency),
+                "study": None if self.study is None else {**asdict(self.study),
+                                                          "supports": list(self.study.supports),
+                                                          "speeds": list(self.study.speeds),
+                                                          "compensations": list(self.study.compensations)}}
+
+    @property
+    def n_units(self) -> int:
+        """The protocol's units in the order run (the journal's count): the identification strokes,
+        the latency chirp, the study-like blocks."""
+        strokes = self.protocol.n_strokes if self.identification else 0
+        return (strokes + (self.latency is not None)
+                + (len(self.study.blocks()) if self.study is not None else 0))
 
 
 @dataclass(frozen=True)
@@ -215,7 +243,7 @@ class BenchDevices:
 class BenchReport:
     """How a bench run ended."""
 
-    strokes_done: int
+    strokes_done: int  # units of the protocol done: strokes, then the latency chirp, then study blocks
     strokes_total: int
     fault: str | None = None
     fault_at_s: float = math.nan  # clock time the fault was found

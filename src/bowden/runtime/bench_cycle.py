@@ -19,8 +19,8 @@ _MAX_ADVANCE_S = _HOST_STALL_S
 class BenchCycle(BenchSensing):
     """The loop's cycle (the spool target advances by the clock) and the rows it records."""
 
-    def _cycle_once(self, *, velocity_rad_s: float | None = None, kp: float | None = None,
-                    kd: float | None = None) -> None:
+    def _begin_cycle(self) -> float:
+        """Wait for the next cycle's deadline, then read and check the sensors; the clock time now."""
         clock = self.devices.clock
         self._deadline += self.period_s
         clock.sleep_until(self._deadline)
@@ -43,6 +43,11 @@ class BenchCycle(BenchSensing):
             direction = 1.0 if self._stroke.raising else -1.0
             self._furthest_rad = direction * max(direction * self._furthest_rad,
                                                  direction * self._elevation_rad)
+        return now
+
+    def _cycle_once(self, *, velocity_rad_s: float | None = None, kp: float | None = None,
+                    kd: float | None = None) -> None:
+        now = self._begin_cycle()
         p = self.config.protocol
         velocity = self._velocity_rad_s if velocity_rad_s is None else velocity_rad_s
         self._target_rad += velocity * self._cycle_dt_s
@@ -61,15 +66,32 @@ class BenchCycle(BenchSensing):
             self._tdu_state = state or self._tdu_state
             self._transmit_failures = 0
         except TransmitError as error:
-            self._transmit_failures += 1
-            if self._transmit_failures >= self.config.safety.max_transmit_failures:
-                raise BenchFault(f"CAN transmit failed {self._transmit_failures} times in a row: "
-                                 f"{error}") from None
+            self._transmit_failed(error)
         if kp is not None and kp == 0.0 and self._tdu_state is not None:
             self._target_rad = self._tdu_state.position_rad  # velocity mode: the target follows
         self._check_motors(now)
         self._record(now, velocity)
         self._cycle += 1
+
+    def _transmit_failed(self, error: TransmitError) -> None:
+        self._transmit_failures += 1
+        if self._transmit_failures >= self.config.safety.max_transmit_failures:
+            raise BenchFault(f"CAN transmit failed {self._transmit_failures} times in a row: "
+                             f"{error}") from None
+
+    def _time_s(self, now: float) -> float:
+        """The recording's time of the clock time ``now`` (continuing after a resume)."""
+        return now - self._origin_s + self._time_offset_s
+
+    def _record_log(self, now: float) -> None:
+        """A device-log row of a later segment (no spool target: the TDU runs in torque mode)."""
+        tdu, man = self._tdu_state, self._mannequin_state
+        nan = math.nan
+        self._log_rows.append((
+            self._time_s(now), -1, self._phase, nan, nan, tdu.position_rad if tdu else nan,
+            nan, man.torque_nm if man else nan, man.position_rad if man else nan,
+            man.velocity_rad_s if man else nan,
+        ))
 
     def _record(self, now: float, velocity: float) -> None:
         if self._cycle % self.record_every:

@@ -9,7 +9,7 @@ import math
 from bowden.protocol.bench import BenchStroke
 from bowden.runtime.bench_config import BenchFault
 from bowden.runtime.bench_cycle import BenchCycle
-from bowden.runtime.bench_state import _REST_SPEED_RAD_S, PHASE_POSITION
+from bowden.runtime.bench_state import _REST_SPEED_RAD_S, PHASE_POSITION, joint_rad
 
 # Servoing the arm to a stroke's start: the spool's speed is this gain times the elevation error,
 # through the cuff's spool-per-elevation ratio (a first-order approach with a 0.25 s time constant,
@@ -135,7 +135,7 @@ class BenchPositioning(BenchCycle):
             state = self._mannequin_state
             if state is None or not math.isfinite(self._joint.offset_rad):
                 return
-            joint = self._joint.elevation_rad(state.position_rad, self._elevation_rad)
+            joint = self._joint.elevation_rad(joint_rad(state), self._elevation_rad)
             if abs(joint - self._elevation_rad) <= self.config.safety.range_margin_rad / 2.0:
                 return
             if abs(state.velocity_rad_s) > _REST_SPEED_RAD_S:

@@ -48,6 +48,16 @@ LOG_COLUMNS = (
     "mannequin_velocity_rad_s",
 )
 _JOURNAL_VERSION = 1
+# The later segments of the protocol (docs/identification.md, "The protocol, exactly"), each its own
+# CSV beside the recording (``<stem>.<name>.csv``), with its own columns.
+LATENCY_COLUMNS = ("time_s", "elevation_rad", "mannequin_elevation_rad")
+STUDY_COLUMNS = (
+    "time_s", "block", "support", "speed", "compensation", "cycle_phase", "motor_torque_nm",
+    "motor_velocity_rad_s", "tension_n", "elevation_rad", "mannequin_elevation_rad",
+    "reference_elevation_rad", "law_tension_n", "command_tension_n",
+)
+SEGMENT_COLUMNS = {"latency": LATENCY_COLUMNS, "study": STUDY_COLUMNS}
+_SEGMENT_INTEGERS = {"latency": (), "study": (1, 3, 4)}
 
 
 @dataclass(frozen=True)
@@ -91,7 +101,13 @@ class BenchRecordingWriter:
         self._log: TextIO | None = None
         self._learned: dict[str, Any] = {}
         self._last_log_time_s = 0.0
+        self._segments: dict[str, TextIO] = {}
+        self._segment_bytes: dict[str, int] = {}
         self.resume_point = self._open(resume)
+
+    def segment_path(self, name: str) -> Path:
+        """The file of a later segment (``"latency"``, ``"study"``): ``<stem>.<name>.csv``."""
+        return self.path.with_name(f"{self.path.stem}.{name}.csv")
 
     # --- opening ---------------------------------------------------------------------------------
     def _open(self, resume: bool) -> ResumePoint:
@@ -128,6 +144,7 @@ class BenchRecordingWriter:
             except FileNotFoundError:
                 raise RecordingError(f"{path} is missing: the journal says it holds "
                                      f"{journal['strokes_done']} strokes") from None
+        self._resume_segments(journal)
         self._data = self.data_path.open("a", encoding="utf-8", newline="")
         self._log = self.log_path.open("a", encoding="utf-8", newline="")
         learned = journal.get("learned", {})
@@ -135,6 +152,24 @@ class BenchRecordingWriter:
         self._last_log_time_s = float(journal.get("last_log_time_s", journal["last_time_s"]))
         last = max(float(journal["last_time_s"]), self._last_log_time_s)
         return ResumePoint(int(journal["strokes_done"]), last, self._learned)
+
+    def _resume_segments(self, journal: dict[str, Any]) -> None:
+        """Cut each segment file back to its journalled length (a segment file the journal does not
+        know holds no complete block: it is removed)."""
+        known = journal.get("segments", {})
+        for name in SEGMENT_COLUMNS:
+            path = self.segment_path(name)
+            size = known.get(name) if isinstance(known, dict) else None
+            if not isinstance(size, int):
+                path.unlink(missing_ok=True)
+                continue
+            try:
+                with path.open("r+b") as handle:
+                    handle.truncate(size)
+            except FileNotFoundError:
+                raise RecordingError(f"{path} is missing: the journal says it holds {size} bytes") from None
+            self._segment_bytes[name] = size
+            self._segments[name] = path.open("a", encoding="utf-8", newline="")
 
     def _read_journal(self) -> dict[str, Any] | None:
         try:
@@ -194,6 +229,38 @@ class BenchRecordingWriter:
         self._note_log_time(log_rows)
         self._sync(strokes_done, float(rows[-1, 0]), complete=False)
 
+    def write_segment(self, name: str, rows: NDArray[np.float64], log_rows: NDArray[np.float64],
+                      units_done: int) -> None:
+        """Append one complete block of a later segment (``name``: ``"latency"`` or ``"study"``; its
+        rows in :data:`SEGMENT_COLUMNS` order) to its own file, its log to the device log, and journal
+        that ``units_done`` units of the protocol (strokes, then blocks) are on disk.
+
+        Raises
+        ------
+        OutputFileError
+            If the disk refuses the data; what was journalled before stays valid.
+        """
+        columns = SEGMENT_COLUMNS[name]
+        if rows.ndim != 2 or rows.shape[1] != len(columns) or rows.shape[0] == 0:
+            raise RecordingError(f"a {name} block needs rows of {len(columns)} columns, got {rows.shape}")
+        try:
+            handle = self._segments.get(name)
+            if handle is None:
+                handle = self._segments[name] = self.segment_path(name).open("w", encoding="utf-8",
+                                                                              newline="")
+                handle.write(",".join(columns) + "\n")
+            _append(handle, rows, integer_columns=_SEGMENT_INTEGERS[name])
+            if log_rows.shape[0]:
+                _append(self._require(self._log), log_rows, integer_columns=(1, 2))
+        except OSError as error:
+            self._cut_back()
+            raise OutputFileError(f"cannot write the {name} segment {self.segment_path(name)}: "
+                                  f"{error.strerror or error}") from None
+        self._note_log_time(log_rows)
+        journal = self._read_journal()
+        last = float(journal["last_time_s"]) if journal is not None else 0.0
+        self._sync(units_done, max(last, float(rows[-1, 0])), complete=False)
+
     def _note_log_time(self, log_rows: NDArray[np.float64]) -> None:
         if log_rows.shape[0]:
             self._last_log_time_s = max(self._last_log_time_s, float(log_rows[-1, 0]))
@@ -204,7 +271,10 @@ class BenchRecordingWriter:
         journal = self._read_journal()
         if journal is None:
             return
-        for handle, size in ((self._data, journal["data_bytes"]), (self._log, journal["log_bytes"])):
+        known = journal.get("segments", {})
+        segments = [(handle, known.get(name, 0)) for name, handle in self._segments.items()]
+        for handle, size in ((self._data, journal["data_bytes"]), (self._log, journal["log_bytes"]),
+                             *segments):
             if handle is None or handle.closed:
                 continue
             with contextlib.suppress(OSError, ValueError):
@@ -250,14 +320,16 @@ class BenchRecordingWriter:
     def _sync(self, strokes_done: int, last_time_s: float, *, complete: bool) -> None:
         data, log = self._require(self._data), self._require(self._log)
         try:
-            for handle in (data, log):
+            for handle in (data, log, *self._segments.values()):
                 handle.flush()
                 os.fsync(handle.fileno())
+            self._segment_bytes.update({name: handle.tell() for name, handle in self._segments.items()})
             journal = {
                 "version": _JOURNAL_VERSION, "recording": self.path.name, "protocol": self.protocol,
                 "strokes_done": strokes_done, "last_time_s": last_time_s, "complete": complete,
                 "data_bytes": data.tell(), "log_bytes": log.tell(),
                 "last_log_time_s": self._last_log_time_s, "learned": self._learned,
+                "segments": self._segment_bytes,
             }
             write_text_atomically(self.journal_path, json.dumps(journal, indent=1) + "\n", durable=True)
         except OSError as error:
@@ -286,7 +358,7 @@ class BenchRecordingWriter:
 
     def close(self) -> None:
         """Close the files (what is journalled stays; nothing else is written)."""
-        for handle in (self._data, self._log):
+        for handle in (self._data, self._log, *self._segments.values()):
             if handle is not None and not handle.closed:
                 try:
                     handle.close()
@@ -294,6 +366,7 @@ class BenchRecordingWriter:
                     # What a failed write left in the buffer; the journal never counted it.
                     _log.warning("bench recording: closing %s: %s", handle.name, error.strerror or error)
         self._data = self._log = None
+        self._segments = {}
 
     def __enter__(self) -> BenchRecordingWriter:
         return self

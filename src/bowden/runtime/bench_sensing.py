@@ -13,6 +13,7 @@ from bowden.runtime.bench_state import (
     _REST_FAST_S,
     _REST_SLOW_S,
     PHASE_HOLD,
+    PHASE_MANNEQUIN_MOVE,
     PHASE_POSITION,
     PHASE_SETTLE,
     PHASE_STROKE,
@@ -45,9 +46,12 @@ class BenchSensing(BenchState):
                                                                               - self._slow_mean_rad)
         lag_s = _REST_SLOW_S - _REST_FAST_S
         self._rest_speed_rad_s = abs(self._fast_mean_rad - self._slow_mean_rad) / lag_s
-        low, high = p.low_rad - safety.range_margin_rad, p.high_rad + safety.range_margin_rad
+        # The later segments move the arm over their own range (the study's cycle reaches 100°).
+        top = max(p.high_rad, self._segment_high_rad)
+        low, high = p.low_rad - safety.range_margin_rad, top + safety.range_margin_rad
         raising = self._stroke is not None and self._stroke.raising
-        if self._phase in (PHASE_TAKE_UP, PHASE_POSITION) or (raising and self._phase != PHASE_SETTLE):
+        if self._phase in (PHASE_TAKE_UP, PHASE_POSITION, PHASE_MANNEQUIN_MOVE) or (
+                raising and self._phase != PHASE_SETTLE):
             # The arm may hang below the range until it is brought to a stroke's start, and a raising
             # stroke may start below it (a heavy load at the low end); the guard is for overshoots.
             low = -math.pi

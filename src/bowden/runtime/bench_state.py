@@ -24,6 +24,8 @@ from bowden.runtime.bench_recording import BenchRecordingWriter
 from bowden.runtime.bench_walls import JointReference, SoftWalls
 
 PHASE_HOLD, PHASE_STROKE, PHASE_POSITION, PHASE_TAKE_UP, PHASE_SETTLE = 0, 1, 2, 3, 4
+# The later segments: the latency chirp, the study-like strokes, the mannequin's moves between them.
+PHASE_LATENCY, PHASE_STUDY, PHASE_MANNEQUIN_MOVE = 5, 6, 7
 # The arm is at rest when its elevation's speed stays below _REST_SPEED_RAD_S for _REST_WINDOW_S: the
 # speed is the difference of two running means of the IMU's elevation (time constants _REST_FAST_S
 # and _REST_SLOW_S) over the difference of their lags. (Not the gyroscope: with the arm hanging
@@ -35,6 +37,14 @@ _REST_WINDOW_S = 0.1
 
 
 Progress = Callable[[BenchStroke, int], None]
+
+
+def joint_rad(state: MotorState) -> float:
+    """The mannequin joint's angle in the elevation's sense (> 0 raising) from its motor's state. The
+    motor loads the arm down with a positive torque (``--mannequin-direction``), and an AK motor's
+    position shares its torque's sign: the elevation is minus the position (plus an offset,
+    :class:`~bowden.runtime.bench_walls.JointReference`)."""
+    return -state.position_rad
 
 
 class BenchState:
@@ -74,6 +84,7 @@ class BenchState:
         self._tension_n = math.nan
         self._elevation_rad = math.nan
         self._stroke: BenchStroke | None = None
+        self._segment_high_rad = -math.inf  # the highest elevation of the later segment under way
         self._phase = PHASE_HOLD
         self._ends = LearnedEnds(config.geometry, config.spool_radius_m, writer.resume_point.learned)
         self._stall_end_s = -math.inf  # when the last host stall ended (clock time)
@@ -115,17 +126,17 @@ class BenchState:
         state = self._mannequin_state
         if state is None:
             return 0.0
-        elevation = self._joint.elevation_rad(state.position_rad, self._elevation_rad)
+        elevation = self._joint.elevation_rad(joint_rad(state), self._elevation_rad)
         lowering = self._stroke is not None and not self._stroke.raising and self._phase in (
             PHASE_STROKE, PHASE_SETTLE)
-        return self._walls.torque_nm(elevation, state.velocity_rad_s, lowering=lowering)
+        return self._walls.torque_nm(elevation, -state.velocity_rad_s, lowering=lowering)
 
     def _reference_joint(self) -> None:
         state = self._mannequin_state
         # Both still (an IMU that froze reads as still while the joint moves).
         if state is not None and self._rest_speed_rad_s <= _REST_SPEED_RAD_S \
                 and abs(state.velocity_rad_s) <= _REST_SPEED_RAD_S:
-            self._joint.update(state.position_rad, self._elevation_rad, self._cycle_dt_s)
+            self._joint.update(joint_rad(state), self._elevation_rad, self._cycle_dt_s)
 
     def _spool_position(self) -> float:
         return self._tdu_state.position_rad if self._tdu_state is not None else 0.0

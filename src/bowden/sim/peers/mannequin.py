@@ -4,8 +4,9 @@ On the mannequin bench a second AK-series motor drives the arm's shoulder joint 
 loads the cable (the paper's "Data acquisition"). :class:`MannequinJoint` gives the peer
 what it asks of a plant — ``command_motor`` and ``command_motor_mit`` returning a
 :class:`~bowden.hardware.protocols.MotorState` — with the joint's angle, velocity and load: its
-torque is the load on the arm (> 0 pulls the arm down, against the cable), its position the
-elevation. A limp motor (out of motor mode) loads nothing.
+torque is the load on the arm (> 0 pulls the arm down, against the cable), its position minus
+the elevation (the motor's sense: a positive torque turns it positive). A limp motor (out of
+motor mode) loads nothing.
 """
 
 from __future__ import annotations
@@ -57,8 +58,8 @@ class MannequinJoint:
 
     def command_motor_mit(self, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
                           torque_nm: float) -> MotorState:
-        """An MIT-mode command, evaluated once now (the mannequin is driven in torque control; its
-        gains only ever hold it still in tests)."""
+        """An MIT-mode command in the motor's sense (position: minus the elevation), evaluated once now
+        and held until the next command (the bench's impedance mode: its latency and study-like segments)."""
         def current(suit: Any) -> MotorState:
             return self._state(suit, self._arm.load_torque_nm)
 
@@ -69,6 +70,8 @@ class MannequinJoint:
 
     def _state(self, suit: Any, torque_nm: float) -> MotorState:
         state = suit.true_state()
-        return MotorState(time_s=float(state.time_s), position_rad=float(state.elevation_rad),
-                          velocity_rad_s=float(state.elevation_velocity_rad_s), torque_nm=torque_nm,
+        # The motor's own sense: a positive torque lowers the arm, so a positive rotation does too (an
+        # AK motor's position, velocity and torque share one sign); the elevation is minus the angle.
+        return MotorState(time_s=float(state.time_s), position_rad=-float(state.elevation_rad),
+                          velocity_rad_s=-float(state.elevation_velocity_rad_s), torque_nm=torque_nm,
                           temperature_c=_TEMPERATURE_C, error_code=0)

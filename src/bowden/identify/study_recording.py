@@ -1,0 +1,100 @@
+"""The study-like segment as a bench recorded it: judged per (support, speed) cell and compensation.
+
+``bowden bench run`` writes the study-like strokes to ``<stem>.study.csv`` (docs/identification.md,
+"The protocol, exactly": its columns). Each block is one support, speed and compensation; its
+repetitions are numbered by ``cycle_phase`` (the cycle number plus the fraction of the cycle, negative
+during the rest before the first). As the batch segment (:mod:`bowden.sim.bench_study`) judges them:
+on the repetitions after the first, the tension RMSE of the load cell (``tension_n``) against the
+support law at the mannequin joint's elevation (``law_tension_n``), and the lowering-onset peak (the
+largest percent error of the repetition-mean curve, in 1 % bins of the cycle, between 45 % and 75 %);
+the same measures of each held-out repetition alone for the recommendation's paired bound.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import fields
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from bowden.errors import FitError
+from bowden.model.dynamic import support_label
+from bowden.sim.bench_study import ONSET_WINDOW, Cell, StrokeResult
+
+REQUIRED = ("block", "support", "speed", "compensation", "cycle_phase", "tension_n", "law_tension_n")
+SPEEDS = {1: "V1", 2: "V2", 3: "V3"}
+COMPENSATIONS = {0: "paper", 1: "dynamic"}
+
+
+def onset_peak_pct(fraction: NDArray[np.float64], percent: NDArray[np.float64]) -> float:
+    """Largest percent error of the curve binned over the cycle (1 % bins) inside the onset window."""
+    bins = np.minimum((fraction * 100).astype(int), 99)
+    counts = np.bincount(bins, minlength=100)
+    curve = np.bincount(bins, weights=percent, minlength=100) / np.maximum(counts, 1)
+    centres = (np.arange(100) + 0.5) / 100
+    window = (centres >= ONSET_WINDOW[0]) & (centres <= ONSET_WINDOW[1]) & (counts > 0)
+    if not window.any():
+        raise FitError("a study-like block holds no sample in the lowering onset (45-75 % of the cycle)")
+    return float(curve[window].max())
+
+
+def judge_block(cycle_phase: NDArray[np.float64], tension_n: NDArray[np.float64],
+                law_tension_n: NDArray[np.float64]) -> StrokeResult:
+    """One block's result on its repetitions after the first (``cycle_phase`` ≥ 1)."""
+    # The repetitions after the first; a last one recorded only in part (the bench stopped recording
+    # before its end) is left out.
+    held_out = cycle_phase >= 1.0
+    last = math.floor(float(cycle_phase.max())) if cycle_phase.size else 0
+    if last >= 1 and float(cycle_phase.max()) - last < 0.95:
+        held_out &= cycle_phase < last
+    phase = cycle_phase[held_out]
+    error = tension_n[held_out] - law_tension_n[held_out]
+    if error.size == 0:
+        raise FitError("a study-like block holds no repetition after the first")
+    fraction = phase % 1.0
+    percent = 100.0 * error / law_tension_n[held_out]
+    stroke = np.floor(phase).astype(int)
+    strokes = [stroke == r for r in np.unique(stroke)]
+    result = (float(np.sqrt(np.mean(error**2))), onset_peak_pct(fraction, percent))
+    names = {f.name for f in fields(StrokeResult)}
+    if "stroke_rmse_n" in names:  # the per-repetition measures of the paired bound
+        per_rmse = tuple(float(np.sqrt(np.mean(error[one] ** 2))) for one in strokes)
+        per_peak = tuple(onset_peak_pct(fraction[one], percent[one]) for one in strokes)
+        return StrokeResult(*result, stroke_rmse_n=per_rmse,
+                            stroke_peak_pct=per_peak)
+    return StrokeResult(*result)
+
+
+def read_study_recording(path: str | Path, flag: str = "--study-recording",
+                         ) -> dict[Cell, dict[str, StrokeResult]]:
+    """The recorded study-like segment judged per (support label, speed) → compensation → result;
+    a bad file is a :class:`FitError` naming ``flag``."""
+    import pandas as pd
+
+    try:
+        frame = pd.read_csv(path)
+    except (OSError, ValueError) as error:
+        raise FitError(f"{flag} {path}: cannot be read ({error})") from None
+    missing = [name for name in REQUIRED if name not in frame.columns]
+    if missing:
+        raise FitError(f"{flag} {path}: missing column(s) {', '.join(missing)} (the study-like "
+                       "segment of `bowden bench run`, docs/identification.md)")
+    if frame.empty or not np.isfinite(frame[list(REQUIRED)].to_numpy(dtype=np.float64)).all():
+        raise FitError(f"{flag} {path}: empty, or non-finite values in {', '.join(REQUIRED)}")
+    results: dict[Cell, dict[str, StrokeResult]] = {}
+    for block, rows in frame.groupby("block", sort=True):
+        support = float(rows["support"].iloc[0])
+        speed = SPEEDS.get(int(rows["speed"].iloc[0]))
+        name = COMPENSATIONS.get(int(rows["compensation"].iloc[0]))
+        if speed is None or name is None:
+            raise FitError(f"{flag} {path}: block {block} has an unknown speed or compensation code")
+        cell = (support_label("pretension" if support == 0.0 else support), speed)
+        try:
+            results.setdefault(cell, {})[name] = judge_block(
+                rows["cycle_phase"].to_numpy(np.float64), rows["tension_n"].to_numpy(np.float64),
+                rows["law_tension_n"].to_numpy(np.float64))
+        except FitError as error:
+            raise FitError(f"{flag} {path}, block {block}: {error}") from None
+    return results

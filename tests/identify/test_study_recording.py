@@ -1,0 +1,79 @@
+"""The recorded study-like segment judged per cell (identify/study_recording.py) against hand values,
+and the protocol's later segments holding the batch segments' numbers."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from bowden.errors import FitError
+from bowden.identify.study_recording import judge_block, read_study_recording
+from bowden.protocol.bench import LatencyChirp, StudyStrokes
+from bowden.runtime.bench_recording import STUDY_COLUMNS
+
+
+def _block(error_n: float, onset_extra_n: float, *, repetitions: int = 3, n: int = 1000) -> pd.DataFrame:
+    """A block whose tension is the law + ``error_n``, + ``onset_extra_n`` more at 60 % of each cycle."""
+    phase = np.concatenate([np.linspace(-0.5, 0.0, 50, endpoint=False),
+                            np.linspace(0.0, repetitions, repetitions * n, endpoint=False)])
+    law = np.full(phase.size, 20.0)
+    in_cycle = np.concatenate([np.full(50, -1), np.arange(repetitions * n) % n])
+    # 51 samples about 60 % of the cycle: whole 1 % bins from 58 % to 61 % (whatever rounding does
+    # at a bin's edge).
+    onset = (in_cycle >= 575) & (in_cycle <= 625)
+    tension = law + error_n + np.where(onset, onset_extra_n, 0.0)
+    frame = pd.DataFrame(0.0, index=np.arange(phase.size), columns=list(STUDY_COLUMNS))
+    frame["cycle_phase"], frame["law_tension_n"], frame["tension_n"] = phase, law, tension
+    return frame
+
+
+def test_a_block_is_judged_on_its_repetitions_after_the_first():
+    frame = _block(2.0, 4.0)
+    result = judge_block(frame["cycle_phase"].to_numpy(), frame["tension_n"].to_numpy(),
+                         frame["law_tension_n"].to_numpy())
+    # 51 of each 1000 samples per cycle carry 6 N, the rest 2 N.
+    assert result.tension_rmse_n == pytest.approx(math.sqrt((949 * 4.0 + 51 * 36.0) / 1000), rel=1e-9)
+    assert result.onset_peak_pct == pytest.approx(30.0)  # (2 + 4) / 20 in the bins about 60 %
+    # The first repetition does not count: an error there changes nothing.
+    first = frame.copy()
+    first.loc[(first["cycle_phase"] >= 0) & (first["cycle_phase"] < 1), "tension_n"] += 50.0
+    again = judge_block(first["cycle_phase"].to_numpy(), first["tension_n"].to_numpy(),
+                        first["law_tension_n"].to_numpy())
+    assert again.tension_rmse_n == result.tension_rmse_n
+
+
+def test_the_file_is_read_per_cell_and_compensation(tmp_path):
+    paper, dynamic = _block(4.0, 0.0), _block(1.0, 0.0)
+    for block, (frame, name) in enumerate(((paper, 0), (dynamic, 1))):
+        frame["block"], frame["support"], frame["speed"], frame["compensation"] = block, 0.25, 2, name
+    path = tmp_path / "bench.study.csv"
+    pd.concat([paper, dynamic]).to_csv(path, index=False)
+    results = read_study_recording(path)
+    assert list(results) == [("25", "V2")]
+    assert results[("25", "V2")]["paper"].tension_rmse_n == pytest.approx(4.0)
+    assert results[("25", "V2")]["dynamic"].onset_peak_pct == pytest.approx(5.0)
+    pd.concat([paper, dynamic]).drop(columns="law_tension_n").to_csv(path, index=False)
+    with pytest.raises(FitError, match=r"--study-recording .*law_tension_n"):
+        read_study_recording(path)
+
+
+def test_the_bench_runs_the_batch_segments_numbers():
+    from bowden.sim import bench_study
+    from bowden.sim.bench_latency import LatencySegment
+
+    batch = asdict(LatencySegment())
+    batch.pop("sample_rate_hz")
+    assert asdict(LatencyChirp()) == batch
+    study = StudyStrokes()
+    assert study.stiffness_nm_rad == bench_study.MANNEQUIN_STIFFNESS_NM_RAD
+    assert study.damping_nms_rad == bench_study.MANNEQUIN_DAMPING_NMS_RAD
+    assert study.supports == bench_study.STUDY_SUPPORTS
+    assert study.repetitions == getattr(bench_study, "VALIDATION_REPETITIONS", 4)
+    t = np.linspace(0.0, 12.0, 97)
+    theta, theta_d = LatencySegment().elevation(t)
+    mine = np.array([LatencyChirp().elevation(float(x)) for x in t])
+    assert np.allclose(mine[:, 0], theta) and np.allclose(mine[:, 1], theta_d)
