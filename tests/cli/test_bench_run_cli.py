@@ -118,3 +118,17 @@ def test_bad_options_of_the_later_segments_are_one_line_before_anything_opens(tm
         assert code == 1 and named in err and "Traceback" not in err, err
         assert len(err.strip().splitlines()) == 1
     assert not (tmp_path / "b.csv").exists()
+
+
+def test_bench_validate_on_the_real_bench_needs_its_load_cell(tmp_path, capsys):
+    from bowden.model import CompensationModel
+    from bowden.model.model_file import save_model
+
+    save_model(CompensationModel.from_friction(k=0.1), tmp_path / "model.json")
+    code = main(["bench", "validate", str(tmp_path / "model.json"), "--backend", "can"])
+    err = capsys.readouterr().err
+    assert code == 1 and "bench validate --backend can needs the load cell (--i2c-bus N)" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.json"]
+    code = main(["bench", "validate", str(tmp_path / "model.json"), "--recording", str(tmp_path / "x.csv"),
+                 "--fit"])
+    assert code == 1 and "--fit refits on the batch simulated bench only" in capsys.readouterr().err

@@ -136,10 +136,10 @@ def test_a_run_killed_and_interrupted_at_fast_lowering_strokes_resumes_to_the_sa
     said = interrupt_at(interrupted, 7, signal.SIGINT, 0.3)
     assert "done False interrupted scouted 0" in said, said
     # The last resume through the command line (its path to a complete recording, exit 0).
+    same = ["--speeds", "1", "4", "--loads", "1", "3", "--repetitions", "1", "--high-deg", "70"]
     # (The child ran the identification strokes alone: so does the resume.)
-    same = ["--speeds", "1", "4", "--loads", "1", "3", "--repetitions", "1", "--high-deg", "70",
-            "--no-later-segments"]
-    assert main(["bench", "run", "--backend", "sim", "-o", str(path), "--resume", *same]) == 0, \
+    assert main(["bench", "run", "--backend", "sim", "-o", str(path), "--resume", *same,
+                 "--no-later-segments"]) == 0, \
         capsys.readouterr().err
     assert "wrote 8 strokes" in capsys.readouterr().out
     protocol = BenchProtocol(spool_speeds_rad_s=(1.0, 4.0), loads_nm=(1.0, 3.0), repetitions=1,
