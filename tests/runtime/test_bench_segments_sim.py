@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -50,8 +51,15 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
             BenchRecordingWriter(output, config.protocol_fingerprint()) as writer:
         devices = BenchDevices(tdu=backend.motor, mannequin=backend.mannequin, imu=backend.imu,
                                load_cell=backend.load_cell, clock=backend.clock)
-        report = BenchRun(devices, config, writer, model_source=bench_model_source(_Args(str(output))),
-                          announce=announce).run()
+        identify = bench_model_source(_Args(str(output)))
+
+        def slow_identify(recording, latency):  # the full protocol's identification takes seconds
+            time.sleep(4.0)
+            return identify(recording, latency)
+
+        report = BenchRun(devices, config, writer, model_source=slow_identify, announce=announce).run()
+    # The loop held the arm while the model was identified (a loop that paused left the simulated
+    # mannequin on its last torque: the arm drifted out of the range).
     assert report.fault == "interrupted", report.fault
     assert report.strokes_done == 4 and report.strokes_total == 5  # 2 strokes, the chirp, 1 block of 2
     assert "latency chirp" in told[0]
@@ -61,6 +69,12 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
     assert code == 0, err
     assert "going on with unit 5" in err and "study-like block 1 of" not in err, err
 
+    # The motors were commanded all along while the model was identified (4 s): the device log, a row
+    # every 5 ms cycle, has no gap from the chirp to the first study-like block.
+    log = pd.read_csv(tmp_path / "bench.log.csv")
+    chirp_s, study_s = (log.loc[log["phase"] == phase, "time_s"].iloc[0] for phase in (5, 6))
+    between = log[(log["time_s"] >= chirp_s) & (log["time_s"] <= study_s)]
+    assert between["time_s"].diff().max() < 0.5, between["time_s"].diff().max()
     latency = pd.read_csv(tmp_path / "bench.latency.csv")
     assert tuple(latency.columns) == LATENCY_COLUMNS
     # The chirp's 4 s recorded (rows at 200 Hz of the loop's cycles: fewer when a busy host drops cycles).

@@ -101,6 +101,8 @@ class BenchSegments(BenchStrokes):
         while self._deadline < end:
             self._impedance_cycle(here - self._joint.offset_rad, 0.0, 0.0, kp=kp, kd=kd,
                                   tdu_torque_nm=holding_nm)
+            if self._cycle % self.record_every == 0:
+                self._record_log(self._deadline)
             if self._deadline > end - _SETTLE_S / 2.0 and self._mannequin_state is not None:
                 offsets.append(joint_rad(self._mannequin_state) - self._elevation_rad)
         self._joint.offset_rad = float(np.mean(offsets)) if offsets else self._joint.offset_rad
