@@ -7,44 +7,98 @@ trial's measures and :func:`analyse_study` turns a study's DataFrames into the t
 and mean ± SD curves; :func:`methods_text` describes it all.
 """
 
-from bowden.analysis.emg import (
-    EcgRemovalParameters,
-    EmgCheckParameters,
-    EmgProcessInfo,
-    EmgProcessParameters,
-    EmgResult,
-    EmgSignal,
-    emg_align,
-    emg_check,
-    emg_detect_r_peaks,
-    emg_envelope,
-    emg_filter,
-    emg_mean_peak,
-    emg_normalize,
-    emg_pipeline,
-    emg_process,
-    emg_rectify,
-    emg_remove_ecg,
-    read_emg_csv,
-    read_emg_edf,
-)
-from bowden.analysis.methods_text import MethodsText, methods_text
-from bowden.analysis.outcomes import (
-    AnalysisInfo,
-    AnalysisParameters,
-    StudyOutcomes,
-    TrialMetadata,
-    analyse_study,
-)
-from bowden.analysis.segmentation import (
-    Repetition,
-    Segmentation,
-    SegmentationParameters,
-    resample_repetition,
-    segment_repetitions,
-)
-from bowden.analysis.sparc import SparcParameters, sparc
-from bowden.analysis.trial_outcomes import TrialOutcomes, analyse_trial
+import importlib
+from typing import TYPE_CHECKING, Any
+
+# Imported on first use (PEP 562): a light module of this package (the EMG import's constants, the
+# command line's choices) should not pay for pandas, SciPy and numba (seconds of start-up).
+_EXPORTS = {
+    "AnalysisInfo": "bowden.analysis.outcomes",
+    "AnalysisParameters": "bowden.analysis.outcomes",
+    "EcgRemovalParameters": "bowden.analysis.emg",
+    "EmgCheckParameters": "bowden.analysis.emg",
+    "EmgProcessInfo": "bowden.analysis.emg",
+    "EmgProcessParameters": "bowden.analysis.emg",
+    "EmgResult": "bowden.analysis.emg",
+    "EmgSignal": "bowden.analysis.emg",
+    "MethodsText": "bowden.analysis.methods_text",
+    "Repetition": "bowden.analysis.segmentation",
+    "Segmentation": "bowden.analysis.segmentation",
+    "SegmentationParameters": "bowden.analysis.segmentation",
+    "SparcParameters": "bowden.analysis.sparc",
+    "StudyOutcomes": "bowden.analysis.outcomes",
+    "TrialMetadata": "bowden.analysis.outcomes",
+    "TrialOutcomes": "bowden.analysis.trial_outcomes",
+    "analyse_study": "bowden.analysis.outcomes",
+    "analyse_trial": "bowden.analysis.trial_outcomes",
+    "emg_align": "bowden.analysis.emg",
+    "emg_check": "bowden.analysis.emg",
+    "emg_detect_r_peaks": "bowden.analysis.emg",
+    "emg_envelope": "bowden.analysis.emg",
+    "emg_filter": "bowden.analysis.emg",
+    "emg_mean_peak": "bowden.analysis.emg",
+    "emg_normalize": "bowden.analysis.emg",
+    "emg_pipeline": "bowden.analysis.emg",
+    "emg_process": "bowden.analysis.emg",
+    "emg_rectify": "bowden.analysis.emg",
+    "emg_remove_ecg": "bowden.analysis.emg",
+    "methods_text": "bowden.analysis.methods_text",
+    "read_emg_csv": "bowden.analysis.emg",
+    "read_emg_edf": "bowden.analysis.emg",
+    "resample_repetition": "bowden.analysis.segmentation",
+    "segment_repetitions": "bowden.analysis.segmentation",
+    "sparc": "bowden.analysis.sparc",
+}
+
+if TYPE_CHECKING:
+    from bowden.analysis.emg import (
+        EcgRemovalParameters,
+        EmgCheckParameters,
+        EmgProcessInfo,
+        EmgProcessParameters,
+        EmgResult,
+        EmgSignal,
+        emg_align,
+        emg_check,
+        emg_detect_r_peaks,
+        emg_envelope,
+        emg_filter,
+        emg_mean_peak,
+        emg_normalize,
+        emg_pipeline,
+        emg_process,
+        emg_rectify,
+        emg_remove_ecg,
+        read_emg_csv,
+        read_emg_edf,
+    )
+    from bowden.analysis.methods_text import MethodsText, methods_text
+    from bowden.analysis.outcomes import (
+        AnalysisInfo,
+        AnalysisParameters,
+        StudyOutcomes,
+        TrialMetadata,
+        analyse_study,
+    )
+    from bowden.analysis.segmentation import (
+        Repetition,
+        Segmentation,
+        SegmentationParameters,
+        resample_repetition,
+        segment_repetitions,
+    )
+    from bowden.analysis.sparc import SparcParameters, sparc
+    from bowden.analysis.trial_outcomes import TrialOutcomes, analyse_trial
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'bowden.analysis' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "AnalysisInfo",

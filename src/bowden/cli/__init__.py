@@ -41,23 +41,40 @@ PROVIDERS: Final[Mapping[str, tuple[str, str | None]]] = {
 }
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the top-level parser with every subcommand module of this package registered."""
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """Build the top-level parser with every subcommand module of this package registered.
+
+    Parameters
+    ----------
+    command
+        Register only this subcommand (one of :func:`command_names`): ``bowden run ...`` then imports
+        the run command's module alone, not every other command's (a second of start-up each time).
+    """
     parser = argparse.ArgumentParser(
         prog="bowden",
         description="Sensorless tension control of cable-driven exosuits.",
     )
     parser.add_argument("--version", action="version", version=f"bowden {__version__}")
     subparsers = parser.add_subparsers(title="commands", metavar="COMMAND", dest="bowden_command")
-    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-        if info.name.startswith("_"):
+    for name in command_names():
+        if command is not None and name != command:
             continue
-        module = importlib.import_module(f"{__name__}.{info.name}")
+        module = importlib.import_module(f"{__name__}.{name}")
         module.register(subparsers)
         extra = getattr(module, "EXTRA", None)
         if extra is not None:
-            _guard_extra(subparsers, info.name, *extra)
+            _guard_extra(subparsers, name, *extra)
     return parser
+
+
+def command_names() -> list[str]:
+    """The subcommands: this package's modules not starting with ``_``, sorted (found without importing)."""
+    return sorted(info.name for info in pkgutil.iter_modules(__path__) if not info.name.startswith("_"))
+
+
+def _named_command(argv: Sequence[str]) -> str | None:
+    """The subcommand ``argv`` runs, when its first word names one (else None: the whole parser)."""
+    return argv[0] if argv and argv[0] in command_names() else None
 
 
 def missing_modules(modules: Sequence[str]) -> list[str]:
@@ -115,7 +132,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the process exit code (tests call this directly)."""
     command = "bowden"
     try:
-        parser = build_parser()  # imports every subcommand: a Ctrl-C can land here too
+        argv = sys.argv[1:] if argv is None else list(argv)
+        # Imports the named subcommand (every one for bowden --help): a Ctrl-C can land here too.
+        parser = build_parser(_named_command(argv))
         args = parser.parse_args(argv)
         handler = getattr(args, "handler", None)
         if handler is None:

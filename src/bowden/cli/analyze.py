@@ -7,12 +7,7 @@ from pathlib import Path
 
 from bowden.cli._outputs import check_output_directory, check_output_file, refuse_overwriting_inputs
 from bowden.errors import ParameterError, StoreError
-from bowden.share.r_script import r_script_path, write_r_script
-from bowden.store.export import export_paths
 from bowden.store.schema import STORE_FILE_NAME
-from bowden.study.analyze import analyze_store
-from bowden.study.progress import StageProgress
-from bowden.study.report.html import check_report_path
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -46,6 +41,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
+    # Imported here, not at the top: building the parser (bowden --help) needs none of the analysis.
+    from bowden.share.r_script import r_script_path, write_r_script
+    from bowden.store.export import export_paths
+    from bowden.study.analyze import analyze_store
+    from bowden.study.progress import StageProgress
+    from bowden.study.report.html import check_report_path
+
     store = args.study / STORE_FILE_NAME if args.study.is_dir() else args.study
     if not store.exists():
         raise StoreError(

@@ -14,10 +14,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bowden.analysis.emg.channels import BUILT_IN_MAPPINGS, load_channel_map
-from bowden.analysis.emg.sync import DRIFT_TOLERANCE_PPM, POLARITIES, RESIDUAL_TOLERANCE_S
+from bowden.analysis.emg.constants import (
+    BUILT_IN_MAPPINGS,
+    DRIFT_TOLERANCE_PPM,
+    POLARITIES,
+    RESIDUAL_TOLERANCE_S,
+)
 from bowden.contracts import EMG_RATE_HZ
-from bowden.study.emg.importer import ImportOptions, import_emg
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -86,6 +89,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run_import(args: argparse.Namespace) -> int:
+    # Imported here, not at the top: building the parser (bowden --help) needs none of the EMG stack.
+    from bowden.analysis.emg.channels import load_channel_map
+    from bowden.study.emg.importer import ImportOptions, import_emg
+
     store = args.store / "study.db" if args.store.is_dir() else args.store
     options = ImportOptions(
         trigger_channel=args.trigger_channel,

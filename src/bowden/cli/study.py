@@ -5,9 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bowden.study.pipeline import StudySettings, run_study
-from bowden.study.progress import StageProgress
-
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
@@ -57,6 +54,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
+    # Imported here, not at the top: building the parser (bowden --help) needs none of the study.
+    from bowden.study.pipeline import StudySettings, run_study
+    from bowden.study.progress import StageProgress
+
     settings = StudySettings(
         participants=args.participants,
         seed=args.seed,

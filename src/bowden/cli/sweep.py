@@ -5,16 +5,15 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
-
-from rich.console import Console
+from typing import TYPE_CHECKING, Any
 
 from bowden.errors import ParameterError
-from bowden.study.progress import StageProgress
 from bowden.sweep import axes as ax
 from bowden.sweep.presets import PRESETS, preset
 from bowden.sweep.spec import SweepSpec, parse_support, parse_values
-from bowden.sweep.summary import PARETO, SPIKE, TENSION, points_table
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 # bowden --help marks the command, and running it is one line, while this extra is missing.
 EXTRA = ("cluster", ("dask", "distributed"))
@@ -97,6 +96,13 @@ def build_spec(args: argparse.Namespace) -> SweepSpec:
 
 
 def run(args: argparse.Namespace) -> int:
+    # Imported here, not at the top: building the parser (bowden --help) needs none of the summary's
+    # statistics, nor rich.
+    from rich.console import Console
+
+    from bowden.study.progress import StageProgress
+    from bowden.sweep.summary import points_table
+
     # No markup (axis names hold brackets) and no wrapping of long lines on narrow terminals.
     console = Console(markup=False, highlight=False, soft_wrap=True)
     if args.list:
@@ -127,6 +133,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print_answer(console: Console, points: Any) -> None:
+    from bowden.sweep.summary import PARETO, SPIKE, TENSION
+
     best_tension = points.loc[points[TENSION].idxmin()]
     best_spike = points.loc[points[SPIKE].idxmin()]
     for label, row in (("lowest tension RMSE", best_tension), ("smallest lowering peak", best_spike)):

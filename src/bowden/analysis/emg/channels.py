@@ -14,16 +14,14 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Final
 
+from bowden.analysis.emg.constants import BUILT_IN_MAPPINGS as BUILT_IN_MAPPINGS
+from bowden.analysis.emg.constants import SAGA_CHANNELS as SAGA_CHANNELS
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.contracts import MUSCLES
 from bowden.errors import RecordingError
 
-SAGA_CHANNELS: Final[Mapping[str, str]] = {
-    f"UNI{i + 1}": muscle for i, muscle in enumerate(MUSCLES)
-}
 # The SAGA's digital input channel, where a trigger line from the controller is recorded.
 SAGA_TRIGGER_CHANNEL: Final = "TRIGGERS"
-BUILT_IN_MAPPINGS: Final[Mapping[str, Mapping[str, str]]] = {"saga": SAGA_CHANNELS}
 
 
 def load_channel_map(source: str | Path) -> dict[str, str]:

@@ -12,18 +12,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from bowden.analysis.emg.constants import DRIFT_TOLERANCE_PPM as DRIFT_TOLERANCE_PPM
+from bowden.analysis.emg.constants import POLARITIES as POLARITIES
+from bowden.analysis.emg.constants import RESIDUAL_TOLERANCE_S as RESIDUAL_TOLERANCE_S
+from bowden.analysis.emg.constants import TriggerPolarity as TriggerPolarity
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.errors import ParameterError, SyncError
 
-# Defaults of the import: a crystal beyond 200 ppm is broken or the events are mismatched, and a
-# residual beyond 2 ms (4 samples at 2 kHz) means an edge that is not where the controller sent it.
-DRIFT_TOLERANCE_PPM = 200.0
-RESIDUAL_TOLERANCE_S = 2e-3
 # The timing floor of an edge whose send took no measurable time (a GPIO write: microseconds; the
 # recording's own sample grid then dominates): keeps the weights finite.
 EDGE_FLOOR_S = 50e-6
@@ -166,8 +165,6 @@ def clock_fit(
     return fit
 
 
-TriggerPolarity = Literal["auto", "high", "low"]
-POLARITIES: tuple[TriggerPolarity, ...] = ("auto", "high", "low")
 _MAX_TRIGGER_BIT = 31
 
 
