@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import math
 from pathlib import Path
-from typing import Any, Final, Literal
+from typing import TYPE_CHECKING, Any, Final, Literal
 
 from bowden import __version__
 from bowden.contracts import BACKEND_CAN, BACKEND_SIM, CONDITION_SUPPORT_50
@@ -23,10 +23,12 @@ from bowden.model.anthropometry import arm_model
 from bowden.model.model_file import load_model
 from bowden.model.model_record import model_record
 from bowden.protocol.catalogue import PAPER, Catalogue
-from bowden.runtime import TrialInfo
 from bowden.runtime.loop import StepController
 from bowden.web.reference import TrialReference
 from bowden.web.trial_setup import NoAssistance, TrialSetup, condition_support, study_reference
+
+if TYPE_CHECKING:
+    from bowden.runtime.recorder import TrialInfo
 
 MAX_LEAD_IN_S = 10.0
 
@@ -284,6 +286,9 @@ def trial_info(
         metadata["reference"] = reference.to_json()
     else:
         metadata["repetitions"] = None  # any number: the analysis takes the cycles it finds
+    # Imported here: the recorder's module brings pandas, which building the parser does not need.
+    from bowden.runtime.recorder import TrialInfo
+
     return TrialInfo(
         participant=setup.participant,
         condition=setup.condition,

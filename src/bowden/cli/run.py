@@ -58,7 +58,7 @@ from bowden.errors import BowdenError, ParameterError, StoreError
 from bowden.hardware.lsl_imu import parse_imu
 from bowden.model import CompensationModel
 from bowden.protocol.catalogue import Catalogue
-from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Recorder, Row, TrialInfo
+from bowden.runtime import ControlLoop, LoopConfig, LoopReport, Row
 from bowden.runtime.loop import StepController
 from bowden.runtime.signals import stop_on_signals
 from bowden.runtime.slack import SlackTakeUp
@@ -68,6 +68,7 @@ from bowden.web.trial_setup import TrialSetup
 from bowden.web.validation import participant_id
 
 if TYPE_CHECKING:
+    from bowden.runtime.recorder import Recorder, TrialInfo
     from bowden.web.server import ServerThread
 
 __all__ = ["DEFAULT_IMU_PORT", "Backend", "open_can_backend", "open_sim_backend", "register", "run"]
@@ -378,6 +379,9 @@ def _prepare(args: argparse.Namespace) -> _Prepared:
 
 def _execute(args: argparse.Namespace, prepared: _Prepared) -> _Outcome:
     """Open the suit, run the trial, record it; the recording is closed whatever happens."""
+    # The recorder (and its pandas) is imported only for a run that records: not for bowden run --help.
+    from bowden.runtime.recorder import Recorder
+
     p = prepared
     with ExitStack() as stack:
         server = stack.enter_context(_serving(args, p.model)) if args.serve else None

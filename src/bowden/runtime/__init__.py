@@ -1,11 +1,44 @@
 """The runtime: fixed-rate control loop, watchdogs and safe state, timing, the crash-safe recorder."""
 
-from bowden.runtime.clock import MonotonicClock
-from bowden.runtime.loop import ControlLoop, LoopConfig, LoopReport, Row
-from bowden.runtime.recorder import Recorder, RecorderStats, TrialInfo
-from bowden.runtime.safety import LoopState, SafetyConfig, ramp_torque_nm
-from bowden.runtime.signals import stop_on_signals
-from bowden.runtime.timing import LoopTiming, TimingSummary
+import importlib
+from typing import TYPE_CHECKING, Any
+
+# Imported on first use (PEP 562): the command line's choices (the fault policies) and the light
+# runtime modules should not pay for the recorder's pandas (a second of bowden --help).
+_EXPORTS = {
+    "ControlLoop": "bowden.runtime.loop",
+    "LoopConfig": "bowden.runtime.loop",
+    "LoopReport": "bowden.runtime.loop",
+    "LoopState": "bowden.runtime.safety",
+    "LoopTiming": "bowden.runtime.timing",
+    "MonotonicClock": "bowden.runtime.clock",
+    "Recorder": "bowden.runtime.recorder",
+    "RecorderStats": "bowden.runtime.recorder",
+    "Row": "bowden.runtime.loop",
+    "SafetyConfig": "bowden.runtime.safety",
+    "TimingSummary": "bowden.runtime.timing",
+    "TrialInfo": "bowden.runtime.recorder",
+    "ramp_torque_nm": "bowden.runtime.safety",
+    "stop_on_signals": "bowden.runtime.signals",
+}
+
+if TYPE_CHECKING:
+    from bowden.runtime.clock import MonotonicClock
+    from bowden.runtime.loop import ControlLoop, LoopConfig, LoopReport, Row
+    from bowden.runtime.recorder import Recorder, RecorderStats, TrialInfo
+    from bowden.runtime.safety import LoopState, SafetyConfig, ramp_torque_nm
+    from bowden.runtime.signals import stop_on_signals
+    from bowden.runtime.timing import LoopTiming, TimingSummary
+
+
+def __getattr__(name: str) -> Any:
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'bowden.runtime' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "ControlLoop",

@@ -1,0 +1,109 @@
+"""The command line starts without the heavy libraries: each imports inside the command that uses it.
+
+``bowden --help`` and every ``bowden <command> --help`` (and so every ``bowden run`` a real-time test
+or a user starts) should not pay seconds of start-up for pandas, SciPy's statistics and signal
+processing, statsmodels, matplotlib, numba or MuJoCo. Each check runs in a fresh interpreter, where
+``sys.modules`` shows what the start-up imported.
+"""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from bowden.cli import command_names
+
+HEAVY = ("pandas", "scipy.stats", "scipy.signal", "statsmodels", "matplotlib", "numba", "mujoco")
+
+# Runs ``python -m bowden ARGS`` in this interpreter, then prints the heavy modules it imported.
+_PROBE = """
+import json, runpy, sys
+heavy = json.loads(sys.argv[1])
+sys.argv = ["bowden", *sys.argv[2:]]
+try:
+    runpy.run_module("bowden", run_name="__main__", alter_sys=True)
+except SystemExit:
+    pass
+sys.stdout.flush()
+sys.stderr.write("HEAVY " + json.dumps(sorted(m for m in heavy if m in sys.modules)) + "\\n")
+"""
+
+_BUILD_PARSER = """
+import json, sys
+from bowden.cli import build_parser
+build_parser()
+print(json.dumps(sorted(m for m in json.loads(sys.argv[1]) if m in sys.modules)))
+"""
+
+_IMPORT_IDENTIFY = """
+import json, sys
+import bowden.cli.identify
+print(json.dumps(sorted(m for m in json.loads(sys.argv[1]) if m in sys.modules)))
+"""
+
+
+def _heavy_imported_by(*args: str) -> list[str]:
+    result = subprocess.run(
+        [sys.executable, "-c", _PROBE, json.dumps(HEAVY), *args],
+        capture_output=True, text=True, timeout=120, check=True,
+    )
+    assert "usage: bowden" in result.stdout, result.stderr
+    line = result.stderr.strip().splitlines()[-1]
+    assert line.startswith("HEAVY "), result.stderr
+    heavy: list[str] = json.loads(line.removeprefix("HEAVY "))
+    return heavy
+
+
+# cli/identify.py imports bowden.identify (statsmodels, matplotlib, pandas) at module level; it is
+# being reworked elsewhere. Strict: once it starts light, this marker must go.
+_IDENTIFY_IS_HEAVY = pytest.mark.xfail(
+    strict=True, reason="cli/identify.py imports bowden.identify (statsmodels, matplotlib) at module level"
+)
+
+
+@pytest.mark.parametrize(
+    "command",
+    [pytest.param(name, marks=_IDENTIFY_IS_HEAVY) if name == "identify" else name
+     for name in command_names()],
+)
+def test_a_commands_help_imports_no_heavy_library(command):
+    assert _heavy_imported_by(command, "--help") == []
+
+
+@pytest.fixture(scope="module")
+def identify_heavy() -> set[str]:
+    """What importing cli/identify.py alone still imports (empty once it is light)."""
+    result = subprocess.run(
+        [sys.executable, "-c", _IMPORT_IDENTIFY, json.dumps(HEAVY)],
+        capture_output=True, text=True, timeout=120, check=True,
+    )
+    return set(json.loads(result.stdout))
+
+
+def test_bowden_help_imports_nothing_heavy_beyond_what_identify_still_does(identify_heavy):
+    # The whole parser imports every command's module; the only heavy ones left are those of
+    # cli/identify.py (the marked case above). When identify is light this asks for nothing heavy at all.
+    assert set(_heavy_imported_by("--help")) <= identify_heavy
+
+
+def test_building_the_parser_imports_nothing_heavy_beyond_what_identify_still_does(identify_heavy):
+    result = subprocess.run(
+        [sys.executable, "-c", _BUILD_PARSER, json.dumps(HEAVY)],
+        capture_output=True, text=True, timeout=120, check=True,
+    )
+    assert set(json.loads(result.stdout)) <= identify_heavy
+
+
+def test_a_command_imports_only_its_own_module():
+    # bowden run ... builds a parser with the run command alone: no other command's module is imported.
+    probe = (
+        "import sys; from bowden.cli import main\n"
+        "try:\n    main(['version'])\nexcept SystemExit:\n    pass\n"
+        "print(sorted(m for m in sys.modules\n"
+        "             if m.startswith('bowden.cli.') and not m.startswith('bowden.cli._')))"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, check=True
+    )
+    assert result.stdout.strip().splitlines()[-1] == "['bowden.cli.version']"
