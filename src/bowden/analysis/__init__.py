@@ -10,6 +10,10 @@ and mean ± SD curves; :func:`methods_text` describes it all.
 import importlib
 from typing import TYPE_CHECKING, Any
 
+# The function sparc shares its module's name: imported lazily, the package's attribute would become
+# the module as soon as anything imported bowden.analysis.sparc. It is light (NumPy only).
+from bowden.analysis.sparc import SparcParameters, sparc
+
 # Imported on first use (PEP 562): a light module of this package (the EMG import's constants, the
 # command line's choices) should not pay for pandas, SciPy and numba (seconds of start-up).
 _EXPORTS = {
@@ -21,11 +25,10 @@ _EXPORTS = {
     "EmgProcessParameters": "bowden.analysis.emg",
     "EmgResult": "bowden.analysis.emg",
     "EmgSignal": "bowden.analysis.emg",
-    "MethodsText": "bowden.analysis.methods_text",
+    "MethodsText": "bowden.analysis.methods",
     "Repetition": "bowden.analysis.segmentation",
     "Segmentation": "bowden.analysis.segmentation",
     "SegmentationParameters": "bowden.analysis.segmentation",
-    "SparcParameters": "bowden.analysis.sparc",
     "StudyOutcomes": "bowden.analysis.outcomes",
     "TrialMetadata": "bowden.analysis.outcomes",
     "TrialOutcomes": "bowden.analysis.trial_outcomes",
@@ -42,12 +45,11 @@ _EXPORTS = {
     "emg_process": "bowden.analysis.emg",
     "emg_rectify": "bowden.analysis.emg",
     "emg_remove_ecg": "bowden.analysis.emg",
-    "methods_text": "bowden.analysis.methods_text",
+    "methods_text": "bowden.analysis.methods",
     "read_emg_csv": "bowden.analysis.emg",
     "read_emg_edf": "bowden.analysis.emg",
     "resample_repetition": "bowden.analysis.segmentation",
     "segment_repetitions": "bowden.analysis.segmentation",
-    "sparc": "bowden.analysis.sparc",
 }
 
 if TYPE_CHECKING:
@@ -72,7 +74,7 @@ if TYPE_CHECKING:
         read_emg_csv,
         read_emg_edf,
     )
-    from bowden.analysis.methods_text import MethodsText, methods_text
+    from bowden.analysis.methods import MethodsText, methods_text
     from bowden.analysis.outcomes import (
         AnalysisInfo,
         AnalysisParameters,
@@ -87,7 +89,6 @@ if TYPE_CHECKING:
         resample_repetition,
         segment_repetitions,
     )
-    from bowden.analysis.sparc import SparcParameters, sparc
     from bowden.analysis.trial_outcomes import TrialOutcomes, analyse_trial
 
 

@@ -15,7 +15,7 @@ import pandas as pd
 
 from bowden import __version__
 from bowden.analysis import MethodsText
-from bowden.analysis.methods_text import StatisticsDone, with_statistics
+from bowden.analysis.methods import StatisticsDone, with_statistics
 from bowden.analysis.outcomes import IEMG_PREFIX, PERCENT_ERROR_RMSE, TENSION_RMSE, TORQUE_RMSE, StudyOutcomes
 from bowden.model import CompensationModel
 from bowden.model.transmission import friction_from_slopes
