@@ -5,6 +5,7 @@ bugs; CI (``HYPOTHESIS_PROFILE=ci``, set by ``.ci/run``) draws the same examples
 landing never depends on luck. Tests never assert on wall time, so the deadline is off.
 """
 
+import contextlib
 import os
 
 import pytest
@@ -15,17 +16,26 @@ settings.register_profile("dev", deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 
 
-# The suite runs on several worker processes (pyproject: -n auto --dist loadgroup). The tests that
-# run the suit in real time share one group, run one after the other on one worker:
+# The suite runs on several worker processes (pyproject: -n auto). The tests that run the suit in real
+# time form two lanes; each lane runs on one worker, one test after the other:
 # - they drive the simulated suit (its own process, or peers on threads) on the wall clock at real-time
-#   priority: two at once on a 2-core machine starve each other's devices (a simulated motor silent
-#   for 31 ms is a real watchdog fault), which no test should have to tolerate;
+#   priority: more of them at once than the cores starve each other's devices (a simulated motor
+#   silent for 31 ms is a real watchdog fault), which no test should have to tolerate; two lanes keep
+#   it to two at once (one serial lane alone took 8.6 minutes);
 # - LSL discovery sees every outlet on the machine (resolve scope machine), so two workers' streams of
-#   the same name would reach each other's inlets.
-# The other worker meanwhile runs the rest, at normal priority, which the real-time threads preempt.
+#   the same name would reach each other's inlets: every test that uses LSL is in the "suit" lane.
+# The lanes are balanced by their measured time (about 4.3 minutes each, idle, two cores). The other
+# workers meanwhile run the rest, niced (pytest_runtest_setup), which the real-time threads preempt.
 SERIAL_GROUPS = {
-    "realtime": (
+    "bench": (  # the mannequin bench in real time
         "tests/cli/test_bench_run_cli.py",
+        "tests/runtime/test_bench_full_disk.py",
+        "tests/runtime/test_bench_protocol.py",
+        "tests/runtime/test_bench_run_sim.py",
+        "tests/runtime/test_bench_segments_sim.py",
+        "tests/runtime/test_interrupt_signals.py",
+    ),
+    "suit": (  # the suit, its console and LSL in real time
         "tests/cli/test_check.py",
         "tests/cli/test_run_custom.py",
         "tests/cli/test_run_lsl_imu.py",
@@ -33,14 +43,9 @@ SERIAL_GROUPS = {
         "tests/cli/test_suit.py",
         "tests/hardware/test_lsl_imu.py",
         "tests/hardware/test_motor_plugin.py",
-        "tests/runtime/test_bench_full_disk.py",
-        "tests/runtime/test_bench_protocol.py",
-        "tests/runtime/test_bench_run_sim.py",
-        "tests/runtime/test_bench_segments_sim.py",
         "tests/runtime/test_cli_full_disk.py",
         "tests/runtime/test_cli_run.py",
         "tests/runtime/test_host_stall.py",
-        "tests/runtime/test_interrupt_signals.py",
         "tests/runtime/test_lsl_run.py",
         "tests/runtime/test_realtime.py",
         "tests/runtime/test_run_trigger_report.py",
@@ -59,24 +64,52 @@ SERIAL_GROUPS = {
         "tests/web/test_sim_devices.py",
     ),
 }
+_LANE_OF = {path: lane for lane, files in SERIAL_GROUPS.items() for path in files}
+_NICE_FOR_THE_REST = 10
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
-    """``-n auto``: one worker more than the cores. The worker running the real-time group spends most
-    of its time waiting on the wall clock (its devices' threads, at real-time priority, take what CPU
-    they need first), so with one worker per core a core idled while the other ran everything else
-    (measured: the rest is about 7 minutes of one core's CPU, the real-time group under 6 of wall)."""
+    """``-n auto``: the cores and two more (pyproject caps it at 4). The lanes' workers spend most of
+    their time waiting on the wall clock (their devices' threads, at real-time priority, take what CPU
+    they need first), so with one worker per core the cores idled while one worker ran everything else
+    (about 7 minutes of one core's CPU)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    return cores + 1
+    return cores + len(SERIAL_GROUPS)
 
 
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    root = config.rootpath
-    missing = [path for files in SERIAL_GROUPS.values() for path in files if not (root / path).exists()]
-    if missing:  # a renamed test file would silently leave its group
+def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
+    """Each lane one unit of work for one worker, every other test its own.
+
+    xdist's own ``--dist loadgroup`` marks a group by rewriting the test's ``_nodeid``, which pytest 9.2
+    no longer reads (``nodeid`` comes from ``_id``): the groups were silently spread over every worker.
+    Scheduling by the file's lane does not depend on that."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class LaneScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return _LANE_OF.get(nodeid.split("::", 1)[0], nodeid)
+
+    return LaneScheduling(config, log)
+
+
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    """A worker running the rest yields the CPU to the lanes' workers: their devices' threads
+    in the test's own process (readers, peers on threads, the console's server) are not real-time, and
+    the rest's pools, Dask clusters, R and Chromium (children, which inherit the niceness) would
+    otherwise delay them by a watchdog's limit (measured: a load cell silent 251 ms). A niced worker
+    that is then given a real-time test goes back to 0 where it may (root); else it stays niced."""
+    if not os.environ.get("PYTEST_XDIST_WORKER"):
+        return
+    realtime = item.path.relative_to(item.config.rootpath).as_posix() in _LANE_OF
+    niceness = os.getpriority(os.PRIO_PROCESS, 0)
+    if not realtime and niceness < _NICE_FOR_THE_REST:
+        os.setpriority(os.PRIO_PROCESS, 0, _NICE_FOR_THE_REST)
+    elif realtime and niceness > 0:
+        with contextlib.suppress(PermissionError):
+            os.setpriority(os.PRIO_PROCESS, 0, 0)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    missing = [path for path in _LANE_OF if not (config.rootpath / path).exists()]
+    if missing:  # a renamed test file would silently leave its lane
         raise pytest.UsageError(f"tests/conftest.py's SERIAL_GROUPS names files that do not exist: {missing}")
-    for item in items:
-        path = item.path.relative_to(root).as_posix()
-        for group, files in SERIAL_GROUPS.items():
-            if path in files:
-                item.add_marker(pytest.mark.xdist_group(group))
