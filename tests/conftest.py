@@ -5,7 +5,6 @@ bugs; CI (``HYPOTHESIS_PROFILE=ci``, set by ``.ci/run``) draws the same examples
 landing never depends on luck. Tests never assert on wall time, so the deadline is off.
 """
 
-import contextlib
 import os
 
 import pytest
@@ -25,7 +24,8 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 # - LSL discovery sees every outlet on the machine (resolve scope machine), so two workers' streams of
 #   the same name would reach each other's inlets: every test that uses LSL is in the "suit" lane.
 # The lanes are balanced by their measured time (about 4.3 minutes each, idle, two cores). The other
-# workers meanwhile run the rest, niced (pytest_runtest_setup), which the real-time threads preempt.
+# workers meanwhile run the rest, which the real-time threads preempt. (Nicing the rest was tried: beside
+# two busy processes it left the suite a tenth of the CPU.)
 SERIAL_GROUPS = {
     "bench": (  # the mannequin bench in real time
         "tests/cli/test_bench_run_cli.py",
@@ -65,16 +65,16 @@ SERIAL_GROUPS = {
     ),
 }
 _LANE_OF = {path: lane for lane, files in SERIAL_GROUPS.items() for path in files}
-_NICE_FOR_THE_REST = 10
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
-    """``-n auto``: the cores and two more (pyproject caps it at 4). The lanes' workers spend most of
-    their time waiting on the wall clock (their devices' threads, at real-time priority, take what CPU
-    they need first), so with one worker per core the cores idled while one worker ran everything else
-    (about 7 minutes of one core's CPU)."""
+    """``-n auto``: one worker more than the cores. The lanes' workers spend most of their time waiting
+    on the wall clock (their devices' threads, at real-time priority, take what CPU they need first), so
+    with one worker per core the cores idled while one worker ran everything else (about 7 minutes of
+    one core's CPU). Two more (one per lane) were faster idle but starved the lanes' devices once in
+    two runs (a simulated motor silent 30 ms)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    return cores + len(SERIAL_GROUPS)
+    return cores + 1
 
 
 def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
@@ -90,23 +90,6 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
             return _LANE_OF.get(nodeid.split("::", 1)[0], nodeid)
 
     return LaneScheduling(config, log)
-
-
-def pytest_runtest_setup(item: pytest.Item) -> None:
-    """A worker running the rest yields the CPU to the lanes' workers: their devices' threads
-    in the test's own process (readers, peers on threads, the console's server) are not real-time, and
-    the rest's pools, Dask clusters, R and Chromium (children, which inherit the niceness) would
-    otherwise delay them by a watchdog's limit (measured: a load cell silent 251 ms). A niced worker
-    that is then given a real-time test goes back to 0 where it may (root); else it stays niced."""
-    if not os.environ.get("PYTEST_XDIST_WORKER"):
-        return
-    realtime = item.path.relative_to(item.config.rootpath).as_posix() in _LANE_OF
-    niceness = os.getpriority(os.PRIO_PROCESS, 0)
-    if not realtime and niceness < _NICE_FOR_THE_REST:
-        os.setpriority(os.PRIO_PROCESS, 0, _NICE_FOR_THE_REST)
-    elif realtime and niceness > 0:
-        with contextlib.suppress(PermissionError):
-            os.setpriority(os.PRIO_PROCESS, 0, 0)
 
 
 def pytest_configure(config: pytest.Config) -> None:

@@ -1,5 +1,5 @@
 """``bowden bench run --backend sim`` runs the protocol's later segments after the identification
-strokes (a shortened protocol: one stroke each way, a 4 s chirp, one support at V3 with both
+strokes (a shortened protocol: two strokes each way, a 4 s chirp, one support at V3 with both
 compensations): interrupted in the study-like segment it resumes into it, and ``bowden identify`` and
 ``bowden bench validate`` take what it recorded (docs/identification.md, "The protocol, exactly")."""
 
@@ -20,7 +20,7 @@ from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig
 from bowden.runtime.bench_recording import LATENCY_COLUMNS, STUDY_COLUMNS, BenchRecordingWriter
 from bowden.sim.backend import open_sim_bench
 
-SHORT = ["--speeds", "1", "--loads", "1", "--repetitions", "1", "--high-deg", "95", "--chirp-s", "4",
+SHORT = ["--speeds", "1", "--loads", "1", "--repetitions", "2", "--high-deg", "95", "--chirp-s", "4",
          "--study-supports", "0.5", "--study-speeds", "V3", "--study-repetitions", "3"]
 
 
@@ -33,8 +33,9 @@ class _Args:  # what bench_model_source reads of the command line
 def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, capsys):
     output = tmp_path / "bench.csv"
     config = BenchRunConfig(
-        # 20°-95°: enough steady samples in each direction for identify on a busy host.
-        protocol=BenchProtocol(spool_speeds_rad_s=(1.0,), loads_nm=(1.0,), repetitions=1,
+        # 20°-95°, twice: enough steady and ramp samples in each direction for identify's lines and
+        # its dynamic fit (once each way left it short of ramp samples in one run of two).
+        protocol=BenchProtocol(spool_speeds_rad_s=(1.0,), loads_nm=(1.0,), repetitions=2,
                                high_rad=math.radians(95.0)),
         latency=LatencyChirp(duration_s=4.0),
         study=StudyStrokes(supports=(0.5,), speeds=("V3",), repetitions=3),
@@ -61,13 +62,13 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
     # The loop held the arm while the model was identified (a loop that paused left the simulated
     # mannequin on its last torque: the arm drifted out of the range).
     assert report.fault == "interrupted", report.fault
-    assert report.strokes_done == 4 and report.strokes_total == 5  # 2 strokes, the chirp, 1 block of 2
+    assert report.strokes_done == 6 and report.strokes_total == 7  # 4 strokes, the chirp, 1 block of 2
     assert "latency chirp" in told[0]
     # Resumed from the command line: only the second block runs.
     code = main(["bench", "run", "--backend", "sim", "-o", str(output), "--resume", *SHORT])
     err = capsys.readouterr().err
     assert code == 0, err
-    assert "going on with unit 5" in err and "study-like block 1 of" not in err, err
+    assert "going on with unit 7" in err and "study-like block 1 of" not in err, err
 
     # The motors were commanded all along while the model was identified (4 s): the device log, a row
     # every 5 ms cycle, has no gap from the chirp to the first study-like block.
