@@ -23,8 +23,8 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 #   it to two at once (one serial lane alone took 8.6 minutes);
 # - LSL discovery sees every outlet on the machine (resolve scope machine), so two workers' streams of
 #   the same name would reach each other's inlets: every test that uses LSL is in the "suit" lane.
-# The lanes are balanced by their measured time (about 4.3 minutes each, idle, two cores). The other
-# workers meanwhile run the rest, which the real-time threads preempt. (Nicing the rest was tried: beside
+# The lanes are balanced by their measured time (about 4.3 minutes each, idle, two cores); the rest
+# runs when a lane's worker is free. (Nicing the rest was tried: beside
 # two busy processes it left the suite a tenth of the CPU.)
 SERIAL_GROUPS = {
     "bench": (  # the mannequin bench in real time
@@ -68,13 +68,13 @@ _LANE_OF = {path: lane for lane, files in SERIAL_GROUPS.items() for path in file
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
-    """``-n auto``: one worker more than the cores. The lanes' workers spend most of their time waiting
-    on the wall clock (their devices' threads, at real-time priority, take what CPU they need first), so
-    with one worker per core the cores idled while one worker ran everything else (about 7 minutes of
-    one core's CPU). Two more (one per lane) were faster idle but starved the lanes' devices once in
-    two runs (a simulated motor silent 30 ms)."""
+    """``-n auto``: one worker per core, at least one per lane. Each lane's tests run one after the
+    other on one worker while the rest waits, so the lanes meet no CPU-bound neighbour. One worker more
+    was faster idle (6 min 16 s to 7 min 9 s) but beside two busy processes starved the lanes' devices
+    (a simulated motor silent 30 ms, a load cell silent 0.3 s) and the console's real-time browser
+    tests."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    return cores + 1
+    return max(cores, len(SERIAL_GROUPS))
 
 
 def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
