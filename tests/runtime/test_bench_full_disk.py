@@ -32,9 +32,10 @@ def test_a_full_disk_stops_the_bench_and_keeps_whole_strokes(tmp_path: Path) -> 
 
     # The plant's compiled kernels are cached on disk: compile them here, without the limit, so that
     # nothing but the recording meets it in the bench's processes.
-    from bowden.sim.link.suit_process import _warm_up
+    from bowden.sim.arm import MannequinArm
+    from bowden.sim.peers.warm_up import warm_up_suit
 
-    _warm_up(None)
+    warm_up_suit(MannequinArm(load_torque_nm=1.0))
     output = tmp_path / "bench.csv"
     command = [sys.executable, "-m", "bowden", "bench", "run", "--backend", "sim", "-o", str(output),
                "--speeds", "1", "--loads", "1", "--repetitions", "6", "--high-deg", "70"]

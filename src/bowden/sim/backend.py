@@ -210,8 +210,10 @@ def _in_process(cycle: MinimumJerkCycle, reference: FollowedReference | None, ca
     from bowden.runtime.clock import MonotonicClock
     from bowden.sim.arm import PrescribedArm
     from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
+    from bowden.sim.peers.warm_up import warm_up_suit
     from bowden.sim.suit import SimulatedSuit
 
+    warm_up_suit(PrescribedArm.following(cycle))  # the first frames must not wait for a compile
     follower = ArmFollowingTheLoop(reference) if reference is not None else None
     arm = follower.arm() if follower is not None else PrescribedArm.following(cycle)
     plant = WallTimePlant(SimulatedSuit(arm=arm))

@@ -25,10 +25,11 @@ from bowden.errors import ConflictError, ParameterError
 from bowden.hardware.lsl_imu import parse_imu
 from bowden.hardware.motors import DEFAULT_MOTOR, motor_model
 from bowden.hardware.protocols import Clock, ElevationSensor, Motor, TensionSensor
-from bowden.sim.arm import ParticipantArm
+from bowden.sim.arm import ParticipantArm, PrescribedArm
 from bowden.sim.parameters import check_seed
 from bowden.sim.participants import ExpectedAssistance, VirtualParticipant
 from bowden.sim.peers.wall_time import WallTimePlant
+from bowden.sim.peers.warm_up import warm_up_suit
 from bowden.sim.suit import SimulatedSuit
 from bowden.web.trial_setup import TrialSetup
 
@@ -285,6 +286,7 @@ class SimulatedBackend:
             expected=expected,
         )
         suit = SimulatedSuit(arm=arm, seed=self.seed)
+        warm_up_suit(PrescribedArm.following(reference.cycle))  # wired peers answer within ms, not a compile
         with ExitStack() as stack:
             plant = WallTimePlant(suit)
             clock = WallPacedClock(_LockedClock(suit.clock, plant), time_scale=self.time_scale)

@@ -371,21 +371,9 @@ def _warm_up(cycle: Any) -> None:
     """Compile and run everything the devices use once, so that the first frame is answered in time
     (``cycle`` None: the bench's mannequin arm)."""
     from bowden.sim.arm import MannequinArm, PrescribedArm
-    from bowden.sim.peers import NgimuPeer, WallTimePlant
-    from bowden.sim.suit import SimulatedSuit
+    from bowden.sim.peers.warm_up import warm_up_suit
 
-    arm = PrescribedArm.following(cycle) if cycle is not None else MannequinArm(load_torque_nm=1.0)
-    suit = SimulatedSuit(arm=arm)
-    suit.motor.enable()
-    suit.motor.command_torque(0.5)
-    suit.advance_to(0.05)
-    suit.motor.command_impedance(0.0, 0.5, 30.0, 0.6, 0.0)
-    suit.advance_to(0.1)
-    suit.elevation_sensor.read()
-    suit.tension_sensor.read()
-    imu = NgimuPeer(WallTimePlant(suit), ("127.0.0.1", 9))
-    imu.datagrams(0.3, 0.1)
-    imu.close()
+    warm_up_suit(PrescribedArm.following(cycle) if cycle is not None else MannequinArm(load_torque_nm=1.0))
 
 
 def _child_main(requests: Connection, notices: Connection, parent_pid: int) -> None:

@@ -74,6 +74,9 @@ def simulated_rig(limits: AK60Limits, faults: frozenset[str] = frozenset()) -> I
         from bowden.errors import ParameterError
 
         raise ParameterError(f"--inject {unknown[0]} is not a simulated fault; known: {', '.join(FAULTS)}")
+    from bowden.sim.peers.warm_up import warm_up_suit
+
+    warm_up_suit(PrescribedArm.hold(0.0))  # the motor's 0.1 s to answer must not pay for compiling
     plant = WallTimePlant(SimulatedSuit(arm=PrescribedArm.hold(0.0)))  # the arm hangs
     channel = f"bowden-check-{next(_channels)}"
     with ExitStack() as stack:
