@@ -224,56 +224,9 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
     read = _Reader(source)
     if not isinstance(data, Mapping):
         raise ModelFileError(f"{source}: expected a JSON object at the top level")
-    if data.get("format") != FORMAT:
-        raise read.fail("format", f"must be {FORMAT!r}, got {data.get('format')!r}: not a bowden model file")
-    version = read.get(data, "version")
-    if type(version) is not int:  # JSON true would equal 1, and 1.0 is not how bowden writes it
-        known = " or ".join(map(str, READABLE_VERSIONS))
-        raise read.fail("version", f"must be the integer {known}, got {version!r}")
-    if version not in READABLE_VERSIONS:
-        raise read.fail(
-            "version",
-            f"is {version!r}, but this bowden reads versions "
-            f"{', '.join(map(str, READABLE_VERSIONS))}; upgrade bowden or re-identify",
-        )
-
-    def line(key: str) -> tuple[CompensationLine, LineFitStats | None]:
-        section = read.mapping(data, key)
-        prefix = f"{key}."
-        intercept_nm = read.number(section, "intercept_nm", prefix)
-        if abs(intercept_nm) > MAX_INTERCEPT_NM:
-            raise read.fail(
-                prefix + "intercept_nm",
-                f"is {intercept_nm!r} Nm, beyond the motor's peak torque ({MAX_INTERCEPT_NM:g} Nm): the "
-                "torque at zero tension is friction the motor overcomes, so this is a unit or sign "
-                "error; re-identify the model",
-            )
-        try:
-            slope_m = read.number(section, "slope_m", prefix)
-            result = CompensationLine(intercept_nm=intercept_nm, slope_m=slope_m)
-        except ParameterError as error:
-            raise read.fail(prefix + "slope_m", f"is invalid: {error}") from None
-        fit_data = read.get(section, "fit", prefix)
-        if fit_data is None:
-            return result, None
-        if not isinstance(fit_data, Mapping):
-            raise read.fail(prefix + "fit", "must be an object or null")
-        values = {name: read.number(fit_data, name, prefix + "fit.") for name in _FIT_FIELDS}
-        _check_fit(read, values, prefix + "fit.")
-        try:
-            return result, LineFitStats(
-                n=int(values["n"]),
-                r_squared_ols=values["r_squared_ols"],
-                r_squared_robust=values["r_squared_robust"],
-                robust_scale_nm=values["robust_scale_nm"],
-                intercept_se_nm=values["intercept_se_nm"],
-                slope_se_m=values["slope_se_m"],
-            )
-        except ParameterError as error:
-            raise read.fail(prefix + "fit", f"is invalid: {error}") from None
-
-    raising, raising_fit = line("raising")
-    lowering, lowering_fit = line("lowering")
+    version = _version(read, data)
+    raising, raising_fit = _line(read, data, "raising")
+    lowering, lowering_fit = _line(read, data, "lowering")
     if raising.slope_m < lowering.slope_m:  # equal: a frictionless transmission (from_friction(k=0))
         raise read.fail(
             "raising.slope_m",
@@ -282,23 +235,7 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
             "arm tension than lowering; the lines look swapped or wrongly split by direction",
         )
     blend = read.mapping(data, "blend")
-    provenance = None
-    prov_data = read.get(data, "provenance")
-    if prov_data is not None:
-        if not isinstance(prov_data, Mapping):
-            raise read.fail("provenance", "must be an object or null")
-        p = "provenance."
-        try:
-            provenance = Provenance(
-                source_files=read.strings(prov_data, "source_files", p),
-                source_sha256=read.strings(prov_data, "source_sha256", p),
-                created_utc=read.string(prov_data, "created_utc", p),
-                tool=read.string(prov_data, "tool", p),
-                tool_version=read.string(prov_data, "tool_version", p),
-                notes=str(prov_data.get("notes", "")),
-            )
-        except ParameterError as error:
-            raise read.fail("provenance.source_sha256", f"is invalid: {error}") from None
+    provenance = _provenance(read, data)
     dynamic = None
     if version >= 2:
         dynamic_data = read.get(data, "dynamic")
@@ -318,6 +255,81 @@ def model_from_dict(data: Any, source: str = "model") -> CompensationModel:
         )
     except ParameterError as error:
         raise ModelFileError(f"{source}: {error}") from None
+
+
+def _version(read: _Reader, data: Mapping[str, Any]) -> int:
+    """The file's format version, refused unless this bowden reads it."""
+    if data.get("format") != FORMAT:
+        raise read.fail("format", f"must be {FORMAT!r}, got {data.get('format')!r}: not a bowden model file")
+    version = read.get(data, "version")
+    if type(version) is not int:  # JSON true would equal 1, and 1.0 is not how bowden writes it
+        known = " or ".join(map(str, READABLE_VERSIONS))
+        raise read.fail("version", f"must be the integer {known}, got {version!r}")
+    if version not in READABLE_VERSIONS:
+        raise read.fail(
+            "version",
+            f"is {version!r}, but this bowden reads versions "
+            f"{', '.join(map(str, READABLE_VERSIONS))}; upgrade bowden or re-identify",
+        )
+    return version
+
+
+def _line(read: _Reader, data: Mapping[str, Any], key: str) -> tuple[CompensationLine, LineFitStats | None]:
+    """The ``raising`` or ``lowering`` line and its fit statistics (None when the file has none)."""
+    section = read.mapping(data, key)
+    prefix = f"{key}."
+    intercept_nm = read.number(section, "intercept_nm", prefix)
+    if abs(intercept_nm) > MAX_INTERCEPT_NM:
+        raise read.fail(
+            prefix + "intercept_nm",
+            f"is {intercept_nm!r} Nm, beyond the motor's peak torque ({MAX_INTERCEPT_NM:g} Nm): the "
+            "torque at zero tension is friction the motor overcomes, so this is a unit or sign "
+            "error; re-identify the model",
+        )
+    try:
+        slope_m = read.number(section, "slope_m", prefix)
+        result = CompensationLine(intercept_nm=intercept_nm, slope_m=slope_m)
+    except ParameterError as error:
+        raise read.fail(prefix + "slope_m", f"is invalid: {error}") from None
+    fit_data = read.get(section, "fit", prefix)
+    if fit_data is None:
+        return result, None
+    if not isinstance(fit_data, Mapping):
+        raise read.fail(prefix + "fit", "must be an object or null")
+    values = {name: read.number(fit_data, name, prefix + "fit.") for name in _FIT_FIELDS}
+    _check_fit(read, values, prefix + "fit.")
+    try:
+        return result, LineFitStats(
+            n=int(values["n"]),
+            r_squared_ols=values["r_squared_ols"],
+            r_squared_robust=values["r_squared_robust"],
+            robust_scale_nm=values["robust_scale_nm"],
+            intercept_se_nm=values["intercept_se_nm"],
+            slope_se_m=values["slope_se_m"],
+        )
+    except ParameterError as error:
+        raise read.fail(prefix + "fit", f"is invalid: {error}") from None
+
+
+def _provenance(read: _Reader, data: Mapping[str, Any]) -> Provenance | None:
+    """Where the model came from (None when the file does not say)."""
+    prov_data = read.get(data, "provenance")
+    if prov_data is None:
+        return None
+    if not isinstance(prov_data, Mapping):
+        raise read.fail("provenance", "must be an object or null")
+    p = "provenance."
+    try:
+        return Provenance(
+            source_files=read.strings(prov_data, "source_files", p),
+            source_sha256=read.strings(prov_data, "source_sha256", p),
+            created_utc=read.string(prov_data, "created_utc", p),
+            tool=read.string(prov_data, "tool", p),
+            tool_version=read.string(prov_data, "tool_version", p),
+            notes=str(prov_data.get("notes", "")),
+        )
+    except ParameterError as error:
+        raise read.fail("provenance.source_sha256", f"is invalid: {error}") from None
 
 
 def _dynamic_from_dict(read: _Reader, data: Any) -> DynamicCompensation:
