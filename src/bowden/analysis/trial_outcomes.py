@@ -25,7 +25,7 @@ Tension measures are omitted for trials without load-cell data (e.g. no suit).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -233,29 +233,8 @@ def _analyse_trial(
             "lowering": (rep.turn_s, rep.end_s),
         }
         for phase, mask in phases.items():
-            tension, desired = signals["tension_n"][mask], signals["desired_tension_n"][mask]
-            has_tension = bool(np.any(np.isfinite(tension)) and np.any(np.isfinite(desired)))
-            if has_tension:
-                add(rep, phase, TENSION_RMSE, rmse(tension, desired))
-                add(
-                    rep,
-                    phase,
-                    TORQUE_RMSE,
-                    rmse(signals["torque_nm"][mask], signals["desired_torque_nm"][mask]),
-                )
-                error = percent_error(tension, desired, min_reference=params.min_reference_tension_n)
-                add(rep, phase, PERCENT_ERROR_RMSE, root_mean_square(error))
-                if phase != "entire":
-                    peak, index = signed_peak(error)
-                    if index >= 0:
-                        add(rep, phase, PEAK_PERCENT_ERROR, peak)
-                        peak_time = time[mask][index]
-                        add(
-                            rep,
-                            phase,
-                            PEAK_PERCENT_ERROR_TIME,
-                            100.0 * (peak_time - rep.start_s) / rep.duration_s,
-                        )
+            for measure, value in _tension_measures(signals, time, mask, rep, phase, params):
+                add(rep, phase, measure, value)
             add(
                 rep,
                 phase,
@@ -265,24 +244,7 @@ def _analyse_trial(
             add(rep, phase, SPARC, _phase_sparc(time, speed_abs, *bounds[phase], rate, params.sparc))
         stacked = np.column_stack([signals[name] for name in CURVE_SIGNALS])
         curves[i] = resample_repetition(time, stacked, rep, n_points)
-    emg_curves = None
-    emg_peaks = None
-    channels: tuple[str, ...] = ()
-    rates: dict[str, float] = {}
-    if emg is not None:
-        channels = tuple(name for name in MUSCLES if name in emg.columns) or tuple(
-            str(c) for c in emg.columns if c != TRIAL_TIME
-        )
-        result = emg_pipeline(EmgSignal.from_frame(emg, channels=channels), params.emg)
-        rates = result.info.heart_rate_bpm
-        envelope = result.envelope
-        emg_peaks = emg_mean_peak(envelope, segmentation.repetitions)
-        emg_curves = np.stack(
-            [
-                resample_repetition(envelope.time_s, envelope.values, rep, n_points)
-                for rep in segmentation.repetitions
-            ]
-        )
+    emg_curves, emg_peaks, channels, rates = _emg_outcomes(emg, segmentation.repetitions, params)
     return TrialOutcomes(
         metadata=metadata,
         rows=rows,
@@ -294,6 +256,46 @@ def _analyse_trial(
         segmentation_source=segmentation.source,
         heart_rate_bpm=rates,
     )
+
+
+def _tension_measures(signals: dict[str, NDArray[np.float64]], time: NDArray[np.float64],
+                      mask: NDArray[np.bool_], rep: Repetition, phase: str,
+                      params: AnalysisParameters) -> list[tuple[str, float]]:
+    """The tension and torque errors of one phase of one repetition (none where tension is missing)."""
+    tension, desired = signals["tension_n"][mask], signals["desired_tension_n"][mask]
+    if not (np.any(np.isfinite(tension)) and np.any(np.isfinite(desired))):
+        return []
+    error = percent_error(tension, desired, min_reference=params.min_reference_tension_n)
+    measures = [
+        (TENSION_RMSE, rmse(tension, desired)),
+        (TORQUE_RMSE, rmse(signals["torque_nm"][mask], signals["desired_torque_nm"][mask])),
+        (PERCENT_ERROR_RMSE, root_mean_square(error)),
+    ]
+    if phase != "entire":
+        peak, index = signed_peak(error)
+        if index >= 0:
+            peak_time = time[mask][index]
+            measures += [(PEAK_PERCENT_ERROR, peak),
+                         (PEAK_PERCENT_ERROR_TIME, 100.0 * (peak_time - rep.start_s) / rep.duration_s)]
+    return measures
+
+
+def _emg_outcomes(
+    emg: pd.DataFrame | None, repetitions: Sequence[Repetition], params: AnalysisParameters
+) -> tuple[NDArray[np.float64] | None, dict[str, float] | None, tuple[str, ...], dict[str, float]]:
+    """Per-repetition envelope curves and mean peaks, the channels, and the heart rates the ECG
+    removal found (nothing without EMG)."""
+    if emg is None:
+        return None, None, (), {}
+    channels = tuple(name for name in MUSCLES if name in emg.columns) or tuple(
+        str(c) for c in emg.columns if c != TRIAL_TIME
+    )
+    result = emg_pipeline(EmgSignal.from_frame(emg, channels=channels), params.emg)
+    envelope = result.envelope
+    n_points = params.segmentation.n_points
+    curves = np.stack([resample_repetition(envelope.time_s, envelope.values, rep, n_points)
+                       for rep in repetitions])
+    return curves, emg_mean_peak(envelope, repetitions), channels, result.info.heart_rate_bpm
 
 
 def _phase_sparc(
