@@ -14,9 +14,10 @@ from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from bowden import contracts as c
-from bowden.control import ControllerLimits, build_controller
+from bowden.control import Controller, ControllerLimits, build_controller
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
@@ -166,28 +167,7 @@ def simulate_trial(
     )
     support = c.CONDITION_SUPPORT[condition]
     wears_suit = support is not None
-    expected = None
-    controller = None
-    if support is not None:
-        controller = build_controller(
-            model=model,
-            support="pretension" if support == "pretension" else float(support),
-            subject=participant.subject,
-            hand_load_kg=settings.hand_load_kg,
-            geometry=worn.geometry,
-            limits=settings.limits,
-            floor_tension_n=settings.floor_tension_n,
-            pretension_n=settings.pretension_n,
-            compensation=settings.compensation,
-            speed=speed,
-        )
-        expected = ExpectedAssistance.for_condition(
-            support,
-            participant.subject,
-            hand_load_kg=settings.hand_load_kg,
-            floor_tension_n=settings.floor_tension_n,
-            pretension_n=settings.pretension_n,
-        )
+    controller, expected = _trial_controller(participant, support, worn, model, settings, speed)
     duration = settings.lead_in_s + settings.repetitions * cycle.period_s + settings.tail_s
     n_control = math.ceil(duration / settings.control_period_s)
     rng = np.random.default_rng(seed)
@@ -202,15 +182,7 @@ def simulate_trial(
     start_elevation = cycle.low_rad + participant.aim_offset_rad
     # The cable starts taut at what the controller holds at rest; the arm is balanced by the muscles.
     x = equilibrium_state(p, start_elevation, settings.pretension_n if wears_suit else 0.0)
-    imu, cell = worn.imu, worn.load_cell
-    sensors = np.zeros(bk.N_SENSOR)
-    sensors[bk.S_IMU_EL_NOISE] = imu.elevation_noise_rad
-    sensors[bk.S_IMU_EL_BIAS] = imu.elevation_bias_rad
-    sensors[bk.S_IMU_VEL_NOISE] = imu.velocity_noise_rad_s
-    sensors[bk.S_IMU_VEL_BIAS] = imu.velocity_bias_rad_s
-    sensors[bk.S_LOAD_NOISE] = cell.noise_n
-    sensors[bk.S_LOAD_OFFSET] = cell.offset_n
-    sensors[bk.S_IMU_DELAY_CYCLES] = round(imu.latency_s / settings.control_period_s) * 1.0
+    sensors = _sensor_vector(worn, settings)
     # The participant holds the start posture against gravity (and the cable) from the first step.
     x[k.X_ARM_THD] = 0.0
     out = np.empty((n_control, bk.N_OUT))
@@ -221,7 +193,7 @@ def simulate_trial(
     # The motor's reply and the load cell at their real resolution (the IMU's is set in the kernel).
     out[:, bk.O_MOTOR_TORQUE] = ak60_torque(out[:, bk.O_MOTOR_TORQUE], MOTOR_REPLY_LIMITS)
     out[:, bk.O_MOTOR_VELOCITY] = ak60_velocity(out[:, bk.O_MOTOR_VELOCITY], MOTOR_REPLY_LIMITS)
-    out[:, bk.O_TENSION] = load_cell_reading(out[:, bk.O_TENSION], cell)
+    out[:, bk.O_TENSION] = load_cell_reading(out[:, bk.O_TENSION], worn.load_cell)
     signals = {name: np.ascontiguousarray(out[:, index]) for index, name in _OUTPUT_NAMES.items()}
     signals[c.TRIAL_STATE] = np.full(n_control, float(c.LOOP_STATE_RUNNING))  # no watchdog in a batch trial
     ordered = {name: signals[name] for name in (*c.TRIAL_COLUMNS[1:], LIMIT_FLAGS, *TRUTH_SIGNALS)}
@@ -236,6 +208,50 @@ def simulate_trial(
         repetitions=settings.repetitions,
         seed=seed,
     )
+
+
+def _trial_controller(
+    participant: VirtualParticipant, support: float | str | None, worn: SuitParameters,
+    model: CompensationModel, settings: ProtocolSettings, speed: str,
+) -> tuple[Controller | None, ExpectedAssistance | None]:
+    """The controller of a condition with the suit and the assistance the participant expects from it
+    (both None without the suit)."""
+    if support is None:
+        return None, None
+    controller = build_controller(
+        model=model,
+        support="pretension" if support == "pretension" else float(support),
+        subject=participant.subject,
+        hand_load_kg=settings.hand_load_kg,
+        geometry=worn.geometry,
+        limits=settings.limits,
+        floor_tension_n=settings.floor_tension_n,
+        pretension_n=settings.pretension_n,
+        compensation=settings.compensation,
+        speed=speed,
+    )
+    expected = ExpectedAssistance.for_condition(
+        support,
+        participant.subject,
+        hand_load_kg=settings.hand_load_kg,
+        floor_tension_n=settings.floor_tension_n,
+        pretension_n=settings.pretension_n,
+    )
+    return controller, expected
+
+
+def _sensor_vector(worn: SuitParameters, settings: ProtocolSettings) -> NDArray[np.float64]:
+    """The batch kernel's sensor parameters: the IMU's noise, bias and latency, the load cell's."""
+    imu, cell = worn.imu, worn.load_cell
+    sensors = np.zeros(bk.N_SENSOR)
+    sensors[bk.S_IMU_EL_NOISE] = imu.elevation_noise_rad
+    sensors[bk.S_IMU_EL_BIAS] = imu.elevation_bias_rad
+    sensors[bk.S_IMU_VEL_NOISE] = imu.velocity_noise_rad_s
+    sensors[bk.S_IMU_VEL_BIAS] = imu.velocity_bias_rad_s
+    sensors[bk.S_LOAD_NOISE] = cell.noise_n
+    sensors[bk.S_LOAD_OFFSET] = cell.offset_n
+    sensors[bk.S_IMU_DELAY_CYCLES] = round(imu.latency_s / settings.control_period_s) * 1.0
+    return sensors
 
 
 def session_trial(order: Sequence[str], condition: str, speeds: Sequence[str], speed: str) -> int:
