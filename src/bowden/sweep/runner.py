@@ -103,43 +103,15 @@ def run_sweep(
     progress = progress if progress is not None else StageProgress(enabled=False)
     directory = SweepDirectory(out)
     directory.prepare(spec, force=force)
-    base = SuitParameters()
-    protocol = protocol_settings(spec)
-    cohorts = {seed: cohort(spec, seed) for seed in spec.seeds}
-    tasks: list[_Task] = []
-    bench_suits: dict[str, tuple[SuitParameters, int]] = {}
-    for point in spec.points():
-        bench_suit = identification_suit(spec, point, base)
-        sid = suit_id(bench_suit, spec.bench, point.seed)
-        bench_suits[sid] = (bench_suit, point.seed)
-        suit = point.suit(base)
-        for index, participant in enumerate(cohorts[point.seed]):
-            tasks.append(_Task(point, suit, sid, participant, index))
+    tasks, bench_suits = _tasks(spec)
     pending = [t for t in tasks if not directory.has_part(t.point.point_id, t.participant.participant_id)]
     workers = len(client.nthreads())
-
-    models: dict[str, Any] = {}
-    identify_futures: dict[Any, str] = {}
-    for sid in sorted({t.suit_id for t in pending}):
-        stored = directory.load_model(sid)
-        if stored is not None:
-            models[sid] = stored
-        else:
-            bench_suit, seed = bench_suits[sid]
-            future = client.submit(identify_suit, bench_suit, spec.bench, seed, key=f"identify-{sid}")
-            identify_futures[future] = sid
-            models[sid] = future
-
+    models, identify_futures = _models(client, spec, directory, bench_suits, pending)
+    protocol = protocol_settings(spec)
     score_futures: dict[Any, _Task] = {}
     for t in pending:
         future = client.submit(
-            score_participant,
-            t.point,
-            t.suit,
-            models[t.suit_id],
-            t.participant,
-            t.index,
-            protocol,
+            score_participant, t.point, t.suit, models[t.suit_id], t.participant, t.index, protocol,
             key=f"score-{t.point.point_id}-{t.participant.participant_id}",
         )
         score_futures[future] = t
@@ -175,6 +147,42 @@ def run_sweep(
         skipped_combinations=spec.skipped_combinations,
         notes=notes,
     )
+
+
+def _tasks(spec: SweepSpec) -> tuple[list[_Task], dict[str, tuple[SuitParameters, int]]]:
+    """One task per point and participant, and the bench suit (with its seed) each suit id is
+    identified on."""
+    base = SuitParameters()
+    cohorts = {seed: cohort(spec, seed) for seed in spec.seeds}
+    tasks: list[_Task] = []
+    bench_suits: dict[str, tuple[SuitParameters, int]] = {}
+    for point in spec.points():
+        bench_suit = identification_suit(spec, point, base)
+        sid = suit_id(bench_suit, spec.bench, point.seed)
+        bench_suits[sid] = (bench_suit, point.seed)
+        suit = point.suit(base)
+        for index, participant in enumerate(cohorts[point.seed]):
+            tasks.append(_Task(point, suit, sid, participant, index))
+    return tasks, bench_suits
+
+
+def _models(client: Any, spec: SweepSpec, directory: SweepDirectory,
+            bench_suits: dict[str, tuple[SuitParameters, int]],
+            pending: list[_Task]) -> tuple[dict[str, Any], dict[Any, str]]:
+    """Each pending suit's model: the stored one, else a future identifying it (also returned, keyed
+    to its suit id, so that its result is stored when it comes)."""
+    models: dict[str, Any] = {}
+    identify_futures: dict[Any, str] = {}
+    for sid in sorted({t.suit_id for t in pending}):
+        stored = directory.load_model(sid)
+        if stored is not None:
+            models[sid] = stored
+        else:
+            bench_suit, seed = bench_suits[sid]
+            future = client.submit(identify_suit, bench_suit, spec.bench, seed, key=f"identify-{sid}")
+            identify_futures[future] = sid
+            models[sid] = future
+    return models, identify_futures
 
 
 def _collect(
