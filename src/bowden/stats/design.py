@@ -124,23 +124,7 @@ def build_design(
         positive outcomes), a condition x speed cell is empty, or fewer than two participants or
         levels are present.
     """
-    if not isinstance(data, pd.DataFrame):
-        raise OutcomeTableError(f"expected a pandas DataFrame, got {type(data).__name__}")
-    for col in (participant, condition, speed, value):
-        if col not in data.columns:
-            raise OutcomeTableError(f"column {col!r} is missing (columns: {list(data.columns)})")
-    for col in (participant, condition, speed):
-        missing = data[col].isna().to_numpy()
-        if missing.any():
-            raise OutcomeTableError(f"column {col!r} is empty in row {data.index[int(np.argmax(missing))]!r}")
-    y = pd.to_numeric(data[value], errors="coerce").to_numpy(dtype=float)
-    bad = ~(np.isfinite(y) & (y > 0.0))
-    if bad.any():
-        row = int(np.argmax(bad))
-        raise OutcomeTableError(
-            f"column {value!r} must be finite and > 0 for a gamma model; row {data.index[row]!r} "
-            f"holds {data[value].iloc[row]!r}"
-        )
+    y = _checked_outcomes(data, (participant, condition, speed), value)
     conditions = order_levels(data[condition], CONDITIONS)
     speeds = order_levels(data[speed], SPEEDS)
     participants = tuple(dict.fromkeys(data[participant].astype(str)))
@@ -184,6 +168,29 @@ def build_design(
         condition_index=c_idx,
         speed_index=v_idx,
     )
+
+
+def _checked_outcomes(data: pd.DataFrame, factors: tuple[str, str, str], value: str) -> FloatArray:
+    """The ``value`` column as floats, after checking that every column is there and filled and every
+    value is finite and > 0 (the gamma family's support)."""
+    if not isinstance(data, pd.DataFrame):
+        raise OutcomeTableError(f"expected a pandas DataFrame, got {type(data).__name__}")
+    for col in (*factors, value):
+        if col not in data.columns:
+            raise OutcomeTableError(f"column {col!r} is missing (columns: {list(data.columns)})")
+    for col in factors:
+        missing = data[col].isna().to_numpy()
+        if missing.any():
+            raise OutcomeTableError(f"column {col!r} is empty in row {data.index[int(np.argmax(missing))]!r}")
+    y = pd.to_numeric(data[value], errors="coerce").to_numpy(dtype=float)
+    bad = ~(np.isfinite(y) & (y > 0.0))
+    if bad.any():
+        row = int(np.argmax(bad))
+        raise OutcomeTableError(
+            f"column {value!r} must be finite and > 0 for a gamma model; row {data.index[row]!r} "
+            f"holds {data[value].iloc[row]!r}"
+        )
+    return y
 
 
 def _codes(values: pd.Series, levels: Sequence[str]) -> IntArray:
