@@ -105,38 +105,11 @@ def pairwise_comparisons(
             groups.append((str(group_level), levels.loc[mask, factor].reset_index(drop=True), rows[mask]))
     records = []
     for group_level, names, grid in groups:
-        eta = grid @ beta
-        mu = np.exp(eta)
+        mu = np.exp(grid @ beta)
         for i, j in combinations(range(len(names)), 2):
             a, b = (j, i) if reverse else (i, j)
-            grad = mu[a] * grid[a] - mu[b] * grid[b]
-            se = float(np.sqrt(grad @ cov @ grad))
-            diff_l = grid[a] - grid[b]
-            log_se = float(np.sqrt(diff_l @ cov @ diff_l))
-            estimate = float(mu[a] - mu[b])
-            statistic = estimate / se
-            p_raw = float(
-                2.0 * (stats.t.sf(abs(statistic), df) if np.isfinite(df) else stats.norm.sf(abs(statistic)))
-            )
-            ratio = float(mu[a] / mu[b])
-            record = {
-                "contrast": f"{names[a]} - {names[b]}",
-                "level_a": str(names[a]),
-                "level_b": str(names[b]),
-                "mean_a": float(mu[a]),
-                "mean_b": float(mu[b]),
-                "estimate": estimate,
-                "se": se,
-                "df": df,
-                "statistic": statistic,
-                "p_raw": p_raw,
-                "ratio": ratio,
-                "percent_change": 100.0 * (ratio - 1.0),
-                "percent_change_se": 100.0 * ratio * log_se,
-            }
-            if by is not None:
-                record = {by: group_level, **record}
-            records.append(record)
+            record = _comparison(names, grid, mu, cov, df, a, b)
+            records.append(record if by is None else {by: group_level, **record})
     table = pd.DataFrame(records)
     if by is not None and family == "by_group":
         table["p_holm"] = np.concatenate(
@@ -149,3 +122,34 @@ def pairwise_comparisons(
     ]
     columns += ["p_holm", "ratio", "percent_change", "percent_change_se"]
     return table[columns]
+
+
+def _comparison(names: pd.Series, grid: np.ndarray, mu: np.ndarray, cov: np.ndarray, df: float,
+                a: int, b: int) -> dict[str, object]:
+    """Level ``a`` against level ``b`` of one family: the difference of the marginal means with its
+    delta-method standard error, its t (or z) test, and the ratio with its percent change."""
+    grad = mu[a] * grid[a] - mu[b] * grid[b]
+    se = float(np.sqrt(grad @ cov @ grad))
+    diff_l = grid[a] - grid[b]
+    log_se = float(np.sqrt(diff_l @ cov @ diff_l))
+    estimate = float(mu[a] - mu[b])
+    statistic = estimate / se
+    p_raw = float(
+        2.0 * (stats.t.sf(abs(statistic), df) if np.isfinite(df) else stats.norm.sf(abs(statistic)))
+    )
+    ratio = float(mu[a] / mu[b])
+    return {
+        "contrast": f"{names[a]} - {names[b]}",
+        "level_a": str(names[a]),
+        "level_b": str(names[b]),
+        "mean_a": float(mu[a]),
+        "mean_b": float(mu[b]),
+        "estimate": estimate,
+        "se": se,
+        "df": df,
+        "statistic": statistic,
+        "p_raw": p_raw,
+        "ratio": ratio,
+        "percent_change": 100.0 * (ratio - 1.0),
+        "percent_change_se": 100.0 * ratio * log_se,
+    }
