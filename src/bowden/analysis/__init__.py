@@ -7,8 +7,9 @@ trial's measures and :func:`analyse_study` turns a study's DataFrames into the t
 and mean ± SD curves; :func:`methods_text` describes it all.
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from bowden._lazy import lazy_exports
 
 # The function sparc shares its module's name: imported lazily, the package's attribute would become
 # the module as soon as anything imported bowden.analysis.sparc. It is light (NumPy only).
@@ -92,13 +93,7 @@ if TYPE_CHECKING:
     from bowden.analysis.trial_outcomes import TrialOutcomes, analyse_trial
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'bowden.analysis' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 
 __all__ = [

@@ -1,7 +1,8 @@
 """The runtime: fixed-rate control loop, watchdogs and safe state, timing, the crash-safe recorder."""
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from bowden._lazy import lazy_exports
 
 # Imported on first use (PEP 562): the command line's choices (the fault policies) and the light
 # runtime modules should not pay for the recorder's pandas (a second of bowden --help).
@@ -31,13 +32,7 @@ if TYPE_CHECKING:
     from bowden.runtime.timing import LoopTiming, TimingSummary
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'bowden.runtime' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 
 __all__ = [

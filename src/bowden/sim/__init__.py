@@ -11,8 +11,9 @@ The physics and its sources are in :mod:`bowden.sim._kernels` and :mod:`bowden.s
 ``docs/simulation.md`` explains the model and compares the simulated study with the paper.
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from bowden._lazy import lazy_exports
 
 # Imported on first use (PEP 562): the suit's own process imports bowden.sim.link and the peers, and
 # should not pay for the batch simulation's SciPy and pandas (a second of start-up per simulated suit).
@@ -65,13 +66,7 @@ if TYPE_CHECKING:
     from bowden.sim.suit import SimulatedSuit
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'bowden.sim' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 
 __all__ = [

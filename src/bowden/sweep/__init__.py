@@ -10,8 +10,9 @@
 ``docs/sweep.md`` explains the design and gives the shipped blend-velocity sweep's answer.
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from bowden._lazy import lazy_exports
 
 # Imported on first use (PEP 562): the command line's choices (the presets' names, the axes) should
 # not pay for the runner's simulation, Dask and pandas (seconds of bowden --help).
@@ -50,13 +51,7 @@ if TYPE_CHECKING:
     from bowden.sweep.task import RESULT_COLUMNS, identify_suit, score_participant
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'bowden.sweep' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 
 __all__ = [

@@ -6,8 +6,9 @@ samples); :func:`emg_process` composes them into the paper's pipeline. Files com
 unusable channels; :func:`emg_align` and :func:`clock_fit` put a recording on the controller's clock.
 """
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from bowden._lazy import lazy_exports
 
 # Imported on first use (PEP 562), like bowden.analysis: one EMG module (the import's constants, the
 # channel maps) should not pay for every other one's SciPy and numba.
@@ -64,13 +65,7 @@ if TYPE_CHECKING:
     from bowden.analysis.emg.xdf import XdfRecording, read_emg_xdf
 
 
-def __getattr__(name: str) -> Any:
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'bowden.analysis.emg' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)
 
 
 __all__ = [
