@@ -18,7 +18,7 @@ import pytest
 import bowden
 
 LAZY_PACKAGES = (
-    "bowden.analysis", "bowden.analysis.emg", "bowden.runtime", "bowden.sweep",
+    "bowden.analysis", "bowden.analysis.emg", "bowden.identify", "bowden.runtime", "bowden.sweep",
     "bowden.sim",
 )
 

@@ -55,44 +55,32 @@ def _heavy_imported_by(*args: str) -> list[str]:
     return heavy
 
 
-# cli/identify.py imports bowden.identify (statsmodels, matplotlib, pandas) at module level; it is
-# being reworked elsewhere. Strict: once it starts light, this marker must go.
-_IDENTIFY_IS_HEAVY = pytest.mark.xfail(
-    strict=True, reason="cli/identify.py imports bowden.identify (statsmodels, matplotlib) at module level"
-)
-
-
-@pytest.mark.parametrize(
-    "command",
-    [pytest.param(name, marks=_IDENTIFY_IS_HEAVY) if name == "identify" else name
-     for name in command_names()],
-)
+@pytest.mark.parametrize("command", command_names())
 def test_a_commands_help_imports_no_heavy_library(command):
     assert _heavy_imported_by(command, "--help") == []
 
 
-@pytest.fixture(scope="module")
-def identify_heavy() -> set[str]:
-    """What importing cli/identify.py alone still imports (empty once it is light)."""
+def test_importing_the_identify_command_imports_no_heavy_library():
+    # cli/identify.py reads bowden.identify.settings at parse time; the fitting and the figures are
+    # imported when it runs.
     result = subprocess.run(
         [sys.executable, "-c", _IMPORT_IDENTIFY, json.dumps(HEAVY)],
         capture_output=True, text=True, timeout=120, check=True,
     )
-    return set(json.loads(result.stdout))
+    assert json.loads(result.stdout) == []
 
 
-def test_bowden_help_imports_nothing_heavy_beyond_what_identify_still_does(identify_heavy):
-    # The whole parser imports every command's module; the only heavy ones left are those of
-    # cli/identify.py (the marked case above). When identify is light this asks for nothing heavy at all.
-    assert set(_heavy_imported_by("--help")) <= identify_heavy
+def test_bowden_help_imports_no_heavy_library():
+    # The whole parser imports every command's module.
+    assert _heavy_imported_by("--help") == []
 
 
-def test_building_the_parser_imports_nothing_heavy_beyond_what_identify_still_does(identify_heavy):
+def test_building_the_parser_imports_no_heavy_library():
     result = subprocess.run(
         [sys.executable, "-c", _BUILD_PARSER, json.dumps(HEAVY)],
         capture_output=True, text=True, timeout=120, check=True,
     )
-    assert set(json.loads(result.stdout)) <= identify_heavy
+    assert json.loads(result.stdout) == []
 
 
 def test_a_command_imports_only_its_own_module():

@@ -20,11 +20,7 @@ from typing import Any
 from bowden.cli._outputs import check_output_file, refuse_overwriting_inputs
 from bowden.errors import FitError, OutputFileError, ParameterError
 from bowden.hardware.motors import AK_MOTORS, DEFAULT_MOTOR
-from bowden.identify.dynamic import DEFAULT_IMU_LATENCY_S, format_dynamic
-from bowden.identify.estimator import TransmissionIdentifier
-from bowden.identify.figure import save_identification_figure
-from bowden.identify.friction_figure import save_friction_figure
-from bowden.identify.preprocess import LOWERING, RAISING, PreprocessSettings
+from bowden.identify.settings import DEFAULT_IMU_LATENCY_S, LOWERING, RAISING, PreprocessSettings
 from bowden.model.compensation import CompensationModel
 from bowden.model.model_file import save_model
 
@@ -104,6 +100,11 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
+    # The fitting (statsmodels, SciPy's signal processing, pandas) and the figures (matplotlib) are
+    # imported here, not at the top: bowden --help and bowden identify --help read the settings alone.
+    from bowden.identify.dynamic import format_dynamic
+    from bowden.identify.estimator import TransmissionIdentifier
+
     _check_outputs(args.output, args.figure, args.bench)
     if args.friction_figure is not None:
         _check_outputs(args.output, args.friction_figure, args.bench)
@@ -151,12 +152,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"No dynamic compensation: {identifier.dynamic_error_}; the model holds the paper's lines only")
     print(f"Model written to {args.output}")
     if args.figure is not None:
+        from bowden.identify.figure import save_identification_figure
+
         fits = {RAISING: identifier.raising_fit_, LOWERING: identifier.lowering_fit_}
         save_identification_figure(identifier.selection_, fits, args.figure)
         print(f"Figure written to {args.figure}")
     if args.friction_figure is not None:
         if dynamic is None:
             raise FitError(f"no friction figure: {identifier.dynamic_error_}")
+        from bowden.identify.friction_figure import save_friction_figure
+
         radius = identifier.model_.pulley_radius_m
         save_friction_figure(identifier.selection_, dynamic, radius, args.friction_figure)
         print(f"Friction figure written to {args.friction_figure}")

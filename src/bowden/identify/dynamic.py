@@ -31,14 +31,11 @@ from statsmodels.robust.robust_linear_model import RLM, RLMResults
 
 from bowden.errors import FitError
 from bowden.identify.preprocess import SteadyStateSelection
+from bowden.identify.settings import DEFAULT_IMU_LATENCY_S as DEFAULT_IMU_LATENCY_S  # re-exported
 from bowden.model.compensation import CompensationModel
 from bowden.model.dynamic import DynamicCompensation, DynamicFitStats
 from bowden.model.lines import CompensationLine
 
-# NGIMU orientation over OSC/UDP on WiFi arrives some tens of ms old. Assuming too much latency costs
-# little and too little costs much (docs/control.md), so the default sits at the top of the 10–50 ms
-# the simulated family spans.
-DEFAULT_IMU_LATENCY_S = 0.05
 # Ramps: accelerating or braking harder than this (the steady-state limit is 15 °/s²) while moving.
 MIN_RAMP_ACCELERATION_RAD_S2 = 2.0
 MIN_RAMP_SAMPLES = 50

@@ -14,8 +14,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from bowden.errors import OutputFileError
-from bowden.identify.preprocess import LOWERING, RAISING, SteadyStateSelection
+from bowden.identify.preprocess import SteadyStateSelection
 from bowden.identify.robustfit import RobustFit
+from bowden.identify.settings import LOWERING, RAISING
 
 # The paper's colours: raising blue, lowering orange (matplotlib's default C0 and C1).
 COLOURS = {RAISING: "#1f77b4", LOWERING: "#ff7f0e"}

@@ -16,7 +16,8 @@ from matplotlib.figure import Figure
 
 from bowden.errors import OutputFileError
 from bowden.identify.figure import COLOURS, MAX_POINTS_PER_DIRECTION, _thin
-from bowden.identify.preprocess import LOWERING, RAISING, SteadyStateSelection
+from bowden.identify.preprocess import SteadyStateSelection
+from bowden.identify.settings import LOWERING, RAISING
 from bowden.model.dynamic import DynamicCompensation
 
 

@@ -33,7 +33,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.stats
 from numpy.typing import ArrayLike, NDArray
 
 from bowden.errors import FitError
@@ -347,7 +346,11 @@ def robustfit(
     covariance[np.ix_(perm, perm)] = pivoted_cov
     standard_errors = np.sqrt(np.maximum(_EPS, np.diag(covariance)))
     t_statistics = coefficients / standard_errors
-    p_values = 2.0 * scipy.stats.t.sf(np.abs(t_statistics), dfe)
+    # Imported here: bowden.identify imports this module eagerly (robustfit shares its name), and the
+    # command line's parser, which reads bowden.identify.settings, should not pay for scipy.stats.
+    from scipy.stats import t as student_t
+
+    p_values = 2.0 * student_t.sf(np.abs(t_statistics), dfe)
 
     fitted = design @ coefficients
     ssr = float(np.sum((fitted - response.mean()) ** 2))

@@ -18,8 +18,8 @@ import math
 from dataclasses import dataclass
 
 from bowden.errors import ParameterError
-from bowden.identify.preprocess import LOWERING, RAISING
 from bowden.identify.robustfit import RobustFit
+from bowden.identify.settings import LOWERING, RAISING
 from bowden.model.transmission import friction_from_slopes
 
 
