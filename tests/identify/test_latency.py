@@ -12,11 +12,11 @@ from bowden.cli import main
 from bowden.errors import FitError
 from bowden.identify.latency import identify_imu_latency
 from bowden.model.model_file import load_model
+from bowden.protocol.bench import LatencyChirp
 from bowden.sim.bench_latency import (
     ENCODER_ELEVATION,
     IMU_ELEVATION,
     TIME,
-    LatencySegment,
     run_latency_segment,
 )
 from bowden.sim.parameters import SuitParameters
@@ -26,7 +26,7 @@ from bowden.sim.plant_family_structural import noisy_imu
 @pytest.mark.parametrize("latency_s", [0.005, 0.015, 0.033, 0.05, 0.08])
 def test_latency_within_3_ms_over_5_to_80_ms_with_three_times_the_noise(latency_s: float) -> None:
     suit = SuitParameters(imu=noisy_imu(latency_s, 3.0))
-    segment = run_latency_segment(suit, LatencySegment(duration_s=8.0), seed=int(1e3 * latency_s))
+    segment = run_latency_segment(suit, LatencyChirp(duration_s=8.0), seed=int(1e3 * latency_s))
     estimate = identify_imu_latency(segment[TIME].to_numpy(), segment[IMU_ELEVATION].to_numpy(),
                                     segment[ENCODER_ELEVATION].to_numpy())
     assert estimate.latency_s == pytest.approx(latency_s, abs=0.003)
@@ -55,7 +55,7 @@ def test_identify_cli_stores_the_identified_latency(
 
     bench, latency_csv, model_path = tmp_path / "bench.csv", tmp_path / "latency.csv", tmp_path / "model.json"
     synthetic_bench().to_csv(bench, index=False)
-    run_latency_segment(SuitParameters(imu=noisy_imu(0.022, 1.0)), LatencySegment(duration_s=6.0)).to_csv(
+    run_latency_segment(SuitParameters(imu=noisy_imu(0.022, 1.0)), LatencyChirp(duration_s=6.0)).to_csv(
         latency_csv, index=False
     )
     assert main(["identify", str(bench), "-o", str(model_path), "--latency-recording", str(latency_csv)]) == 0

@@ -1,16 +1,15 @@
 """The recorded study-like segment judged per cell (identify/study_recording.py) against hand values,
-and the protocol's later segments holding the batch segments' numbers."""
+and the protocol's later segments holding the batch segments' numbers (the chirp: one definition)."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import asdict
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from bowden.errors import FitError
+from bowden.errors import FitError, ParameterError
 from bowden.identify.study_recording import judge_block, read_study_recording
 from bowden.protocol.bench import LatencyChirp, StudyStrokes
 from bowden.runtime.bench_recording import STUDY_COLUMNS
@@ -63,17 +62,25 @@ def test_the_file_is_read_per_cell_and_compensation(tmp_path):
 
 def test_the_bench_runs_the_batch_segments_numbers():
     from bowden.sim import bench_study
-    from bowden.sim.bench_latency import LatencySegment
 
-    batch = asdict(LatencySegment())
-    batch.pop("sample_rate_hz")
-    assert asdict(LatencyChirp()) == batch
     study = StudyStrokes()
     assert study.stiffness_nm_rad == bench_study.MANNEQUIN_STIFFNESS_NM_RAD
     assert study.damping_nms_rad == bench_study.MANNEQUIN_DAMPING_NMS_RAD
     assert study.supports == bench_study.STUDY_SUPPORTS
     assert study.repetitions == getattr(bench_study, "VALIDATION_REPETITIONS", 4)
-    t = np.linspace(0.0, 12.0, 97)
-    theta, theta_d = LatencySegment().elevation(t)
-    mine = np.array([LatencyChirp().elevation(float(x)) for x in t])
-    assert np.allclose(mine[:, 0], theta) and np.allclose(mine[:, 1], theta_d)
+
+
+def test_the_batch_bench_moves_the_arm_along_the_protocols_chirp():
+    # One chirp for both benches: the batch bench prescribes LatencyChirp.elevation to the arm and logs
+    # the encoder at the protocol's 200 Hz.
+    from bowden.sim.bench_latency import ENCODER_ELEVATION, TIME, run_latency_segment
+
+    chirp = LatencyChirp(duration_s=3.0, start_hz=0.5, end_hz=1.5)
+    segment = run_latency_segment(chirp=chirp, seed=1)
+    times = segment[TIME].to_numpy()
+    assert np.allclose(np.diff(times), 0.005) and times[-1] == pytest.approx(3.0)
+    theta, _ = chirp.elevation(times)
+    assert np.allclose(segment[ENCODER_ELEVATION].to_numpy(), theta, atol=1e-9)
+    assert len(run_latency_segment(chirp=chirp, sample_rate_hz=100.0)) == len(times) // 2
+    with pytest.raises(ParameterError, match="the latency segment's sample rate"):
+        run_latency_segment(chirp=chirp, sample_rate_hz=0.0)

@@ -11,10 +11,18 @@ stroke raises the arm across the range at +v, or lowers it at −v, after a hold
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, TypeVar, overload
+
+import numpy as np
+from numpy.typing import NDArray
 
 from bowden.errors import ParameterError
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
+
+# A time or an array of times: LatencyChirp's formula serves both.
+_Time = TypeVar("_Time", float, NDArray[np.float64])
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -113,8 +121,12 @@ class LatencyChirp:
     """Segment 2 of the bench protocol (docs/identification.md, "The protocol, exactly"): the
     mannequin's motor moves the arm in position mode along a linear chirp about ``centre_rad`` of
     ±``amplitude_rad``, from ``start_hz`` to ``end_hz`` over ``duration_s``, faded in and out over the
-    first and last second, while the TDU holds ``holding_torque_nm`` (the cable stays taut). The same
-    numbers as the batch bench's :class:`bowden.sim.bench_latency.LatencySegment`."""
+    first and last second, while the TDU holds ``holding_torque_nm`` (the cable stays taut).
+
+    The one definition of the chirp: ``bowden bench run`` drives it over the wire (``--chirp-s`` sets
+    ``duration_s``) and the batch bench (:func:`bowden.sim.bench_latency.run_latency_segment`, at its
+    own logging rate) simulates it.
+    """
 
     centre_rad: float = math.radians(60.0)
     amplitude_rad: float = math.radians(15.0)
@@ -124,27 +136,56 @@ class LatencyChirp:
     holding_torque_nm: float = 0.5
 
     def __post_init__(self) -> None:
+        # Users reach the duration through --chirp-s alone; the other fields are the protocol's.
+        if not 2.0 <= self.duration_s <= 120.0:
+            raise ParameterError(
+                f"--chirp-s must be in [2, 120] s (the latency chirp's duration), got {self.duration_s:g}"
+            )
         low, high = self.centre_rad - self.amplitude_rad, self.centre_rad + self.amplitude_rad
         if not 0.0 < low < high < math.radians(115.0):
-            raise ParameterError("LatencyChirp: the chirp must stay within 0°–115°")
+            raise ParameterError(f"the latency chirp must stay within 0°–115°, got "
+                                 f"{math.degrees(low):g}°–{math.degrees(high):g}°")
         if not 0.05 <= self.start_hz < self.end_hz <= 5.0:
-            raise ParameterError("LatencyChirp: frequencies must rise within 0.05–5 Hz")
-        if not 2.0 <= self.duration_s <= 120.0:
-            raise ParameterError(f"the chirp's duration must be in [2, 120] s, got {self.duration_s:g}")
+            raise ParameterError(f"the latency chirp's frequencies must rise within 0.05–5 Hz, got "
+                                 f"{self.start_hz:g} → {self.end_hz:g} Hz")
         if not 0.05 <= self.holding_torque_nm <= 2.0:
-            raise ParameterError("LatencyChirp.holding_torque_nm must be in [0.05, 2] Nm")
+            raise ParameterError(f"the latency chirp's holding torque must be in [0.05, 2] Nm, got "
+                                 f"{self.holding_torque_nm:g}")
 
-    def elevation(self, time_s: float) -> tuple[float, float]:
+    @overload
+    def elevation(self, time_s: float) -> tuple[float, float]: ...
+
+    @overload
+    def elevation(
+        self, time_s: NDArray[np.floating[Any]]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]: ...
+
+    def elevation(
+        self, time_s: float | NDArray[np.floating[Any]]
+    ) -> tuple[float, float] | tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Elevation (rad) and its velocity (rad/s) at ``time_s`` from the chirp's start; at rest at the
-        centre before it and after it."""
-        t = min(max(time_s, 0.0), self.duration_s)
+        centre before it and after it. Floats for a time (the wire bench's cycle: plain ``math``, under a
+        microsecond), arrays for an array of times (the batch bench's substeps)."""
+        d = self.duration_s
+        if isinstance(time_s, np.ndarray):
+            t = np.clip(time_s.astype(np.float64), 0.0, d)
+            fade = np.minimum(np.minimum(t, d - t), 1.0)
+            fade_rate = np.where(fade >= 1.0, 0.0, np.where(t < 1.0, 1.0, -1.0))
+            return self._along(t, fade, fade_rate, np.sin, np.cos)
+        t_s = min(max(float(time_s), 0.0), d)
+        fade_s = min(t_s, d - t_s, 1.0)
+        fade_rate_s = 0.0 if fade_s >= 1.0 else (1.0 if t_s < 1.0 else -1.0)
+        return self._along(t_s, fade_s, fade_rate_s, math.sin, math.cos)
+
+    def _along(self, t: _Time, fade: _Time, fade_rate: _Time, sin: Callable[[_Time], _Time],
+               cos: Callable[[_Time], _Time]) -> tuple[_Time, _Time]:
+        """The chirp's one formula, for floats or arrays alike: ``t`` within [0, duration], ``fade`` the
+        fade-in/out factor (0 to 1) and ``fade_rate`` its derivative (1/s)."""
         rate = (self.end_hz - self.start_hz) / self.duration_s
         phase = 2.0 * math.pi * (self.start_hz * t + 0.5 * rate * t * t)
         omega = 2.0 * math.pi * (self.start_hz + rate * t)
-        fade = min(max(min(t, self.duration_s - t), 0.0), 1.0)
-        fade_rate = 0.0 if fade >= 1.0 else (1.0 if t < 1.0 else -1.0)
-        theta = self.centre_rad + self.amplitude_rad * fade * math.sin(phase)
-        theta_d = self.amplitude_rad * (fade_rate * math.sin(phase) + fade * omega * math.cos(phase))
+        theta = self.centre_rad + self.amplitude_rad * fade * sin(phase)
+        theta_d = self.amplitude_rad * (fade_rate * sin(phase) + fade * omega * cos(phase))
         return theta, theta_d
 
 
