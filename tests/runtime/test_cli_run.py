@@ -9,6 +9,7 @@ import sqlite3
 from pathlib import Path
 
 import pytest
+from tests.study.analysis_in_process import analyze_in_process
 
 from bowden.cli import main
 from bowden.cli._run_plan import run_reference, trial_info
@@ -182,13 +183,14 @@ def test_the_no_suit_condition_runs_at_zero_torque(tmp_path: Path) -> None:
 
 
 def test_a_run_is_analysed_against_its_own_repetitions_and_called_simulated(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     # Two V3 cycles (5/3 s each) after 0.2 s of rest; the analysis used to expect the paper's 10
     # and to call a `bowden run --backend sim` trial measured.
     store, report = tmp_path / "study.db", tmp_path / "report.html"
     assert main(["run", "--backend", "sim", "--speed", "V3", "--lead-in", "0.2", "--duration", "3.6",
                  "--rate", "200", "--record", str(store)]) == 0
+    analyze_in_process(monkeypatch)  # one trial: a worker pool would cost more than it saves
     assert main(["analyze", str(store), "--report", str(report), "--quiet"]) == 0
     assert "analysed 1 trials" in capsys.readouterr().out
     html = report.read_text(encoding="utf-8")
@@ -222,7 +224,9 @@ def test_run_refuses_the_dynamic_compensation_without_a_dynamic_model(capsys) ->
 def test_the_dynamic_compensation_runs_on_the_wire_and_tracks_better(tmp_path: Path) -> None:
     """`bowden run --backend sim` through the real drivers and the suit process, with the model the
     simulated bench identifies (its numbers, written here): the dynamic compensation's tension error is
-    well below the paper's on the same trial (measured 1.6–1.9 N against 7.3–7.4 N over 16 s)."""
+    well below the paper's on the same trial (measured 1.6–1.9 N against 7.3–7.4 N over 16 s). Each
+    trial is the one V2 movement after 0.5 s of rest; its tension error is taken from 1.5 s, past the
+    first rise of the tension, to its end."""
     from bowden.model import CompensationLine
     from bowden.model.dynamic import DynamicCompensation
 
@@ -242,7 +246,7 @@ def test_the_dynamic_compensation_runs_on_the_wire_and_tracks_better(tmp_path: P
     for compensation in ("paper", "dynamic"):
         store = tmp_path / f"{compensation}.db"
         code = main(["run", "--backend", "sim", "--model", str(path), "--condition", "support_50",
-                     "--speed", "V2", "--duration", "4", "--lead-in", "0.5", "--compensation", compensation,
+                     "--speed", "V2", "--duration", "3", "--lead-in", "0.5", "--compensation", compensation,
                      "--record", str(store)])
         assert code == 0
         with sqlite3.connect(store) as connection:
@@ -253,6 +257,6 @@ def test_the_dynamic_compensation_runs_on_the_wire_and_tracks_better(tmp_path: P
             (metadata,) = connection.execute("SELECT metadata FROM trials").fetchone()
         assert json.loads(metadata)["compensation"] == compensation
         errors = [t - d for _, d, t in rows if d is not None and t is not None]
-        assert len(errors) > 1000
+        assert len(errors) > 600  # 1.5 s at 500 Hz, less any cycles a busy machine made the loop skip
         rmse[compensation] = (sum(e * e for e in errors) / len(errors)) ** 0.5
     assert rmse["dynamic"] < 0.6 * rmse["paper"], rmse
