@@ -17,6 +17,7 @@ from pathlib import Path
 import edfio
 import numpy as np
 import pytest
+from tests.study.analysis_in_process import analyze_in_process
 
 from bowden.cli import main
 from bowden.model import CompensationModel
@@ -61,7 +62,7 @@ def write_amplifier_edf(path: Path, edges_host_s: list[tuple[int, float]]) -> No
 
 
 def test_the_documented_real_study_runs_on_the_simulated_suit(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     run, emg_import, analyze = documented_commands()
     assert run[:2] == ["bowden", "run"] and emg_import[:3] == ["bowden", "emg", "import"]
@@ -74,7 +75,9 @@ def test_the_documented_real_study_runs_on_the_simulated_suit(
     trial = replace_option(trial, "--trigger", f"command:{sys.executable} {TRIGGER_LOG} {levels} {{level}}")
     trial = replace_option(trial, "--lsl", None) if "--lsl" in trial else trial
     for condition in ("support_50", "pretension", "no_suit"):
-        argv = [*replace_option(trial, "--condition", condition), "--duration", "5", "--speed", "V3"]
+        # One V3 repetition (5/3 s) after 0.5 s of rest: what the import and the report need.
+        argv = [*replace_option(trial, "--condition", condition), "--duration", "2.4", "--lead-in", "0.5",
+                "--speed", "V3"]
         assert main(argv) == 0, capsys.readouterr().err
 
     edges = [(int(level), float(time_s)) for level, time_s in
@@ -83,8 +86,10 @@ def test_the_documented_real_study_runs_on_the_simulated_suit(
     write_amplifier_edf(edf, edges)
     files = {"study.db": str(store), "P07_session.edf": str(edf)}
     assert main([files.get(arg, arg) for arg in emg_import[1:]]) == 0, capsys.readouterr().err
+    analyze_in_process(monkeypatch)  # three short trials: a worker pool would cost more than it saves
     report = tmp_path / "report.html"
     analysed = replace_option([files.get(arg, arg) for arg in analyze[1:]], "--report", str(report))
     assert main([*analysed, "--quiet"]) == 0, capsys.readouterr().err
+    assert "analysed 3 trials;" in capsys.readouterr().out
     html = report.read_text(encoding="utf-8")
     assert "imported from P07_session.edf" in html and "Trials" in html
