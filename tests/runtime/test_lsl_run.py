@@ -50,7 +50,7 @@ def test_a_sim_trial_publishes_every_marker_and_its_loop_samples(tmp_path: Path)
                 "--backend",
                 "sim",
                 "--duration",
-                "6",
+                "4",  # two V3 repetitions (5/3 s each) after the lead-in
                 "--speed",
                 "V3",
                 "--lead-in",
