@@ -1,4 +1,4 @@
-"""A small simulated study made once per session, and the official BIDS validator."""
+"""A small simulated study made once per process (shared with tests/study), and the BIDS validator."""
 
 from __future__ import annotations
 
@@ -11,20 +11,22 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-
-from bowden.cli import main
+from tests.study.reduced_study import AnalyzeExport, analyze_export, reduced_study
 
 Validate = Callable[[Path], list[dict[str, Any]]]
 
 
 @pytest.fixture(scope="session")
 def small_study(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The study directory of ``bowden study`` with its smallest options (about 10 s on one core)."""
-    out = tmp_path_factory.mktemp("study") / "study"
-    code = main(["study", "--participants", "2", "--repetitions", "2", "--quick-bench", "--workers", "1",
-                 "--quiet", "--out", str(out)])
-    assert code == 0
-    return out
+    """The directory of the reduced study tests/study shares (tests/study/reduced_study.py): made once
+    per process for both directories."""
+    return reduced_study(tmp_path_factory).directory
+
+
+@pytest.fixture(scope="session")
+def small_study_export(tmp_path_factory: pytest.TempPathFactory) -> AnalyzeExport:
+    """``bowden analyze --export DIR --format csv`` of :func:`small_study`, run once per process."""
+    return analyze_export(tmp_path_factory)
 
 
 def _validator() -> str:

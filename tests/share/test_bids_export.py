@@ -11,6 +11,7 @@ import edfio
 import numpy as np
 import pandas as pd
 import pytest
+from tests.study.reduced_study import SETTINGS
 
 from bowden import __version__
 from bowden.analysis.emg.read import decode_source
@@ -127,7 +128,8 @@ def test_events_participants_questionnaires_and_description(small_study: Path, e
     events = pd.read_csv(next(exported.glob(f"sub-*/emg/*_run-{first['id']}_events.tsv")), sep="\t")
     trial_row = events[events["trial_type"] == "trial"].iloc[0]
     assert (trial_row["condition"], trial_row["speed"]) == (first["condition"], first["speed"])
-    assert list(events.loc[events["trial_type"] == "repetition", "repetition"]) == [1, 2]  # --repetitions 2
+    repetitions = list(range(1, SETTINGS.repetitions + 1))
+    assert list(events.loc[events["trial_type"] == "repetition", "repetition"]) == repetitions
     assert events.loc[events["trial_type"] == "stop", "stop_reason"].item() == first["stop_reason"]
 
     participants = pd.read_csv(exported / "participants.tsv", sep="\t")

@@ -13,8 +13,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from tests.study.reduced_study import AnalyzeExport
 
-from bowden.cli import main
 from bowden.contracts import CONDITIONS, SPEEDS
 from bowden.stats import analyse_outcome, estimated_marginal_means
 from bowden.study.statistics import outcome_data
@@ -25,11 +25,10 @@ RTOL = 1e-4
 
 
 @pytest.fixture(scope="module")
-def refitted(small_study: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    tables = tmp_path_factory.mktemp("tables") / "tables"
-    report = tables.parent / "report.html"
-    assert main(["analyze", str(small_study), "--export", str(tables), "--format", "csv", "--quiet",
-                 "--report", str(report)]) == 0
+def refitted(small_study_export: AnalyzeExport) -> Path:
+    # bowden analyze STUDY --export DIR --format csv of the shared reduced study (tests/share/conftest.py)
+    assert small_study_export.code == 0
+    tables = small_study_export.tables
     assert RSCRIPT is not None
     run = subprocess.run([RSCRIPT, str(tables / "glmm.R")], capture_output=True, text=True, timeout=280,
                          check=False)

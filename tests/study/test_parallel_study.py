@@ -2,7 +2,8 @@
 
 In this process (--workers 1), on two worker processes (--workers 2) and on a two-worker Dask cluster
 on the loopback interface (--scheduler): trials are simulated in any order by any worker, written by
-the parent in the protocol's order, and analysed in trial order.
+the parent in the protocol's order, and analysed in trial order. The single-process run is the reduced
+study other files share (tests/study/reduced_study.py: 2 participants, 1 repetition, 24 trials).
 """
 
 from __future__ import annotations
@@ -13,12 +14,12 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from tests.study.reduced_study import N_TRIALS
+from tests.study.reduced_study import SETTINGS as SMALL
 
 from bowden.errors import ClusterError, ParameterError
 from bowden.store.study_store import StudyStore
-from bowden.study.pipeline import StudyResult, StudySettings, run_study
-
-SMALL = StudySettings(participants=3, repetitions=2, quick_bench=True, seed=3)
+from bowden.study.pipeline import StudyResult, run_study
 
 
 def _contents(result: StudyResult) -> dict[str, object]:
@@ -55,10 +56,9 @@ def _assert_same(one: dict[str, object], other: dict[str, object]) -> None:
 
 
 @pytest.fixture(scope="module")
-def single_process(tmp_path_factory: pytest.TempPathFactory) -> dict[str, object]:
-    result = run_study(SMALL, tmp_path_factory.mktemp("one"), workers=1)
-    assert result.workers == 1 and result.trials_simulated == 3 * 4 * 3
-    return _contents(result)
+def single_process(shared_study: StudyResult) -> dict[str, object]:
+    assert shared_study.workers == 1 and shared_study.trials_simulated == N_TRIALS
+    return _contents(shared_study)
 
 
 def test_two_worker_processes_give_the_single_process_results(

@@ -1,7 +1,8 @@
 """A reduced study end to end: bench → identification → cohort → trials → analysis → stats → report.
 
 The issue's size: 2 participants, 1 repetition per trial (which the analysis then keeps: the paper's
-dropped first repetition is the only one).
+dropped first repetition is the only one). The study and its ``bowden analyze --export`` are made once
+per process and shared with other files (tests/study/reduced_study.py).
 """
 
 import hashlib
@@ -10,6 +11,7 @@ import re
 
 import numpy as np
 import pytest
+from tests.study.reduced_study import SETTINGS
 
 from bowden.cli import main
 from bowden.errors import ParameterError
@@ -17,13 +19,10 @@ from bowden.store.ownership import FILES_MANIFEST, files_not_written_by_study
 from bowden.store.study_store import StudyStore
 from bowden.study.pipeline import StudySettings, run_study
 
-SETTINGS = StudySettings(participants=2, repetitions=1, quick_bench=True, seed=4)
-
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory):
-    out = tmp_path_factory.mktemp("study")
-    return run_study(SETTINGS, out)
+def study(shared_study):
+    return shared_study
 
 
 def test_every_stage_ran_and_the_report_is_labelled_simulated(study):
@@ -99,7 +98,7 @@ def test_each_trial_records_the_models_hash_and_the_study_lists_its_files(study)
 
 
 def test_a_second_run_resumes_without_simulating_again(study):
-    again = run_study(SETTINGS, study.directory)
+    again = run_study(SETTINGS, study.directory, workers=1)
     assert again.trials_simulated == 0 and again.trials_skipped == 24
 
 
@@ -108,24 +107,11 @@ def test_other_settings_in_the_same_directory_are_refused(study):
         run_study(StudySettings(participants=4, repetitions=2, quick_bench=True), study.directory)
 
 
-def test_analyze_command_on_the_store(study, tmp_path, capsys):
-    report = tmp_path / "again.html"
-    code = main(
-        [
-            "analyze",
-            str(study.directory),
-            "--report",
-            str(report),
-            "--quiet",
-            "--export",
-            str(tmp_path / "export"),
-            "--format",
-            "csv",
-        ]
-    )
-    assert code == 0
-    assert report.exists() and (tmp_path / "export" / "outcomes.csv").exists()
-    assert "analysed 24 trials" in capsys.readouterr().out
+def test_analyze_command_on_the_store(shared_export):
+    # bowden analyze STUDY --export DIR --format csv --report FILE --quiet (tests/study/reduced_study.py)
+    assert shared_export.code == 0
+    assert shared_export.report.exists() and (shared_export.tables / "outcomes.csv").exists()
+    assert "analysed 24 trials" in shared_export.stdout
 
 
 def test_analyze_command_on_a_missing_store(tmp_path, capsys):
