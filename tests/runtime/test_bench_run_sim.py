@@ -68,7 +68,8 @@ def exited(backend, since_s: float) -> dict[str, float]:
 
 
 def test_a_stopped_run_resumes_where_it_stopped(bench, tmp_path):
-    protocol = BenchProtocol(**QUICK, repetitions=2)
+    # One stroke each way: the first recorded, the fault in the second, the second run again on resume.
+    protocol = BenchProtocol(**QUICK, repetitions=1)
 
     def too_much_tension(stroke: BenchStroke) -> None:
         if stroke.index == 0:
@@ -83,7 +84,10 @@ def test_a_stopped_run_resumes_where_it_stopped(bench, tmp_path):
     import pandas as pd
 
     frame = pd.read_csv(tmp_path / "bench.csv")
-    assert list(frame["trial"].unique()) == [0, 1, 2, 3]
+    assert list(frame["trial"].unique()) == [0, 1]
+    # The first stroke recorded once: not run again on resume (its times would jump by the 1 s a resumed
+    # run's clock leaves after the rows written before).
+    assert frame.loc[frame["trial"] == 0, "time_s"].diff().max() < 0.5
     assert frame["time_s"].is_monotonic_increasing
 
 
