@@ -25,7 +25,7 @@ def test_a_trial_with_another_motor_and_an_lsl_imu(tmp_path: Path) -> None:
     name = f"bowden-test-arm-{os.getpid()}"
     run = subprocess.run(
         [sys.executable, "-m", "bowden", "run", "--backend", "sim", "--motor", "AK70-10",
-         "--imu", f"lsl:{name}", "--duration", "2", "--rate", "250", "--lead-in", "0.5",
+         "--imu", f"lsl:{name}", "--duration", "1", "--rate", "250", "--lead-in", "0.5",
          "--record", "study.db"],
         env={**os.environ, "LSLAPICFG": str(config)}, cwd=tmp_path, capture_output=True, text=True,
         timeout=240,
@@ -33,7 +33,7 @@ def test_a_trial_with_another_motor_and_an_lsl_imu(tmp_path: Path) -> None:
     assert run.returncode == 0, run.stderr
     assert "AK70-10 (50 rad/s, 25 Nm ranges)" in run.stderr
     assert f"LSL quaternion stream '{name}'" in run.stderr
-    assert "stopped: duration 2 s reached (no fault)" in run.stdout + run.stderr
+    assert "stopped: duration 1 s reached (no fault)" in run.stdout + run.stderr
     with sqlite3.connect(tmp_path / "study.db") as connection:  # the store says what the trial ran on
         (text,) = connection.execute("SELECT metadata FROM trials").fetchone()
     metadata = json.loads(text)
