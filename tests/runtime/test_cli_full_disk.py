@@ -22,7 +22,7 @@ from bowden.store.sample_chunks import last_sample_times, sample_count
 LIMIT_BYTES = 256 * 1024
 
 
-def run(args: list[str], *, limited: bool) -> subprocess.CompletedProcess[str]:
+def run_limited(args: list[str]) -> subprocess.CompletedProcess[str]:
     def limit_file_size() -> None:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # inherited across exec: EFBIG instead of a kill
         resource.setrlimit(resource.RLIMIT_FSIZE, (LIMIT_BYTES, LIMIT_BYTES))
@@ -30,17 +30,21 @@ def run(args: list[str], *, limited: bool) -> subprocess.CompletedProcess[str]:
     # Host stalls are not what this test is about: a loaded machine must not stop the run first.
     command = [sys.executable, "-m", "bowden", "run", "--backend", "sim", "--host-stall-ms", "2000", *args]
     return subprocess.run(command, capture_output=True, text=True, timeout=300,
-                          preexec_fn=limit_file_size if limited else None, check=False)
+                          preexec_fn=limit_file_size, check=False)
 
 
 @pytest.mark.timeout(600)
 def test_full_disk_stops_safely_and_keeps_what_was_written(tmp_path: Path) -> None:
-    # A first run without the limit, so that nothing but the store meets it (compile caches).
-    warm = run(["--duration", "0.5"], limited=False)
-    assert warm.returncode in (0, 3), warm.stderr  # it ran (a watchdog stop is fine here)
+    # The simulated suit's compiled kernels are cached on disk: compile them here, without the limit,
+    # so that nothing but the store meets it (a first run of bowden run caches the same kernels).
+    from bowden.protocol.minimum_jerk import MinimumJerkCycle
+    from bowden.sim.arm import PrescribedArm
+    from bowden.sim.peers.warm_up import warm_up_suit
+
+    warm_up_suit(PrescribedArm.following(MinimumJerkCycle()))
     store = tmp_path / "study.db"
-    result = run(["--duration", "60", "--record", str(store), "--participant", "P03",
-                  "--condition", "support_50"], limited=True)
+    result = run_limited(["--duration", "60", "--record", str(store), "--participant", "P03",
+                          "--condition", "support_50"])
     out = result.stdout
     assert result.returncode == 3, out + result.stderr
     assert "stopped: recording failed" in out and "RECORDER_FAILED" in out, out
