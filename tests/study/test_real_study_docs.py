@@ -75,8 +75,8 @@ def test_the_documented_real_study_runs_on_the_simulated_suit(
     trial = replace_option(trial, "--trigger", f"command:{sys.executable} {TRIGGER_LOG} {levels} {{level}}")
     trial = replace_option(trial, "--lsl", None) if "--lsl" in trial else trial
     for condition in ("support_50", "pretension", "no_suit"):
-        # One V3 repetition (5/3 s) after 0.5 s of rest: what the import and the report need.
-        argv = [*replace_option(trial, "--condition", condition), "--duration", "2.4", "--lead-in", "0.5",
+        # One V3 repetition (5/3 s) after 0.2 s of rest: what the import and the report need.
+        argv = [*replace_option(trial, "--condition", condition), "--duration", "2", "--lead-in", "0.2",
                 "--speed", "V3"]
         assert main(argv) == 0, capsys.readouterr().err
 
