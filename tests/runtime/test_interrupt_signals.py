@@ -32,7 +32,7 @@ def test_a_bench_run_started_in_the_background_stops_safely_on_sigterm(tmp_path:
     # Before, SIGTERM ended `bowden bench run` at once: no safe stop, no "interrupted" and exit -15.
     output = tmp_path / "bench.csv"
     command = [sys.executable, "-m", "bowden", "bench", "run", "--backend", "sim", "-o", str(output),
-               "--speeds", "1", "--loads", "1", "--repetitions", "2", "--high-deg", "70"]
+               "--speeds", "1", "--loads", "1", "--repetitions", "2", "--high-deg", "50"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     assert process.stderr is not None
