@@ -82,7 +82,7 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
     latency = pd.read_csv(tmp_path / "bench.latency.csv")
     assert tuple(latency.columns) == LATENCY_COLUMNS
     # The chirp's 4 s recorded (rows at 200 Hz of the loop's cycles: fewer when a busy host drops cycles;
-    # a stall at its end drops its last rows: 3.899 s at load average 6, not the 3.995 s of an idle run).
+    # a stall at its start or end drops rows there: 3.899 s at load average 6, not the 3.995 s idle).
     assert np.ptp(latency["time_s"]) > 3.5 and len(latency) > 200
     # The mannequin's encoder moved the arm along the chirp: ±15° about 60°.
     assert 25.0 < math.degrees(np.ptp(latency["mannequin_elevation_rad"])) < 32.0
