@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import edfio
@@ -60,6 +60,8 @@ class Session:
     offset_s: float
     drift_ppm: float
     first_zero_s: float = TRIAL_ZEROS_S[0]
+    # emg_uv per seed: 20 minutes of 8 channels at 2 kHz, drawn once (every file written reads it).
+    _emg_uv: dict[int, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
 
     def host_time(self, n: np.ndarray) -> np.ndarray:
         """True host time of amplifier sample n, s."""
@@ -84,14 +86,19 @@ class Session:
         return n[(t >= 0.0) & (t <= trial.last_sample_s)]
 
     def emg_uv(self, seed: int = 5) -> np.ndarray:
-        """The recording's muscle channels, µV, samples x muscles: trials' sEMG and noise between."""
-        rng = np.random.default_rng(seed)
-        data = 3.0 * rng.standard_normal((self.n_samples, len(MUSCLES)))
-        for trial in self.trials:
-            span = self.trial_span(trial)
-            assert len(span) <= len(trial.emg_v)
-            data[span] = 1e6 * trial.emg_v[: len(span)]
-        return data
+        """The recording's muscle channels, µV, samples x muscles: trials' sEMG and noise between.
+
+        Drawn once per seed and returned read-only (the same array to every caller)."""
+        if seed not in self._emg_uv:
+            rng = np.random.default_rng(seed)
+            data = 3.0 * rng.standard_normal((self.n_samples, len(MUSCLES)))
+            for trial in self.trials:
+                span = self.trial_span(trial)
+                assert len(span) <= len(trial.emg_v)
+                data[span] = 1e6 * trial.emg_v[: len(span)]
+            data.flags.writeable = False
+            self._emg_uv[seed] = data
+        return self._emg_uv[seed]
 
     def trigger(
         self, *, ramp_samples: float, pulses: Sequence[int] | None = None, late_s: Sequence[float] = ()
@@ -331,6 +338,7 @@ def write_saga_file(
     physical = (-SAGA_BDF_RANGE_UV, SAGA_BDF_RANGE_UV) if bdf else (-2000.0, 2000.0)
     emg = session.emg_uv()
     if artefact_uv:
+        emg = emg.copy()  # the session's array is every file's
         emg[session.n_samples // 10, 0] += artefact_uv
     labels = (*SAGA_LABELS, f"UNI{len(SAGA_LABELS) + 1}")
     spare = 5.0 * np.random.default_rng(9).standard_normal(len(emg))
