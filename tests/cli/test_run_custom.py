@@ -9,7 +9,6 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from tests.study.analysis_in_process import analyze_in_process
 
 from bowden.cli import main
 from bowden.contracts import BACKEND_SIM
@@ -65,7 +64,7 @@ def _trial(store: StudyStore, participant: str, condition: str, speed: str, supp
 
 
 def test_analyze_reports_custom_conditions_and_speeds_apart_from_the_paper_s_comparisons(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path
 ) -> None:
     path = tmp_path / "study.db"
     with StudyStore(path) as store:
@@ -79,7 +78,6 @@ def test_analyze_reports_custom_conditions_and_speeds_apart_from_the_paper_s_com
             for p in ("P01", "P02", "P03")
             for c, s in (("support_25", 13), ("support_50", 11), ("support_70", 9))
         ]))
-    analyze_in_process(monkeypatch)  # twelve short trials: a worker pool would cost more than it saves
     assert main(["analyze", str(tmp_path), "--quiet"]) == 0
     report = html.unescape((tmp_path / "report.html").read_text(encoding="utf-8"))
     assert "Conditions and speeds beyond the paper" in report

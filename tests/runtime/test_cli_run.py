@@ -9,7 +9,6 @@ import sqlite3
 from pathlib import Path
 
 import pytest
-from tests.study.analysis_in_process import analyze_in_process
 
 from bowden.cli import main
 from bowden.cli._run_plan import run_reference, trial_info
@@ -183,14 +182,13 @@ def test_the_no_suit_condition_runs_at_zero_torque(tmp_path: Path) -> None:
 
 
 def test_a_run_is_analysed_against_its_own_repetitions_and_called_simulated(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # Two V3 cycles (5/3 s each) after 0.2 s of rest; the analysis used to expect the paper's 10
     # and to call a `bowden run --backend sim` trial measured.
     store, report = tmp_path / "study.db", tmp_path / "report.html"
     assert main(["run", "--backend", "sim", "--speed", "V3", "--lead-in", "0.2", "--duration", "3.6",
                  "--rate", "200", "--record", str(store)]) == 0
-    analyze_in_process(monkeypatch)  # one trial: a worker pool would cost more than it saves
     assert main(["analyze", str(store), "--report", str(report), "--quiet"]) == 0
     assert "analysed 1 trials" in capsys.readouterr().out
     html = report.read_text(encoding="utf-8")

@@ -17,7 +17,6 @@ from pathlib import Path
 import edfio
 import numpy as np
 import pytest
-from tests.study.analysis_in_process import analyze_in_process
 
 from bowden.cli import main
 from bowden.model import CompensationModel
@@ -62,7 +61,7 @@ def write_amplifier_edf(path: Path, edges_host_s: list[tuple[int, float]]) -> No
 
 
 def test_the_documented_real_study_runs_on_the_simulated_suit(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     run, emg_import, analyze = documented_commands()
     assert run[:2] == ["bowden", "run"] and emg_import[:3] == ["bowden", "emg", "import"]
@@ -86,7 +85,6 @@ def test_the_documented_real_study_runs_on_the_simulated_suit(
     write_amplifier_edf(edf, edges)
     files = {"study.db": str(store), "P07_session.edf": str(edf)}
     assert main([files.get(arg, arg) for arg in emg_import[1:]]) == 0, capsys.readouterr().err
-    analyze_in_process(monkeypatch)  # three short trials: a worker pool would cost more than it saves
     report = tmp_path / "report.html"
     analysed = replace_option([files.get(arg, arg) for arg in analyze[1:]], "--report", str(report))
     assert main([*analysed, "--quiet"]) == 0, capsys.readouterr().err

@@ -11,7 +11,6 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-from tests.study.analysis_in_process import analyze_in_process
 
 from bowden.cli import main
 from bowden.contracts import FATIGUE_SITES, NORDIC_SITES
@@ -79,7 +78,7 @@ def answer(browser: Windows, url: str, token: str, participant: str, condition: 
 
 
 def test_an_operator_runs_a_whole_session_restarts_the_server_and_analyzes_it(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path
 ) -> None:
     store, port = tmp_path / STORE_FILE_NAME, free_port()
     with chromium(sync_api) as browser:
@@ -135,7 +134,6 @@ def test_an_operator_runs_a_whole_session_restarts_the_server_and_analyzes_it(
             screenshot(console, "session-complete.png", full_page=True)
             console.context.close()
 
-    analyze_in_process(monkeypatch)  # five short trials: a worker pool would cost more than it saves
     assert main(["analyze", str(tmp_path), "--quiet"]) == 0
     report = (tmp_path / "report.html").read_text(encoding="utf-8")
     # The registry's anthropometrics and the plan's condition order are in the report.

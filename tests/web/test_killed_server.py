@@ -15,7 +15,6 @@ from pathlib import Path
 
 import httpx2 as httpx  # what the dev extra installs (starlette's TestClient uses it too)
 import pytest
-from tests.study.analysis_in_process import analyze_in_process
 
 from bowden.cli import build_parser, main
 from bowden.store.sample_chunks import sample_count
@@ -64,7 +63,7 @@ def _samples(store: Path, trial_id: int) -> int:
 
 
 def test_a_killed_server_s_open_trial_is_resumed_and_named(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     store = tmp_path / STORE_FILE_NAME
     with serving(store) as (url, auth, process):
@@ -86,7 +85,6 @@ def test_a_killed_server_s_open_trial_is_resumed_and_named(
     assert resumed["steps"][0]["trial_id"] == first
     assert resumed["steps"][1]["attempts"] == [{"trial_id": second, "status": "stopped", "reason": LEFT_OPEN}]
 
-    analyze_in_process(monkeypatch)  # two short trials: a worker pool would cost more than it saves
     assert main(["analyze", str(tmp_path), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "analysed 1 trials, skipped 1" in out

@@ -36,12 +36,18 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         "--format", choices=("parquet", "csv"), default="parquet",
         help="export format (default: parquet; both are written a chunk at a time, in bounded memory)",
     )
+    parser.add_argument(
+        "--workers", type=int, metavar="N",
+        help="worker processes analysing the trials (default: one per core, but one per ten trials at "
+        "most: a worker takes seconds to start; 1: in this process)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
     # Imported here, not at the top: building the parser (bowden --help) needs none of the analysis.
+    from bowden.engine.pool import MAX_WORKERS
     from bowden.share.r_script import r_script_path, write_r_script
     from bowden.store.export import export_paths
     from bowden.study.analyze import analyze_store
@@ -56,6 +62,8 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.export_emg and args.export is None:
         raise ParameterError("--export-emg needs --export DIR")
+    if args.workers is not None and not 1 <= args.workers <= MAX_WORKERS:
+        raise ParameterError(f"--workers must be an integer in [1, {MAX_WORKERS}], got {args.workers}")
     report = args.report if args.report is not None else store.with_name("report.html")
     bench = args.bench
     if bench is None and (store.parent / "bench.parquet").exists():
@@ -72,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
         for path in export_paths(args.export, file_format=args.format, include_emg=args.export_emg):
             refuse_overwriting_inputs("--export", path, written)
         refuse_overwriting_inputs("--export", r_script_path(args.export), written)
-    result = analyze_store(store, report, bench_path=bench, progress=StageProgress(enabled=not args.quiet))
+    result = analyze_store(store, report, bench_path=bench, workers=args.workers,
+                           progress=StageProgress(enabled=not args.quiet))
     if args.export is not None:
         from bowden.store.study_store import StudyStore
 

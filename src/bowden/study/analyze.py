@@ -46,7 +46,7 @@ from bowden.analysis import (
 )
 from bowden.analysis.outcomes import TrialMetadata, combine_trial_outcomes
 from bowden.contracts import REPETITIONS_PER_TRIAL, SIMULATED_BACKENDS
-from bowden.engine.pool import Engine, Pending, study_engine
+from bowden.engine.pool import Engine, Pending, pool_size, study_engine
 from bowden.errors import ModelFileError, ParameterError, RecordingError, StoreError
 from bowden.identify import TransmissionIdentifier, plot_identification
 from bowden.model import CompensationModel
@@ -118,7 +118,8 @@ def analyze_store(
     ``bench_path`` (a bench recording) adds the identification figure. ``repetitions`` is the number
     of cycles every trial must hold; None takes each trial's own from its metadata, else the paper's 10.
     The first repetition of each trial is dropped (adaptation) unless no trial holds more than one.
-    ``workers`` trials are analysed at a time (None: one per CPU core; 1: in this process), or the
+    ``workers`` trials are analysed at a time (None: one per CPU core, but one per ten trials at most,
+    :func:`bowden.engine.pool.pool_size`; 1: in this process), or the
     trials and the statistics' models are tasks on ``engine`` (``bowden study``'s worker pool or its
     Dask cluster); results depend on neither.
     ``appendix`` adds sections of its own at the end of the report (``bowden study --compensation``).
@@ -141,8 +142,8 @@ def analyze_store(
                 f" ({'; '.join(skipped)})" if skipped else ""))
         # Each trial's analysis is a task on the engine (worker processes, or Dask), and so is each
         # statistical model; results come back in task order, so none depends on the workers.
-        if engine is None:
-            engine = stack.enter_context(study_engine(workers))
+        if engine is None:  # a pool only where its start pays: not for a handful of trials
+            engine = stack.enter_context(study_engine(pool_size(len(trials), workers)))
         identification = None if bench_path is None else engine.submit(fit_identification, Path(bench_path))
         analysed = _analyse_trials(store, trials, facts, repetitions, engine, progress, skipped)
         outcomes, answers, beyond = _outcomes_and_notes(store, store_path, analysed, skipped)
