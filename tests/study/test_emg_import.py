@@ -2,7 +2,9 @@
 
 The truth is known: every amplifier sample's host time (tests/study/emg_session.py). The import
 sees only the files and the store's sync events, and must find the trials, fit the +80 ppm drift and
-the offset, and store each trial's samples at their true loop times.
+the offset, and store each trial's samples at their true loop times. The checks of a refused or
+partial import, whose messages do not depend on the session's length, read the same three trials 40
+and 45 s apart (a 2-minute recording, a tenth of the data to write and read).
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from .emg_session import (
 )
 
 MAP = ["--channels", "saga"]
+SHORT_ZEROS_S = (10_000.0, 10_040.0, 10_085.0)  # gaps unequal, as the long session's: a part matches one run
 
 
 @pytest.fixture(scope="module")
@@ -55,6 +58,27 @@ def store(session: Session, tmp_path: Path) -> Path:
     """A fresh copy of the session's store (trials and sync events, no EMG)."""
     copy = tmp_path / "study.db"
     shutil.copyfile(session.store, copy)
+    return copy
+
+
+@pytest.fixture(scope="module")
+def short(tmp_path_factory: pytest.TempPathFactory) -> Session:
+    """The same three trials 40 and 45 s apart: a 2-minute recording."""
+    return simulate_session(tmp_path_factory.mktemp("short"), zeros_s=SHORT_ZEROS_S)
+
+
+@pytest.fixture(scope="module")
+def short_edf(short: Session, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("short_edf") / "P01_session.edf"
+    write_edf(short, path)
+    return path
+
+
+@pytest.fixture
+def short_store(short: Session, tmp_path: Path) -> Path:
+    """A fresh copy of the short session's store (trials and sync events, no EMG)."""
+    copy = tmp_path / "study.db"
+    shutil.copyfile(short.store, copy)
     return copy
 
 
@@ -196,49 +220,51 @@ def _edf(session: Session, path: Path, **changes: object) -> Path:
     return path
 
 
-def test_a_recording_of_part_of_the_session_is_imported_for_those_trials(session, store, tmp_path):
-    path = _edf(session, tmp_path / "part.edf", pulses=[1, 2])
-    result = import_emg(store, path, ImportOptions(trigger_channel=TRIGGER, channel_map=SAGA_CHANNELS))
+def test_a_recording_of_part_of_the_session_is_imported_for_those_trials(short, short_store, tmp_path):
+    path = _edf(short, tmp_path / "part.edf", pulses=[1, 2])
+    result = import_emg(short_store, path, ImportOptions(trigger_channel=TRIGGER, channel_map=SAGA_CHANNELS))
     assert result.trials == (2, 3)
 
 
-def test_a_missing_trigger_pulse_names_the_trials_that_matched(session, store, tmp_path, capsys):
+def test_a_missing_trigger_pulse_names_the_trials_that_matched(short, short_store, tmp_path, capsys):
     # The amplifier missed the second trial's pulse (the line was unplugged for it).
-    path = _edf(session, tmp_path / "missed.edf", pulses=[0, 2])
-    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    path = _edf(short, tmp_path / "missed.edf", pulses=[0, 2])
+    err = _refused(short_store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
     assert "2 trigger pulses do not all match the store's trials: pulses 1–1 match trials 1, pulse 2" in err
     assert "matches no trial" in err
 
 
-def test_more_pulses_than_trials_are_refused(session, store, edf, capsys):
-    with StudyStore(store) as opened:
+def test_more_pulses_than_trials_are_refused(short, short_store, short_edf, capsys):
+    with StudyStore(short_store) as opened:
         opened._db.execute("DELETE FROM events WHERE trial_id = 3")
         opened._db.commit()
-    err = _refused(store, edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    err = _refused(short_store, short_edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
     assert "3 trigger pulses but the store has 2 trials with sync events (trials 1, 2)" in err
 
 
-def test_drift_beyond_the_tolerance_is_refused(session, store, tmp_path, capsys):
-    session.drift_ppm = 300.0
+def test_drift_beyond_the_tolerance_is_refused(short, short_store, tmp_path, capsys):
+    short.drift_ppm = 300.0
     try:
-        path = _edf(session, tmp_path / "drift.edf")
+        path = _edf(short, tmp_path / "drift.edf")
     finally:
-        session.drift_ppm = 80.0
-    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+        short.drift_ppm = 80.0
+    err = _refused(short_store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
     assert "drift +300 ppm" in err and "beyond the 200 ppm tolerance" in err
 
 
-def test_a_residual_beyond_2_ms_is_refused(session, store, tmp_path, capsys):
+def test_a_residual_beyond_2_ms_is_refused(short, short_store, tmp_path, capsys):
     # The second trial's end edge is 3 ms late in the recording: inside the matching window, off the fit.
-    path = _edf(session, tmp_path / "late.edf", late_s=[0.0, 0.003])
-    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    path = _edf(short, tmp_path / "late.edf", late_s=[0.0, 0.003])
+    err = _refused(short_store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
     assert "ms off the fit, beyond 2 ms" in err
 
 
-def test_an_edge_off_the_line_of_all_others_names_the_file_and_the_trial(session, store, tmp_path, capsys):
+def test_an_edge_off_the_line_of_all_others_names_the_file_and_the_trial(
+    short, short_store, tmp_path, capsys
+):
     # 6 ms late: inside the matching window, but no line through the edges fits within 2 × 2 ms.
-    path = _edf(session, tmp_path / "late6.edf", late_s=[0.0, 0.006])
-    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    path = _edf(short, tmp_path / "late6.edf", late_s=[0.0, 0.006])
+    err = _refused(short_store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
     assert err.startswith("bowden: error: late6.edf: ") and "trial 2's end edge" in err
 
 
@@ -251,59 +277,64 @@ def test_an_edge_off_the_line_of_all_others_names_the_file_and_the_trial(session
         ([*MAP], "give --trigger-channel NAME"),
     ],
 )
-def test_wrong_rate_labels_and_channels_are_refused(store, edf, args, message, capsys):
-    assert message in _refused(store, edf, *args, capsys=capsys)
+def test_wrong_rate_labels_and_channels_are_refused(short_store, short_edf, args, message, capsys):
+    assert message in _refused(short_store, short_edf, *args, capsys=capsys)
 
 
-def test_a_map_naming_an_absent_label_and_a_flat_channel_are_refused(session, store, edf, tmp_path, capsys):
+def test_a_map_naming_an_absent_label_and_a_flat_channel_are_refused(
+    short, short_store, short_edf, tmp_path, capsys
+):
     mapping = {**SAGA_CHANNELS}
     mapping["UNI42"] = mapping.pop("UNI8")
     (tmp_path / "map.json").write_text(json.dumps(mapping))
     err = _refused(
-        store, edf, "--trigger-channel", TRIGGER, "--channels", str(tmp_path / "map.json"), capsys=capsys
+        short_store, short_edf, "--trigger-channel", TRIGGER, "--channels", str(tmp_path / "map.json"),
+        capsys=capsys,
     )
     assert "lacks channel(s) ['UNI42']" in err
     # The pectoralis electrode was plugged into UNI9, which recorded nothing.
     mapping = {**SAGA_CHANNELS}
     mapping["UNI9"] = mapping.pop("UNI8")
     (tmp_path / "map.json").write_text(json.dumps(mapping))
-    path = _edf(session, tmp_path / "flat.edf", flat="UNI9")
+    path = _edf(short, tmp_path / "flat.edf", flat="UNI9")
     err = _refused(
-        store, path, "--trigger-channel", TRIGGER, "--channels", str(tmp_path / "map.json"), capsys=capsys
+        short_store, path, "--trigger-channel", TRIGGER, "--channels", str(tmp_path / "map.json"),
+        capsys=capsys,
     )
     assert "trial 1: channel 'pectoralis_major' is flat" in err
 
 
 def test_a_recording_without_pulses_and_stores_without_trials_are_refused(
-    session, store, edf, tmp_path, capsys
+    short, short_store, short_edf, tmp_path, capsys
 ):
-    path = _edf(session, tmp_path / "quiet.edf", pulses=[])
-    err = _refused(store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    path = _edf(short, tmp_path / "quiet.edf", pulses=[])
+    err = _refused(short_store, path, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
     assert "holds no pulse: the recording covers no trial" in err
     empty = tmp_path / "empty.db"
     StudyStore(empty).close()
     assert "holds no completed trial" in _refused(
-        empty, edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys
+        empty, short_edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys
     )
     no_sync = tmp_path / "nosync.db"
-    shutil.copyfile(session.store, no_sync)
+    shutil.copyfile(short.store, no_sync)
     with StudyStore(no_sync) as opened:
         opened._db.execute("DELETE FROM events WHERE kind = 'sync'")
         opened._db.commit()
-    assert "has sync events" in _refused(no_sync, edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    refused = _refused(no_sync, short_edf, "--trigger-channel", TRIGGER, *MAP, capsys=capsys)
+    assert "has sync events" in refused
 
 
 def test_analyze_reports_which_trials_had_emg_and_from_which_file(
-    session, store, tmp_path, capsys, monkeypatch
+    short, short_store, tmp_path, capsys, monkeypatch
 ):
-    path = _edf(session, tmp_path / "P01_part.edf", pulses=[0, 1])
-    assert main(["emg", "import", str(store), str(path), "--trigger-channel", TRIGGER, *MAP]) == 0
+    path = _edf(short, tmp_path / "P01_part.edf", pulses=[0, 1])
+    assert main(["emg", "import", str(short_store), str(path), "--trigger-channel", TRIGGER, *MAP]) == 0
     report = tmp_path / "report.html"
     # Three trials analysed in this process: the command's default pool would spawn a worker per core,
     # each importing the analysis (most of the test's time); results do not depend on it
     # (tests/study/test_parallel_study.py).
     monkeypatch.setattr(bowden.study.analyze, "study_engine", lambda workers=None: study_engine(1))
-    assert main(["analyze", str(store), "--report", str(report), "--quiet"]) == 0
+    assert main(["analyze", str(short_store), "--report", str(report), "--quiet"]) == 0
     assert "analysed 3 trials" in capsys.readouterr().out
     text = report.read_text()
     assert "EMG of trials #1–#2: imported from P01_part.edf (synchronised by trigger: drift +80.0 ppm" in text
