@@ -21,9 +21,7 @@ from pathlib import Path
 
 import pytest
 
-import bowden.study.analyze
 from bowden.cli import main
-from bowden.engine.pool import study_engine
 from bowden.study.pipeline import StudyResult, StudySettings, run_study
 
 # The issue's size: 2 participants, 1 repetition per trial (which the analysis then keeps: the
@@ -34,7 +32,7 @@ N_TRIALS = 24
 
 @dataclass(frozen=True)
 class AnalyzeExport:
-    """What ``bowden analyze STUDY --export DIR --format csv --report FILE --quiet`` left."""
+    """What ``bowden analyze STUDY --export DIR --format csv --report FILE --quiet --workers 1`` left."""
 
     code: int
     stdout: str
@@ -55,20 +53,16 @@ def reduced_study(tmp_path_factory: pytest.TempPathFactory) -> StudyResult:
 
 
 def analyze_export(tmp_path_factory: pytest.TempPathFactory) -> AnalyzeExport:
-    """``bowden analyze --export`` of :func:`reduced_study` to CSV, analysed in this process.
-
-    The command's default engine spawns a worker process per core; the results do not depend on it
-    (tests/study/test_parallel_study.py), so the analysis runs here.
-    """
+    """``bowden analyze --export`` of :func:`reduced_study` to CSV, analysed in this process (``--workers 1``:
+    the same results, tests/study/test_parallel_study.py, and no worker to spawn)."""
     if "export" not in _made:
         study = reduced_study(tmp_path_factory)
         out = tmp_path_factory.mktemp("reduced_export")
         report, tables = out / "report.html", out / "tables"
         stdout = io.StringIO()
-        with pytest.MonkeyPatch.context() as patch, contextlib.redirect_stdout(stdout):
-            patch.setattr(bowden.study.analyze, "study_engine", lambda workers=None: study_engine(1))
+        with contextlib.redirect_stdout(stdout):
             code = main(["analyze", str(study.directory), "--export", str(tables), "--format", "csv",
-                         "--quiet", "--report", str(report)])
+                         "--quiet", "--report", str(report), "--workers", "1"])
         _made["export"] = AnalyzeExport(code=code, stdout=stdout.getvalue(), report=report, tables=tables)
     export = _made["export"]
     assert isinstance(export, AnalyzeExport)

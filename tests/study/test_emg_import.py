@@ -17,12 +17,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-import bowden.study.analyze
 from bowden.analysis import AnalysisParameters, SegmentationParameters, TrialMetadata, analyse_study
 from bowden.analysis.emg.channels import SAGA_CHANNELS
 from bowden.cli import main
 from bowden.contracts import MUSCLES, TRIAL_TIME
-from bowden.engine.pool import study_engine
 from bowden.store.study_store import StudyStore
 from bowden.study.emg.importer import ImportOptions, import_emg
 from bowden.study.emg.stored import emg_imports
@@ -324,16 +322,10 @@ def test_a_recording_without_pulses_and_stores_without_trials_are_refused(
     assert "has sync events" in refused
 
 
-def test_analyze_reports_which_trials_had_emg_and_from_which_file(
-    short, short_store, tmp_path, capsys, monkeypatch
-):
+def test_analyze_reports_which_trials_had_emg_and_from_which_file(short, short_store, tmp_path, capsys):
     path = _edf(short, tmp_path / "P01_part.edf", pulses=[0, 1])
     assert main(["emg", "import", str(short_store), str(path), "--trigger-channel", TRIGGER, *MAP]) == 0
     report = tmp_path / "report.html"
-    # Three trials analysed in this process: the command's default pool would spawn a worker per core,
-    # each importing the analysis (most of the test's time); results do not depend on it
-    # (tests/study/test_parallel_study.py).
-    monkeypatch.setattr(bowden.study.analyze, "study_engine", lambda workers=None: study_engine(1))
     assert main(["analyze", str(short_store), "--report", str(report), "--quiet"]) == 0
     assert "analysed 3 trials" in capsys.readouterr().out
     text = report.read_text()
