@@ -65,6 +65,18 @@ SERIAL_GROUPS = {
     ),
 }
 _LANE_OF = {path: lane for lane, files in SERIAL_GROUPS.items() for path in files}
+# Files whose tests share a session-scoped fixture (tests/study/reduced_study.py: a reduced study and its
+# analyze --export): one unit of work, so that one worker builds it once, not each worker its own.
+SHARED_FIXTURE_GROUPS = {
+    "reduced study": (
+        "tests/study/test_pipeline.py",
+        "tests/study/test_parallel_study.py",
+        "tests/share/test_r_script.py",
+        "tests/share/test_bids_export.py",
+    ),
+}
+_UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS.items() for path in files}}
+_FIRST = (*SERIAL_GROUPS, *SHARED_FIXTURE_GROUPS)  # the lanes start at once, the longest unit next
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
@@ -77,22 +89,43 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     return max(cores, len(SERIAL_GROUPS))
 
 
+def _unit(nodeid: str) -> str:
+    """The unit of work a test belongs to: its lane, its shared fixture's group, else its file (a
+    file's tests share its module fixtures: spread over two workers, each would build them)."""
+    path = nodeid.split("::", 1)[0]
+    return _UNIT_OF.get(path, path)
+
+
 def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
-    """Each lane one unit of work for one worker, every other test its own.
+    """Each lane one unit of work for one worker, each shared-fixture group another, every other file
+    its own; units are handed out in collection order (:func:`pytest_collection_modifyitems`).
 
     xdist's own ``--dist loadgroup`` marks a group by rewriting the test's ``_nodeid``, which pytest 9.2
     no longer reads (``nodeid`` comes from ``_id``): the groups were silently spread over every worker.
-    Scheduling by the file's lane does not depend on that."""
+    Scheduling by the file's unit does not depend on that."""
     from xdist.scheduler import LoadScopeScheduling
+
+    config.option.loadscopereorder = False  # xdist's order (most tests first) would not put lanes first
 
     class LaneScheduling(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            return _LANE_OF.get(nodeid.split("::", 1)[0], nodeid)
+            return _unit(nodeid)
 
     return LaneScheduling(config, log)
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The lanes' tests first, then the shared-fixture groups, then the rest in collection order (the
+    same order on every worker: xdist checks that the collections agree)."""
+    def rank(item: pytest.Item) -> int:
+        unit = _unit(item.nodeid)
+        return _FIRST.index(unit) if unit in _FIRST else len(_FIRST)
+
+    items.sort(key=rank)  # stable: within a unit, the collection's order
+
+
 def pytest_configure(config: pytest.Config) -> None:
-    missing = [path for path in _LANE_OF if not (config.rootpath / path).exists()]
+    missing = [path for path in _UNIT_OF if not (config.rootpath / path).exists()]
     if missing:  # a renamed test file would silently leave its lane
-        raise pytest.UsageError(f"tests/conftest.py's SERIAL_GROUPS names files that do not exist: {missing}")
+        raise pytest.UsageError("tests/conftest.py's SERIAL_GROUPS or SHARED_FIXTURE_GROUPS names files "
+                                f"that do not exist: {missing}")
