@@ -23,9 +23,10 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 #   it to two at once (one serial lane alone took 8.6 minutes);
 # - LSL discovery sees every outlet on the machine (resolve scope machine), so two workers' streams of
 #   the same name would reach each other's inlets: every test that uses LSL is in the "suit" lane.
-# The lanes are balanced by their measured time (about 4.3 minutes each, idle, two cores); the rest
-# runs when a lane's worker is free. (Nicing the rest was tried: beside
-# two busy processes it left the suite a tenth of the CPU.)
+# The lanes take about 3 and 2.5 minutes (idle, two cores); the rest runs when a lane's worker is free.
+# Tried and dropped: nicing the rest (beside two busy processes it left the suite a tenth of the CPU);
+# a third worker for the rest beside the lanes (4 min 31 s idle, but beside two busy processes four
+# failures: the bench's IMU and controller and the recorder's writer starved).
 SERIAL_GROUPS = {
     "bench": (  # the mannequin bench in real time
         "tests/cli/test_bench_run_cli.py",
@@ -76,7 +77,21 @@ SHARED_FIXTURE_GROUPS = {
     ),
 }
 _UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS.items() for path in files}}
-_FIRST = (*SERIAL_GROUPS, *SHARED_FIXTURE_GROUPS)  # the lanes start at once, the longest unit next
+# The longest files outside the lanes (measured, 2026-11-27: 10–26 s each) go next, so that what is
+# left for the end are short units that even out the two workers' finishing times.
+LONGEST_FILES = (
+    "tests/study/test_emg_import.py",
+    "tests/web/test_browser.py",
+    "tests/study/test_analyze_contracts.py",
+    "tests/study/test_compensation_comparison.py",
+    "tests/sweep/test_runner.py",
+    "tests/web/test_browser_check.py",
+    "tests/study/test_export_memory.py",
+    "tests/study/test_report_reviewer.py",
+    "tests/sim/test_bench_study.py",
+    "tests/sim/test_paper_trends.py",
+)
+_FIRST = (*SERIAL_GROUPS, *SHARED_FIXTURE_GROUPS, *LONGEST_FILES)  # the lanes start at once
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
@@ -115,8 +130,8 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The lanes' tests first, then the shared-fixture groups, then the rest in collection order (the
-    same order on every worker: xdist checks that the collections agree)."""
+    """The lanes' tests first, then the shared-fixture groups and the longest files, then the rest in
+    collection order (the same order on every worker: xdist checks that the collections agree)."""
     def rank(item: pytest.Item) -> int:
         unit = _unit(item.nodeid)
         return _FIRST.index(unit) if unit in _FIRST else len(_FIRST)
@@ -125,7 +140,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    missing = [path for path in _UNIT_OF if not (config.rootpath / path).exists()]
+    missing = [path for path in (*_UNIT_OF, *LONGEST_FILES) if not (config.rootpath / path).exists()]
     if missing:  # a renamed test file would silently leave its lane
-        raise pytest.UsageError("tests/conftest.py's SERIAL_GROUPS or SHARED_FIXTURE_GROUPS names files "
-                                f"that do not exist: {missing}")
+        raise pytest.UsageError("tests/conftest.py names files that do not exist (SERIAL_GROUPS, "
+                                f"SHARED_FIXTURE_GROUPS, LONGEST_FILES): {missing}")
