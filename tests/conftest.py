@@ -97,9 +97,8 @@ _FIRST = (*SERIAL_GROUPS, *SHARED_FIXTURE_GROUPS, *LONGEST_FILES)  # the lanes s
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     """``-n auto``: one worker per core, at least one per lane. Each lane's tests run one after the
     other on one worker while the rest waits, so the lanes meet no CPU-bound neighbour. One worker more
-    was faster idle (6 min 16 s to 7 min 9 s) but beside two busy processes starved the lanes' devices
-    (a simulated motor silent 30 ms, a load cell silent 0.3 s) and the console's real-time browser
-    tests."""
+    was faster idle (4 min 31 s against 5 min 20 s on 2026-11-27) but beside two busy processes starved
+    the lanes' devices and the recorder's writer (four failures; see the comment above SERIAL_GROUPS)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     return max(cores, len(SERIAL_GROUPS))
 
