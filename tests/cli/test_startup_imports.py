@@ -60,14 +60,17 @@ def test_a_commands_help_imports_no_heavy_library(command):
     assert _heavy_imported_by(command, "--help") == []
 
 
+def _heavy_imported_running(script: str) -> list[str]:
+    """The heavy libraries a fresh interpreter has imported after ``script`` (which prints them)."""
+    result = subprocess.run([sys.executable, "-c", script, json.dumps(HEAVY)],
+                            capture_output=True, text=True, timeout=120, check=True)
+    return list(json.loads(result.stdout))
+
+
 def test_importing_the_identify_command_imports_no_heavy_library():
     # cli/identify.py reads bowden.identify.settings at parse time; the fitting and the figures are
     # imported when it runs.
-    result = subprocess.run(
-        [sys.executable, "-c", _IMPORT_IDENTIFY, json.dumps(HEAVY)],
-        capture_output=True, text=True, timeout=120, check=True,
-    )
-    assert json.loads(result.stdout) == []
+    assert _heavy_imported_running(_IMPORT_IDENTIFY) == []
 
 
 def test_bowden_help_imports_no_heavy_library():
@@ -76,11 +79,7 @@ def test_bowden_help_imports_no_heavy_library():
 
 
 def test_building_the_parser_imports_no_heavy_library():
-    result = subprocess.run(
-        [sys.executable, "-c", _BUILD_PARSER, json.dumps(HEAVY)],
-        capture_output=True, text=True, timeout=120, check=True,
-    )
-    assert json.loads(result.stdout) == []
+    assert _heavy_imported_running(_BUILD_PARSER) == []
 
 
 def test_a_command_imports_only_its_own_module():

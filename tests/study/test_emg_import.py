@@ -44,19 +44,27 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> Session:
     return simulate_session(tmp_path_factory.mktemp("session"))
 
 
-@pytest.fixture(scope="module")
-def edf(session: Session, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("edf") / "P01_session.edf"
+def _edf_of(session: Session, tmp_path_factory: pytest.TempPathFactory, name: str) -> Path:
+    path = tmp_path_factory.mktemp(name) / "P01_session.edf"
     write_edf(session, path)
     return path
 
 
-@pytest.fixture
-def store(session: Session, tmp_path: Path) -> Path:
+def _store_copy(session: Session, tmp_path: Path) -> Path:
     """A fresh copy of the session's store (trials and sync events, no EMG)."""
     copy = tmp_path / "study.db"
     shutil.copyfile(session.store, copy)
     return copy
+
+
+@pytest.fixture(scope="module")
+def edf(session: Session, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return _edf_of(session, tmp_path_factory, "edf")
+
+
+@pytest.fixture
+def store(session: Session, tmp_path: Path) -> Path:
+    return _store_copy(session, tmp_path)
 
 
 @pytest.fixture(scope="module")
@@ -67,17 +75,12 @@ def short(tmp_path_factory: pytest.TempPathFactory) -> Session:
 
 @pytest.fixture(scope="module")
 def short_edf(short: Session, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    path = tmp_path_factory.mktemp("short_edf") / "P01_session.edf"
-    write_edf(short, path)
-    return path
+    return _edf_of(short, tmp_path_factory, "short_edf")
 
 
 @pytest.fixture
 def short_store(short: Session, tmp_path: Path) -> Path:
-    """A fresh copy of the short session's store (trials and sync events, no EMG)."""
-    copy = tmp_path / "study.db"
-    shutil.copyfile(short.store, copy)
-    return copy
+    return _store_copy(short, tmp_path)
 
 
 def _alignment_errors(session: Session, store: Path) -> dict[int, float]:
