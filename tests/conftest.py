@@ -77,21 +77,19 @@ SHARED_FIXTURE_GROUPS = {
     ),
 }
 _UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS.items() for path in files}}
-# The longest files outside the lanes (measured, 2026-11-27: 10–26 s each) go next, so that what is
-# left for the end are short units that even out the two workers' finishing times.
-LONGEST_FILES = (
-    "tests/study/test_emg_import.py",
-    "tests/web/test_browser.py",
-    "tests/study/test_analyze_contracts.py",
-    "tests/study/test_compensation_comparison.py",
+# Files that start worker processes, a Dask cluster or a browser go last, so that they meet the lanes'
+# real-time tests as little as possible: handed out early (2026-11-27, as "the longest first"), a
+# resumed bench run beside them stopped on "the IMU does not follow the arm" in two idle runs of three.
+AFTER_THE_LANES = (
+    "reduced study",  # its process pool and Dask cluster (tests/study/test_parallel_study.py)
     "tests/sweep/test_runner.py",
+    "tests/sweep/test_cli.py",
+    "tests/cli/test_study_engine.py",
+    "tests/analysis/test_outcomes.py",
+    "tests/study/test_compensation_comparison.py",
+    "tests/web/test_browser.py",
     "tests/web/test_browser_check.py",
-    "tests/study/test_export_memory.py",
-    "tests/study/test_report_reviewer.py",
-    "tests/sim/test_bench_study.py",
-    "tests/sim/test_paper_trends.py",
 )
-_FIRST = (*SERIAL_GROUPS, *SHARED_FIXTURE_GROUPS, *LONGEST_FILES)  # the lanes start at once
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
@@ -129,11 +127,15 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """The lanes' tests first, then the shared-fixture groups and the longest files, then the rest in
-    collection order (the same order on every worker: xdist checks that the collections agree)."""
+    """The lanes' tests first, then the rest in collection order, then the files that start processes
+    or a browser (the same order on every worker: xdist checks that the collections agree)."""
+    lanes = tuple(SERIAL_GROUPS)
+
     def rank(item: pytest.Item) -> int:
         unit = _unit(item.nodeid)
-        return _FIRST.index(unit) if unit in _FIRST else len(_FIRST)
+        if unit in lanes:
+            return lanes.index(unit)
+        return len(lanes) + 1 + AFTER_THE_LANES.index(unit) if unit in AFTER_THE_LANES else len(lanes)
 
     items.sort(key=rank)  # stable: within a unit, the collection's order
 
@@ -153,7 +155,8 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    missing = [path for path in (*_UNIT_OF, *LONGEST_FILES) if not (config.rootpath / path).exists()]
+    files = [unit for unit in AFTER_THE_LANES if unit not in SHARED_FIXTURE_GROUPS]
+    missing = [path for path in (*_UNIT_OF, *files) if not (config.rootpath / path).exists()]
     if missing:  # a renamed test file would silently leave its lane
         raise pytest.UsageError("tests/conftest.py names files that do not exist (SERIAL_GROUPS, "
-                                f"SHARED_FIXTURE_GROUPS, LONGEST_FILES): {missing}")
+                                f"SHARED_FIXTURE_GROUPS, AFTER_THE_LANES): {missing}")

@@ -38,8 +38,22 @@ def test_the_low_wall_holds_a_lowering_stroke_up_and_is_off_otherwise():
 def test_the_joint_follows_the_imu_at_rest():
     joint = JointReference()
     assert joint.elevation_rad(1.0, fallback_rad=0.7) == 0.7  # no rest seen: the IMU's
-    joint.update(joint_rad=1.2, elevation_rad=1.0, dt_s=0.001)  # first: taken as it is
-    assert joint.offset_rad == pytest.approx(0.2)
-    joint.update(joint_rad=1.3, elevation_rad=1.0, dt_s=0.5)  # half a time constant towards 0.3
+    joint.update(joint_rad=1.2, elevation_rad=1.0, dt_s=0.5)
+    assert joint.elevation_rad(1.0, fallback_rad=0.7) == 0.7  # half a second of rest: still the IMU's
+    joint.update(joint_rad=1.4, elevation_rad=1.0, dt_s=0.5)  # a second: the mean of its offsets
+    assert joint.offset_rad == pytest.approx(0.3)
+    joint.update(joint_rad=1.2, elevation_rad=1.0, dt_s=0.5)  # then half a time constant towards 0.2
     assert joint.offset_rad == pytest.approx(0.25)
     assert joint.elevation_rad(2.0, fallback_rad=0.0) == pytest.approx(1.75)
+
+
+def test_a_first_sample_from_the_imus_calibration_does_not_become_the_reference():
+    # The run's first IMU sample still says the calibration's hanging arm (0°) with the joint at 11.2°;
+    # then a second of rest with both agreeing at 11.2°, 1 ms a cycle. Taken as it was, the first
+    # sample left the joint 4° (e^-1 of 11.2°) off the IMU after that second: more than the 5° of the
+    # check only on a shorter rest, which a busy host gave.
+    joint = JointReference()
+    joint.update(joint_rad=math.radians(11.2), elevation_rad=0.0, dt_s=0.001)
+    for _ in range(1000):
+        joint.update(joint_rad=math.radians(11.2), elevation_rad=math.radians(11.2), dt_s=0.001)
+    assert abs(joint.offset_rad) < math.radians(0.02)

@@ -55,17 +55,30 @@ class SoftWalls:
 
 
 class JointReference:
-    """The mannequin joint's angle minus the IMU's elevation, followed while the arm is still (a
-    running mean over about a second of rest: the IMU's noise averages out)."""
+    """The mannequin joint's angle minus the IMU's elevation, learned while the arm is still: the mean
+    of the first ``_REFERENCE_S`` of rest, then a running mean with that time constant (the IMU's noise
+    averages out).
+
+    Nothing is known before that first second: one sample is not a reference. At a run's start the
+    first cycle counts as still (the IMU's speed comes from running means that begin there) while
+    the arm, released at 20°, begins to fall under its load and the IMU's sample lags it; an offset
+    taken from that one sample put the joint 11° off the IMU at the first positioning, a fault ("the
+    IMU does not follow the arm") in five full-suite runs on 2026-11-27, each time 11.2–11.4°."""
 
     def __init__(self) -> None:
         self.offset_rad = math.nan
+        self._first_sum_rad_s = 0.0  # the first second of rest: the offsets' integral, and its length
+        self._first_s = 0.0
 
     def update(self, joint_rad: float, elevation_rad: float, dt_s: float) -> None:
-        """One sample with the arm at rest."""
+        """One sample with the arm at rest, ``dt_s`` since the last cycle."""
         offset = joint_rad - elevation_rad
-        if not math.isfinite(self.offset_rad):
-            self.offset_rad = offset
+        if self._first_s < _REFERENCE_S or not math.isfinite(self.offset_rad):
+            self._first_sum_rad_s += offset * dt_s
+            self._first_s += dt_s
+            if self._first_s >= _REFERENCE_S:
+                self.offset_rad = self._first_sum_rad_s / self._first_s
+            return
         self.offset_rad += min(dt_s / _REFERENCE_S, 1.0) * (offset - self.offset_rad)
 
     def elevation_rad(self, joint_rad: float, fallback_rad: float) -> float:
