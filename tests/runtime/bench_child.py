@@ -15,7 +15,7 @@ import sys
 from bowden.protocol.bench import BenchProtocol
 from bowden.runtime.bench import PHASE_STROKE, BenchDevices, BenchRun, BenchRunConfig, BenchSafety
 from bowden.runtime.bench_recording import BenchRecordingWriter
-from bowden.runtime.signals import interrupt_on_signals
+from bowden.runtime.signals import stop_on_signals
 from bowden.sim.backend import open_sim_bench
 
 
@@ -52,7 +52,7 @@ def main(path: str, speeds: str, loads: str, repetitions: str, high_deg: str, re
         with BenchRecordingWriter(path, config.protocol_fingerprint(), resume=resume) as writer:
             run = BenchRun(devices, config, writer)
             clock.run = run
-            with interrupt_on_signals():  # as `bowden bench run`: Ctrl-C even if started in the background
+            with stop_on_signals(run.request_stop):  # as `bowden bench run`, even in the background
                 report = run.run()
             if report.complete:
                 writer.finish()

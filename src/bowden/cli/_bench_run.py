@@ -22,7 +22,7 @@ from bowden.model import CompensationModel
 from bowden.protocol.bench import BenchProtocol, BenchStroke, LatencyChirp, StudyStrokes
 from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig, BenchSafety
 from bowden.runtime.bench_recording import BenchRecordingWriter
-from bowden.runtime.signals import interrupt_on_signals
+from bowden.runtime.signals import stop_on_signals
 from bowden.runtime.slack import SlackTakeUp
 
 EXIT_FAULT = 3
@@ -219,11 +219,15 @@ def run_bench_config(args: argparse.Namespace, config: BenchRunConfig, *,
             tdu: Any = backend.motor  # an AK60Motor on the bench (command_mit; checked by the run's use)
             devices = BenchDevices(tdu=tdu, mannequin=backend.mannequin, imu=backend.imu,
                                    load_cell=backend.load_cell, clock=backend.clock)
-            with _realtime(args) as settings, interrupt_on_signals():
+            bench = BenchRun(devices, config, writer, progress=progress, model_source=model_source,
+                             announce=_say)
+            # SIGINT and SIGTERM (whatever the process inherited: a script's background job ignores
+            # SIGINT) ask for the safe stop, taken at the next cycle's start: an exception raised
+            # wherever the signal lands could leave a driver's lock held or cut the safe stop short.
+            with _realtime(args) as settings, stop_on_signals(bench.request_stop):
                 if settings:
                     _say(f"real-time settings: {settings}")
-                report = BenchRun(devices, config, writer, progress=progress, model_source=model_source,
-                                  announce=_say).run()
+                report = bench.run()
         if live:
             print(file=sys.stderr)
         for error in report.exit_errors:

@@ -47,6 +47,7 @@ from bowden.protocol.bench import StudyBlock
 from bowden.runtime.bench_config import (
     BenchDevices,
     BenchFault,
+    BenchInterrupted,
     BenchMotor,
     BenchReport,
     BenchRunConfig,
@@ -119,11 +120,11 @@ class BenchRun(BenchSegments):
             report.data_gaps = self._cell_watch.gaps
             self._keep_partial_log()
             return report
-        except BaseException as error:  # a bug, Ctrl-C, a full disk: the motors first
+        except BaseException as error:  # a stop asked for, a bug, Ctrl-C, a full disk: the motors first
             report.safe_at_s = self._safe_stop(report.exit_errors)
             report.data_gaps = self._cell_watch.gaps
             self._keep_partial_log()
-            if isinstance(error, KeyboardInterrupt):
+            if isinstance(error, BenchInterrupted | KeyboardInterrupt):
                 report.fault = "interrupted"
                 return report
             raise
@@ -227,6 +228,7 @@ class BenchRun(BenchSegments):
             if clock.now() > waited_until:
                 raise BenchFault(f"no IMU sample within {_FIRST_SAMPLE_WAIT_S:g} s of enabling the motors")
             clock.sleep_until(clock.now() + 0.001)
+            self._stop_if_requested()
         now = clock.now()
         self._origin_s = now
         self._deadline = now
@@ -283,6 +285,6 @@ def _quietly(action: Callable[[], None]) -> None:
 
 __all__ = [
     "LOG_COLUMNS", "PHASE_HOLD", "PHASE_POSITION", "PHASE_SETTLE", "PHASE_STROKE", "PHASE_TAKE_UP",
-    "RECORDING_COLUMNS", "BenchDevices", "BenchFault", "BenchMotor", "BenchReport",
+    "RECORDING_COLUMNS", "BenchDevices", "BenchFault", "BenchInterrupted", "BenchMotor", "BenchReport",
     "BenchRun", "BenchRunConfig", "BenchSafety", "Progress",
 ]

@@ -258,3 +258,8 @@ class BenchReport:
 
 class BenchFault(BowdenError):
     """A watchdog of the bench fired (the message names it); both motors are already safe."""
+
+
+class BenchInterrupted(Exception):
+    """The operator asked the run to stop (:meth:`BenchState.request_stop`, e.g. from a signal
+    handler); raised at the start of the next cycle, where no device call is under way."""

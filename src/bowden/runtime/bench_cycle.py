@@ -24,6 +24,7 @@ class BenchCycle(BenchSensing):
         clock = self.devices.clock
         self._deadline += self.period_s
         clock.sleep_until(self._deadline)
+        self._stop_if_requested()  # here, between cycles, no device call is under way
         now = clock.now()
         if now - self._deadline > _HOST_STALL_S:
             # Behind (a stall, or cycles late one after another): no burst of catch-up cycles.

@@ -15,10 +15,7 @@ from collections.abc import Callable
 from bowden.hardware.protocols import MotorState
 from bowden.protocol.bench import BenchStroke
 from bowden.runtime.bench_cell import LoadCellWatch
-from bowden.runtime.bench_config import (
-    BenchDevices,
-    BenchRunConfig,
-)
+from bowden.runtime.bench_config import BenchDevices, BenchInterrupted, BenchRunConfig
 from bowden.runtime.bench_ends import LearnedEnds
 from bowden.runtime.bench_recording import BenchRecordingWriter
 from bowden.runtime.bench_walls import JointReference, SoftWalls
@@ -99,6 +96,16 @@ class BenchState:
         self._cell_watch = LoadCellWatch(config.safety.load_cell_max_age_s,
                                          config.safety.load_cell_reader_max_idle_s)
         self._gap_in_attempt = False  # the load cell's reader starved while this attempt was recorded
+        self._stop_reason: str | None = None  # set by request_stop (a signal handler), seen each cycle
+
+    def request_stop(self, reason: str) -> None:
+        """Ask the run to stop safely at the start of its next cycle (safe in a signal handler: one
+        attribute write). A request during the safe stop changes nothing: the stop goes on."""
+        self._stop_reason = reason
+
+    def _stop_if_requested(self) -> None:
+        if self._stop_reason is not None:
+            raise BenchInterrupted(self._stop_reason)
 
     @property
     def phase(self) -> int:

@@ -1,8 +1,12 @@
-"""SIGINT/SIGTERM → a safe stop of the control loop.
+"""SIGINT/SIGTERM → a safe stop of the control loop or the bench run.
 
-The handler only sets the loop's stop request (one attribute write, safe in a signal handler); the
-loop sees it at the top of its next cycle and starts the safe-state ramp, so the stop begins within
-one cycle. Handlers can only be installed from the main thread; elsewhere this does nothing and says so.
+The handler only sets the stop request (one attribute write, safe in a signal handler); the loop sees
+it at the top of its next cycle and starts the safe-state ramp, so the stop begins within one cycle.
+It is never an exception raised wherever the signal lands: that could leave a driver's lock held (a
+bench run then hung at its exit) or cut the safe stop itself short. The handler replaces whatever
+the process inherited: a script's background job ignores SIGINT (POSIX), and SIGTERM's default would
+end the process without its safe stop. Handlers can only be installed from the main thread;
+elsewhere this does nothing and says so.
 """
 
 from __future__ import annotations
@@ -32,26 +36,6 @@ def stop_on_signals(
         request_stop(f"signal {signal.Signals(signum).name}")
 
     previous = {sig: signal.signal(sig, handler) for sig in signals}
-    try:
-        yield
-    finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)
-
-
-@contextmanager
-def interrupt_on_signals(
-    signals: Sequence[signal.Signals] = (signal.SIGINT, signal.SIGTERM),
-) -> Iterator[None]:
-    """Within the block, each of ``signals`` raises KeyboardInterrupt in the main thread (Python's own
-    Ctrl-C), whatever the process inherited: a command started in the background by a script ignores
-    SIGINT (POSIX), and SIGTERM would end it without its safe stop. For code whose safe stop is a
-    ``KeyboardInterrupt`` handler (the bench run); restored after."""
-    if threading.current_thread() is not threading.main_thread():
-        _log.warning("signal handlers can only be installed from the main thread; not installed")
-        yield
-        return
-    previous = {sig: signal.signal(sig, signal.default_int_handler) for sig in signals}
     try:
         yield
     finally:
