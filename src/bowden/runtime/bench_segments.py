@@ -111,7 +111,7 @@ class BenchSegments(BenchStrokes):
         """Run ``task`` on a thread while the loop holds the arm still (the mannequin in MIT mode, the
         TDU at the chirp's holding torque); its result, or its exception. The motors are commanded
         every cycle meanwhile: a loop that paused for the seconds an identification takes would leave
-        them on their last command (the simulated mannequin holds its last MIT torque, and a weightless
+        them on their last command (when the simulated mannequin held its last MIT torque, a weightless
         arm drifted to 141°)."""
         holding = self.config.latency.holding_torque_nm if self.config.latency else 0.5
         study = self.config.study

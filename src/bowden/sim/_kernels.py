@@ -155,6 +155,12 @@ N_STATE = 28
 ARM_PRESCRIBED = 0  # arm_a = elevation, arm_b = elevation velocity
 ARM_TORQUE = 1  # arm_a = external torque on the arm (Nm, > 0 raises)
 ARM_HUMAN = 2  # torque from the virtual participant's controller (human parameter vector)
+# The mannequin's joint motor in MIT mode, evaluated at every step as the motor's own loop does: the
+# "human" vector holds (elevation, elevation velocity, kp, kd, feedforward torque, torque limit) in the
+# arm's sense (a positive torque raises). Held torque between the host's commands instead overshot a
+# 4 s chirp by 28 % beside busy processes (a stalled host left a stiff position loop's torque applied).
+ARM_IMPEDANCE = 3
+A_ELEVATION, A_VELOCITY, A_KP, A_KD, A_FEEDFORWARD, A_LIMIT = 0, 1, 2, 3, 4, 5
 
 # --- motor command modes ------------------------------------------------------------------------
 MOTOR_TORQUE = 0  # cmd[0] = torque
@@ -520,7 +526,8 @@ def integrate(
 ) -> int:
     """Advance up to ``n_steps`` plant steps with a held motor command; row ``i`` of ``record`` gets
     the state after step ``i``. For ``ARM_HUMAN``, ``arm_a`` and ``arm_b`` hold unit normal draws
-    for the motor noise and the lag's wander, and ``h`` the participant (``H_*``). With
+    for the motor noise and the lag's wander, and ``h`` the participant (``H_*``); for
+    ``ARM_IMPEDANCE``, ``h`` holds the joint motor's command (``A_*``). With
     ``stop_direction`` +1 (−1) integration stops after the step where the elevation reaches
     ``stop_elevation`` from below (above); returns the steps done."""
     lag = 1.0 - math.exp(-dt / p[P_CURRENT_TAU])
@@ -536,6 +543,11 @@ def integrate(
             torque = 0.0
         if arm_mode == ARM_HUMAN:
             external = human_torque(x, p, h, dt, arm_a[i], arm_b[i])
+            plant_step(x, p, dt, torque, lag, ARM_TORQUE, external, 0.0)
+        elif arm_mode == ARM_IMPEDANCE:
+            external = (h[A_KP] * (h[A_ELEVATION] - x[X_ARM_TH]) + h[A_KD] * (h[A_VELOCITY] - x[X_ARM_THD])
+                        + h[A_FEEDFORWARD])
+            external = min(max(external, -h[A_LIMIT]), h[A_LIMIT])
             plant_step(x, p, dt, torque, lag, ARM_TORQUE, external, 0.0)
         else:
             external = arm_a[i]

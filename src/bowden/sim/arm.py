@@ -28,7 +28,7 @@ class ArmDriver(Protocol):
 
     @property
     def mode(self) -> int:
-        """``ARM_PRESCRIBED``, ``ARM_TORQUE`` or ``ARM_HUMAN`` of :mod:`bowden.sim._kernels`."""
+        """``ARM_PRESCRIBED``, ``ARM_TORQUE``, ``ARM_HUMAN`` or ``ARM_IMPEDANCE`` (sim._kernels)."""
         ...
 
     @property
@@ -47,7 +47,7 @@ class ArmDriver(Protocol):
         ...
 
     def human(self) -> NDArray[np.float64] | None:
-        """The participant vector for ``ARM_HUMAN``, else None."""
+        """The participant vector for ``ARM_HUMAN``, the motor's command for ``ARM_IMPEDANCE``, else None."""
         ...
 
 
@@ -103,10 +103,11 @@ class PrescribedArm:
 
 
 class MannequinArm:
-    """The bench's motorised mannequin arm, torque-controlled to load the cable.
+    """The bench's motorised mannequin arm, its joint motor loading the cable.
 
-    ``load_torque_nm`` (> 0 pulls the arm down, against the cable) is the mannequin motor's command
-    and may be changed between calls, as the bench does.
+    ``load_torque_nm`` (> 0 pulls the arm down, against the cable) is the mannequin motor's torque
+    command and may be changed between calls, as the bench does; :meth:`hold_impedance` puts the motor
+    in MIT mode instead (the bench's latency and study-like segments), evaluated at every plant step.
     """
 
     def __init__(
@@ -117,12 +118,36 @@ class MannequinArm:
         initial_elevation_rad: float = math.radians(20.0),
     ) -> None:
         self._parameters = parameters if parameters is not None else ArmParameters()
-        self.load_torque_nm = load_torque_nm
+        self._load_torque_nm = load_torque_nm
+        self._impedance: NDArray[np.float64] | None = None
         self._initial = initial_elevation_rad
 
     @property
+    def load_torque_nm(self) -> float:
+        """The torque command (> 0 lowers the arm); in MIT mode, its feedforward torque."""
+        return self._load_torque_nm
+
+    @load_torque_nm.setter
+    def load_torque_nm(self, torque_nm: float) -> None:
+        self._load_torque_nm = torque_nm
+        self._impedance = None  # a torque command ends MIT mode
+
+    def hold_impedance(self, elevation_rad: float, elevation_velocity_rad_s: float, kp_nm_rad: float,
+                       kd_nms_rad: float, load_torque_nm: float, torque_limit_nm: float) -> None:
+        """MIT mode about ``elevation_rad`` (the arm's sense), with ``load_torque_nm`` (> 0 lowers the
+        arm) as its feedforward and the motor's peak torque as the limit, from now on."""
+        values = (elevation_rad, elevation_velocity_rad_s, kp_nm_rad, kd_nms_rad, load_torque_nm,
+                  torque_limit_nm)
+        if not all(math.isfinite(v) for v in values) or kp_nm_rad < 0.0 or kd_nms_rad < 0.0:
+            raise ParameterError(f"MannequinArm.hold_impedance needs finite values and kp, kd >= 0, "
+                                 f"got {values!r}")
+        self._load_torque_nm = load_torque_nm
+        self._impedance = np.array([elevation_rad, elevation_velocity_rad_s, kp_nm_rad, kd_nms_rad,
+                                    -load_torque_nm, torque_limit_nm])
+
+    @property
     def mode(self) -> int:
-        return k.ARM_TORQUE
+        return k.ARM_TORQUE if self._impedance is None else k.ARM_IMPEDANCE
 
     @property
     def arm_parameters(self) -> ArmParameters:
@@ -134,12 +159,12 @@ class MannequinArm:
     def inputs(
         self, times_s: NDArray[np.float64], rng: np.random.Generator
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        if not math.isfinite(self.load_torque_nm):
-            raise ParameterError(f"MannequinArm.load_torque_nm must be finite, got {self.load_torque_nm!r}")
-        return np.full_like(times_s, -self.load_torque_nm), np.zeros_like(times_s)
+        if not math.isfinite(self._load_torque_nm):
+            raise ParameterError(f"MannequinArm.load_torque_nm must be finite, got {self._load_torque_nm!r}")
+        return np.full_like(times_s, -self._load_torque_nm), np.zeros_like(times_s)
 
     def human(self) -> NDArray[np.float64] | None:
-        return None
+        return self._impedance
 
 
 class ParticipantArm:

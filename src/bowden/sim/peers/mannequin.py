@@ -58,15 +58,19 @@ class MannequinJoint:
 
     def command_motor_mit(self, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
                           torque_nm: float) -> MotorState:
-        """An MIT-mode command in the motor's sense (position: minus the elevation), evaluated once now
-        and held until the next command (the bench's impedance mode: its latency and study-like segments)."""
-        def current(suit: Any) -> MotorState:
-            return self._state(suit, self._arm.load_torque_nm)
+        """An MIT-mode command in the motor's sense (position: minus the elevation), evaluated at every
+        plant step from now on, as the motor's own loop does (the bench's impedance mode: its latency
+        and study-like segments); the joint's state now, with the torque the law gives now."""
+        limit = self.torque_limit_nm
 
-        now = self._plant.call(current)
-        torque = (torque_nm + kp * (position_rad - now.position_rad)
-                  + kd * (velocity_rad_s - now.velocity_rad_s))
-        return self.command_motor(torque)
+        def apply(suit: Any) -> MotorState:
+            self._arm.hold_impedance(-position_rad, -velocity_rad_s, kp, kd, torque_nm, limit)
+            state = suit.true_state()
+            torque = (torque_nm + kp * (position_rad + float(state.elevation_rad))
+                      + kd * (velocity_rad_s + float(state.elevation_velocity_rad_s)))
+            return self._state(suit, min(max(torque, -limit), limit))
+
+        return self._plant.call(apply)
 
     def _state(self, suit: Any, torque_nm: float) -> MotorState:
         state = suit.true_state()
