@@ -1,8 +1,9 @@
 """Child process of the bench's resume tests: runs (or resumes) a bench protocol on the simulated
 bench and says on stdout when each stroke's own motion starts, so the parent can interrupt it there.
 
-Usage: ``bench_child.py RECORDING SPEEDS LOADS REPETITIONS HIGH_DEG [resume]`` (speeds and loads
-comma-separated; the strokes go from 20° to HIGH_DEG).
+Usage: ``bench_child.py RECORDING SPEEDS LOADS REPETITIONS HIGH_DEG POSITION_SPEED [resume]`` (speeds
+and loads comma-separated; the strokes go from 20° to HIGH_DEG; POSITION_SPEED is
+``BenchRunConfig.position_speed_rad_s``, of the unrecorded moves between strokes).
 Prints ``stroke K`` (flushed) as stroke K's spool starts to move, ``done COMPLETE FAULT`` at the end;
 a SIGINT is the Ctrl-C of ``bowden bench run``: the run stops safely and reports "interrupted".
 """
@@ -40,11 +41,13 @@ class AnnouncingClock:
         self.clock.sleep_until(deadline_s)
 
 
-def main(path: str, speeds: str, loads: str, repetitions: str, high_deg: str, resume: bool) -> None:
+def main(path: str, speeds: str, loads: str, repetitions: str, high_deg: str, position_speed: str,
+         resume: bool) -> None:
     protocol = BenchProtocol(spool_speeds_rad_s=tuple(map(float, speeds.split(","))),
                              loads_nm=tuple(map(float, loads.split(","))), repetitions=int(repetitions),
                              high_rad=math.radians(float(high_deg)))
-    config = BenchRunConfig(protocol=protocol, safety=BenchSafety().on_shared_host())
+    config = BenchRunConfig(protocol=protocol, safety=BenchSafety().on_shared_host(),
+                            position_speed_rad_s=float(position_speed))
     with open_sim_bench() as backend:
         clock = AnnouncingClock(backend.clock)
         devices = BenchDevices(tdu=backend.motor, mannequin=backend.mannequin, imu=backend.imu,
@@ -60,4 +63,4 @@ def main(path: str, speeds: str, loads: str, repetitions: str, high_deg: str, re
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:6], resume=len(sys.argv) > 6)
+    main(*sys.argv[1:7], resume=len(sys.argv) > 7)

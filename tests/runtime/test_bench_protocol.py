@@ -86,8 +86,10 @@ def test_the_fastest_lowering_under_the_lightest_load_covers_the_range(tmp_path)
     # learned: a slow move to the high end first (the low end is learned bringing the arm down to the
     # first stroke's start). The raising stroke flings the arm (the cable goes slack as the spool
     # brakes): the mannequin's soft wall stops it before the 120° guard (it reached 120.2° without).
+    # The unrecorded moves (the scouting move among them) at 2 rad/s, not 1: 4 s shorter, and 6 rad/s
+    # is still a stroke too fast to brake on what the way there showed.
     protocol = BenchProtocol(spool_speeds_rad_s=(6.0,), loads_nm=(0.5,), repetitions=1)
-    report, bench = run(protocol, tmp_path / "fast.csv")
+    report, bench = run(protocol, tmp_path / "fast.csv", position_speed_rad_s=2.0)
     assert report.complete, report.fault
     assert bench.scouting_moves >= 1
     assert_every_stroke_covers_the_range(tmp_path / "fast.csv", protocol)
@@ -127,8 +129,10 @@ def test_a_run_killed_and_interrupted_at_fast_lowering_strokes_resumes_to_the_sa
     # order. (The first resume's −4 rad/s lowering reached 9.8°, past the guard, before the low
     # soft wall; the child said so, and the test's reader, waiting for stroke 7, swallowed it.)
     path = tmp_path / "wire.csv"
-    # A range of 20°–70° keeps it quick (the strokes' ends, not their length, are what resumes).
-    options = ["1,4", "1,3", "1", "70"]
+    # A range of 20°–70° keeps it quick (the strokes' ends, not their length, are what resumes), and so
+    # do the children's unrecorded moves between strokes at 2 rad/s (the last resume's at the
+    # command's 1 rad/s: they are not part of the protocol a resume must share).
+    options = ["1,4", "1,3", "1", "70", "2"]
     killed = child(path, options)
     said = interrupt_at(killed, 3, signal.SIGKILL, 0.3)
     assert killed.returncode == -signal.SIGKILL, said
