@@ -62,8 +62,9 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
             return identify(recording, latency)
 
         report = BenchRun(devices, config, writer, model_source=slow_identify, announce=announce).run()
-    # The loop held the arm while the model was identified (a loop that paused left the simulated
-    # mannequin on its last torque: the arm drifted out of the range).
+    # The loop held the arm while the model was identified (a loop that paused would leave both motors
+    # on their last command: the simulated mannequin once held its last torque, and the arm drifted out
+    # of the range).
     assert report.fault == "interrupted", report.fault
     assert report.strokes_done == 6 and report.strokes_total == 7  # 4 strokes, the chirp, 1 block of 2
     assert "latency chirp" in told[0]
