@@ -42,6 +42,7 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
                                high_rad=math.radians(80.0)),
         latency=LatencyChirp(duration_s=4.0),
         study=StudyStrokes(supports=(0.5,), speeds=("V3",), repetitions=3),
+        position_speed_rad_s=2.0,  # the unrecorded moves between strokes (not part of the protocol)
     )
     config = replace(config, safety=config.safety.on_shared_host())  # its devices share this host
     told: list[str] = []
