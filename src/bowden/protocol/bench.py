@@ -205,10 +205,10 @@ class StudyStrokes:
     """Segment 3 of the bench protocol: the study's minimum-jerk cycle (20° → 100° → 20° at the V1–V3
     peak speeds) driven by the mannequin's motor in impedance mode (MIT mode about the reference:
     ``stiffness_nm_rad``, ``damping_nms_rad``, the mannequin arm's inertia and the support law's
-    nominal torque fed forward) while the TDU runs the controller at ``controller_rate_hz`` with one
-    compensation. For each support, each speed, each compensation in turn: ``rest_s`` at rest at the
-    low end, then ``repetitions`` cycles. The same numbers as the batch bench's
-    :mod:`bowden.sim.bench_study`.
+    nominal torque fed forward, with a wearer's motor noise, :class:`MotorNoise`) while the TDU runs
+    the controller at ``controller_rate_hz`` with one compensation. For each support, each speed,
+    each compensation in turn: ``rest_s`` at rest at the low end, then ``repetitions`` cycles. The
+    same numbers as the batch bench's :mod:`bowden.sim.bench_study`.
 
     Parameters
     ----------
@@ -240,6 +240,11 @@ class StudyStrokes:
     subject_height_m: float = 1.64
     subject_mass_kg: float = 49.4
     subject_sex: str = "female"
+    # A wearer's motor noise on the mannequin's torque (:class:`MotorNoise`): its constant part (Nm),
+    # the part growing with the feed-forward torque, its correlation time (s).
+    motor_noise_nm: float = 0.5
+    motor_noise_fraction: float = 0.01
+    motor_noise_time_s: float = 0.25
 
     def __post_init__(self) -> None:
         from bowden.contracts import SPEEDS
@@ -255,6 +260,10 @@ class StudyStrokes:
             raise ParameterError(f"the study-like segment needs 2-50 repetitions, got {self.repetitions}")
         if not (0.0 < self.low_rad < self.high_rad < math.pi and 0.2 <= self.rest_s <= 10.0):
             raise ParameterError("StudyStrokes needs 0 < low_rad < high_rad < 180° and rest_s in [0.2, 10] s")
+        if not (0.0 <= self.motor_noise_nm <= 5.0 and 0.0 <= self.motor_noise_fraction <= 0.2
+                and 0.01 <= self.motor_noise_time_s <= 5.0):
+            raise ParameterError("the mannequin's motor noise needs 0–5 Nm, a fraction of 0–0.2 and a "
+                                 "correlation time of 0.01–5 s")
         if not (0.0 < self.stiffness_nm_rad <= 500.0 and 0.0 <= self.damping_nms_rad <= 5.0):
             raise ParameterError("the mannequin's gains must be within the AK80-9's MIT ranges: "
                                  "kp 0–500, kd 0–5")
@@ -275,3 +284,33 @@ class StudyStrokes:
     def block_duration_s(self, speed: str) -> float:
         """How long a block at ``speed`` is recorded: the rest, the cycles, half a second after."""
         return self.rest_s + self.repetitions * self.cycle(speed).period_s + 0.5
+
+
+class MotorNoise:
+    """A wearer's motor noise for the mannequin's torque in one study-like block, one loop period
+    at a time: (``motor_noise_nm`` + ``motor_noise_fraction`` · |feed-forward|) · z, z a unit
+    Ornstein–Uhlenbeck process with correlation time ``motor_noise_time_s`` — the simulated cohort's
+    mean (signal-dependent noise, Harris & Wolpert 1998, Nature 394:780; the batch bench's
+    mannequin, :mod:`bowden.sim.bench_study`).
+
+    A noise-free mannequin creeps through the slow turn held back by the stuck cable, as no wearer
+    does, and the bench then judged a spike the study does not see (docs/dynamic_compensation.md, "A
+    noise-free mannequin is not a wearer at the slow turn"). The draws depend only on the block's
+    support and speed, so each compensation meets the same noise: the strokes stay paired.
+    """
+
+    def __init__(self, strokes: StudyStrokes, block: StudyBlock, period_s: float) -> None:
+        from bowden.contracts import SPEEDS
+
+        support = strokes.supports.index(block.support) if block.support in strokes.supports else 0
+        self._rng = np.random.default_rng([28, support, SPEEDS.index(block.speed)])
+        self._decay = math.exp(-period_s / strokes.motor_noise_time_s)
+        self._spread = math.sqrt(1.0 - self._decay * self._decay)
+        self._constant_nm = strokes.motor_noise_nm
+        self._fraction = strokes.motor_noise_fraction
+        self._state = 0.0
+
+    def torque_nm(self, feedforward_nm: float) -> float:
+        """The noise torque of the next loop period (> 0 raises, as the feed-forward)."""
+        self._state = self._decay * self._state + self._spread * float(self._rng.standard_normal())
+        return (self._constant_nm + self._fraction * abs(feedforward_nm)) * self._state

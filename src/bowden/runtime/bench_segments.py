@@ -22,7 +22,7 @@ import numpy as np
 from bowden.control import Controller
 from bowden.errors import TransmitError
 from bowden.model import AssistanceParameters, desired_tension_n
-from bowden.protocol.bench import StudyBlock
+from bowden.protocol.bench import MotorNoise, StudyBlock
 from bowden.protocol.minimum_jerk import minimum_jerk_position
 from bowden.runtime.bench_config import BenchFault
 from bowden.runtime.bench_state import PHASE_LATENCY, PHASE_MANNEQUIN_MOVE, PHASE_STUDY, joint_rad
@@ -189,6 +189,7 @@ class BenchSegments(BenchStrokes):
         codes = (block.index, support_code(block.support), SPEED_CODES[block.speed],
                  COMPENSATION_CODES[block.compensation])
         controller.reset()
+        noise = MotorNoise(study, block, self.period_s)
         torque = 0.0
         command: Any = None
         rows: list[tuple[float, ...]] = []
@@ -201,6 +202,7 @@ class BenchSegments(BenchStrokes):
             # The mannequin knows the suit: the support law's nominal torque and its arm's inertia are
             # fed forward, the impedance takes up the rest (sim/bench_study's mannequin).
             lift = self.config.mannequin_inertia_kgm2 * acceleration - law * geometry.moment_arm_m(elevation)
+            lift += noise.torque_nm(lift)  # a wearer's arm is never that smooth (MotorNoise)
             if self._cycle % every == 0:
                 sample = self.devices.imu.read()
                 tdu = self._tdu_state

@@ -1,0 +1,50 @@
+"""The study-like segment's mannequin moves with a wearer's motor noise (``MotorNoise``): an
+Ornstein–Uhlenbeck torque of the protocol's size and correlation time, the same draws for both
+compensations of a (support, speed) cell so that their strokes stay paired."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bowden.errors import ParameterError
+from bowden.protocol.bench import MotorNoise, StudyBlock, StudyStrokes
+
+PERIOD_S = 0.001
+
+
+def _series(strokes: StudyStrokes, block: StudyBlock, feedforward_nm: float, n: int) -> np.ndarray:
+    noise = MotorNoise(strokes, block, PERIOD_S)
+    return np.array([noise.torque_nm(feedforward_nm) for _ in range(n)])
+
+
+def test_the_noise_has_the_protocol_s_size_and_correlation_time():
+    strokes = StudyStrokes()
+    block = StudyBlock(index=0, support=0.5, speed="V2", compensation="paper")
+    series = _series(strokes, block, feedforward_nm=0.0, n=400_000)  # 400 s: 1600 correlation times
+    # A stationary unit OU process scaled by 0.5 Nm: SD 0.5; its autocorrelation at lag τ is 1/e.
+    assert np.std(series) == pytest.approx(0.5, rel=0.06)
+    lag = round(strokes.motor_noise_time_s / PERIOD_S)
+    correlation = np.corrcoef(series[:-lag], series[lag:])[0, 1]
+    assert correlation == pytest.approx(math.exp(-1.0), abs=0.05)
+    # The signal-dependent part: 1 % of a 10 Nm feed-forward adds a fifth to the size, same draws.
+    louder = _series(strokes, block, feedforward_nm=10.0, n=1000)
+    assert np.allclose(louder, series[:1000] * (0.5 + 0.1) / 0.5)
+
+
+def test_both_compensations_of_a_cell_meet_the_same_noise_and_other_cells_other_noise():
+    strokes = StudyStrokes()
+    paper = _series(strokes, StudyBlock(index=6, support=0.25, speed="V1", compensation="paper"), 1.0, 500)
+    dynamic = _series(strokes, StudyBlock(index=7, support=0.25, speed="V1", compensation="dynamic"), 1.0, 500)
+    other = _series(strokes, StudyBlock(index=8, support=0.25, speed="V2", compensation="paper"), 1.0, 500)
+    assert np.array_equal(paper, dynamic)
+    assert not np.allclose(paper, other)
+
+
+def test_a_noise_out_of_range_is_refused():
+    with pytest.raises(ParameterError, match="motor noise"):
+        StudyStrokes(motor_noise_nm=-0.1)
+    with pytest.raises(ParameterError, match="motor noise"):
+        StudyStrokes(motor_noise_time_s=0.0)
