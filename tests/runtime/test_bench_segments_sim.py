@@ -59,7 +59,7 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
         identify = bench_model_source(_Args(str(output)))
 
         def slow_identify(recording, latency):  # the full protocol's identification takes seconds:
-            time.sleep(1.0)  # one more is twice the device log's allowed gap below
+            time.sleep(1.5)  # one more is more than twice the device log's allowed gap below
             return identify(recording, latency)
 
         report = BenchRun(devices, config, writer, model_source=slow_identify, announce=announce).run()
@@ -80,7 +80,8 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
     log = pd.read_csv(tmp_path / "bench.log.csv")
     chirp_s, study_s = (log.loc[log["phase"] == phase, "time_s"].iloc[0] for phase in (5, 6))
     between = log[(log["time_s"] >= chirp_s) & (log["time_s"] <= study_s)]
-    assert between["time_s"].diff().max() < 0.5, between["time_s"].diff().max()
+    # (0.55 s once, beside busy processes: the host, not the loop; a loop that paused would leave > 1.5 s.)
+    assert between["time_s"].diff().max() < 0.7, between["time_s"].diff().max()
     latency = pd.read_csv(tmp_path / "bench.latency.csv")
     assert tuple(latency.columns) == LATENCY_COLUMNS
     # The chirp's 4 s recorded (rows at 200 Hz of the loop's cycles: fewer when a busy host drops cycles;
