@@ -9,7 +9,7 @@ import pytest
 
 from bowden.errors import ParameterError
 from bowden.sim import _kernels as k
-from bowden.sim.parameters import ArmParameters, SuitParameters
+from bowden.sim.parameters import ArmParameters, MotorParameters, SuitParameters
 from bowden.sim.plant import Plant, pack_parameters
 from bowden.sim.plant_family_structural import RANGES, random_structural_plants, structural_plants
 from bowden.sim.plant_structure import PlantStructure
@@ -87,6 +87,26 @@ def test_warm_motor_loses_torque_the_driver_does_not_report() -> None:
     delivered = record[-1, k.R_MOTOR_TAU]
     assert delivered == pytest.approx(1.0 - 0.001 * rise, rel=1e-3)
     assert record[-1, k.R_REPORTED_TAU] == pytest.approx(1.0, rel=1e-3)
+
+
+@pytest.mark.parametrize("torque_constant_ratio", [0.9, 1.1])
+def test_driver_saturates_its_current_not_the_torque_it_delivers(torque_constant_ratio: float) -> None:
+    """An AK driver limits its current: a command beyond the 9 Nm peak reports 9 Nm (current times the
+    constant it assumes) and delivers 9 Nm times the true, warm constant's ratio to it; neither the
+    report nor the current can exceed the peak as the constant falls (structural-32-0 reported 57.7 Nm)."""
+    structure = PlantStructure(kt_tempco_per_k=0.001, heating_k_nm2=10.0, thermal_time_constant_s=5.0)
+    suit = SuitParameters(structure=structure,
+                          motor=MotorParameters(torque_constant_ratio=torque_constant_ratio))
+    plant = Plant(suit, ArmParameters(), elevation_rad=TH, tension_n=20.0)
+    record = hold(plant, 8000, 20.0)  # 2 s: the winding warms by tens of kelvin
+    rise = float(plant.state_vector[k.X_TEMP_RISE])
+    assert rise > 20.0
+    limit_nm = suit.motor.torque_limit_nm
+    # The report trails the constant's fall by the 1 ms current loop (~1e-4 here), nothing more.
+    assert np.abs(record[:, k.R_REPORTED_TAU]).max() <= limit_nm * (1.0 + 1e-3)
+    assert record[-1, k.R_REPORTED_TAU] == pytest.approx(limit_nm, rel=1e-3)
+    expected_nm = limit_nm * torque_constant_ratio * (1.0 - 0.001 * rise)
+    assert record[-1, k.R_MOTOR_TAU] == pytest.approx(expected_nm, rel=1e-3)
 
 
 def test_structure_rejects_out_of_range() -> None:

@@ -436,7 +436,11 @@ def motor_step(
         # ambient; the magnets' flux, and with it the torque constant, falls as it warms.
         rise = x[X_TEMP_RISE]
         x[X_TEMP_RISE] = rise + (p[P_HEATING] * x[X_MOTOR_TAU] ** 2 - rise) * dt / p[P_THERMAL_TAU]
-    target = min(max(torque_cmd * p[P_KT_RATIO] * drift, -limit), limit)
+    # The driver limits its current, not the torque it delivers: the command (in the torque constant
+    # it assumes, as it reports) saturates at the peak, and the true, warm constant scales what that
+    # current delivers. Saturating the delivered torque instead let the reported torque (current)
+    # grow without bound as the constant fell: 57.7 Nm from a 9 Nm motor on a warm suit.
+    target = min(max(torque_cmd, -limit), limit) * p[P_KT_RATIO] * drift
     x[X_MOTOR_TAU] += (target - x[X_MOTOR_TAU]) * lag
     j = p[P_MOTOR_J]
     radius = p[P_SPOOL_R]

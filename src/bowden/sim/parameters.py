@@ -63,7 +63,9 @@ class MotorParameters:
         sheet against its manual);
         ±15 % is the largest single source of error. Range [0.5, 1.5].
     torque_limit_nm
-        Saturation of the delivered torque; AK60-6 peak 9 Nm (CubeMars AK60-6 specification). Range (0, 50].
+        Saturation of the driver's torque (its current times the constant it assumes, as it reports it);
+        the torque delivered at that current is this times ``torque_constant_ratio`` and the warm
+        constant's drift. AK60-6 peak 9 Nm (CubeMars AK60-6 specification). Range (0, 50].
     """
 
     spool_radius_m: float = 0.035
