@@ -19,6 +19,9 @@ dynamic compensation was developed on, the other named suits vary its parameters
 current time unless ``--seed``). ``--seeds 28,29,30,31`` judges several seeds in one run: the named
 suits once, N random suits per seed, each seed's 144 cells reported as its own evaluation, then one
 line per seed (mean ratios, cells > 5 % worse, worst cell) of the compensation the bench recommends.
+``--save-rows`` appends each suit's rows as soon as the suit is done, so a crash loses nothing (``--rows``
+takes them back); a suit whose bench recording ``identify`` refuses (or whose fit fails) is named with
+the reason in one line and counted in its seed's line, and the run goes on.
 
 Run: python benchmarks/compensation.py [--family structural] [--participants 17] [--random 6]
      [--seed S | --seeds S1,S2,...] [--plants a,b]
@@ -28,10 +31,12 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pandas as pd
 
+from bowden.errors import BowdenError
 from bowden.sim.participants import PAPER_COHORT_SIZE
 from bowden.sim.plant_family import DEVELOPMENT_PLANT, FamilyPlant, named_plants, random_plants
 from bowden.sim.plant_family_structural import random_structural_plants, structural_plants
@@ -52,7 +57,9 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=None, help="seed of the random suits (default: the time)")
     parser.add_argument("--seeds", help="several seeds, comma-separated, each judged on its own")
     parser.add_argument("--plants", help="only these named suits, comma-separated ('none': no named suit)")
-    parser.add_argument("--save-rows", type=Path, help="write every trial's row to this CSV")
+    parser.add_argument("--save-rows", type=Path,
+                        help="append every trial's row to this CSV as each suit is done (a crash loses "
+                             "nothing)")
     parser.add_argument("--rows", type=Path, nargs="+", default=[],
                         help="CSVs of --save-rows: suits found there are not simulated again")
     args = parser.parse_args()
@@ -79,32 +86,60 @@ def main() -> None:
         print(f"  {plant.name}: {plant.description}", flush=True)
 
     saved = pd.concat([pd.read_csv(path) for path in args.rows], ignore_index=True) if args.rows else None
+    refused: dict[str, str] = {}  # suit -> why it could not be identified (one line)
 
     def compare(suits: list[FamilyPlant]) -> pd.DataFrame:
         known = set() if saved is None else set(saved["plant"])
-        fresh = [plant for plant in suits if plant.name not in known]
         frames = [] if saved is None else [saved[saved["plant"].isin([plant.name for plant in suits])]]
-        if fresh:
-            frames.append(compare_compensations(fresh, settings, progress=progress))
+        for plant in suits:
+            if plant.name in known:
+                continue
+            if plant.name not in refused:
+                rows = compare_suit(plant, settings, progress, refused)
+                if rows is not None and args.save_rows is not None:
+                    append_rows(rows, args.save_rows)
+                    known.add(plant.name)
+                frames.append(rows if rows is not None else pd.DataFrame())
         return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
-    judged = [compare(plants)]  # the named suits, then each seed's random suits
+    judged = compare(plants)  # the named suits, then each seed's random suits
     summaries = []
     for seed in seeds:
         drawn = list((random_structural_plants if structural else random_plants)(args.random, seed)) \
             if args.random else []
-        judged.append(compare(drawn))
-        print(f"=== random suits' seed {seed}: {len(plants) + len(drawn)} suits ===")
-        rows = pd.concat([judged[0], judged[-1]], ignore_index=True)
-        summaries.append((seed, report_seed(rows) if len(rows) else "no suits"))
-    if args.save_rows is not None:
-        pd.concat(judged, ignore_index=True).to_csv(args.save_rows, index=False)
+        rows = pd.concat([judged, compare(drawn)], ignore_index=True)
+        lost = [plant.name for plant in plants + drawn if plant.name in refused]
+        print(f"=== random suits' seed {seed}: {len(plants) + len(drawn)} suits "
+              f"({len(plants) + len(drawn) - len(lost)} identified) ===")
+        line = report_seed(rows) if len(rows) else "no suits"
+        if lost:
+            line += f"; {len(lost)} suit(s) not identified: " + "; ".join(f"{n} ({refused[n]})" for n in lost)
+        summaries.append((seed, line))
     print("the recommended compensation, per seed (issue 28: mean RMSE ≤ 0.60×, onset peak ≤ 0.50×, "
           "no cell > 5 % worse):")
     for seed, line in summaries:
         print(f"  seed {seed}: {line}")
     elapsed_s = time.perf_counter() - started
     print(f"{len(plants)} named suits and {args.random} random per seed in {elapsed_s:.0f} s")
+
+
+def compare_suit(plant: FamilyPlant, settings: ComparisonSettings, progress: Callable[[FamilyPlant], None],
+                 refused: dict[str, str]) -> pd.DataFrame | None:
+    """One suit's rows, or None (its reason in ``refused``, printed in one line) where ``identify``
+    refuses its bench recording or the fit fails: the run goes on with the other suits."""
+    try:
+        return compare_compensations([plant], settings, progress=progress)
+    except BowdenError as error:
+        reason = " ".join(str(error).split())
+        refused[plant.name] = f"{type(error).__name__}: {reason}"
+        print(f"  {plant.name} NOT IDENTIFIED: {refused[plant.name]}", flush=True)
+        return None
+
+
+def append_rows(rows: pd.DataFrame, path: Path) -> None:
+    """Append one suit's rows to ``path`` (the header only when the file is new or empty)."""
+    fresh = not path.exists() or path.stat().st_size == 0
+    rows.to_csv(path, mode="a", header=fresh, index=False)
 
 
 def report_seed(rows: pd.DataFrame) -> str:
