@@ -214,7 +214,9 @@ def test_a_dead_writer_counts_every_row_it_will_not_write(
         commit(self, *args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(recorder_module._TrialChunks, "commit", failing_commit)
-    recorder = Recorder(path, TRIAL, commit_interval_s=0.02).start()
+    # No backlog bound to meet first: beside busy processes the starved writer once let 5001 rows
+    # queue up, and the recording failed on "the disk cannot keep up" before the injected failure.
+    recorder = Recorder(path, TRIAL, commit_interval_s=0.02, max_backlog_rows=10**7).start()
     handed = 0
     while recorder.failure is None or handed < 3000:
         recorder.record(record_child.row(handed))
