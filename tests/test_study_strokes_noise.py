@@ -36,9 +36,12 @@ def test_the_noise_has_the_protocol_s_size_and_correlation_time():
 
 def test_both_compensations_of_a_cell_meet_the_same_noise_and_other_cells_other_noise():
     strokes = StudyStrokes()
-    paper = _series(strokes, StudyBlock(index=6, support=0.25, speed="V1", compensation="paper"), 1.0, 500)
-    dynamic = _series(strokes, StudyBlock(index=7, support=0.25, speed="V1", compensation="dynamic"), 1.0, 500)
-    other = _series(strokes, StudyBlock(index=8, support=0.25, speed="V2", compensation="paper"), 1.0, 500)
+    def block(index: int, speed: str, compensation: str) -> StudyBlock:
+        return StudyBlock(index=index, support=0.25, speed=speed, compensation=compensation)
+
+    paper = _series(strokes, block(6, "V1", "paper"), 1.0, 500)
+    dynamic = _series(strokes, block(7, "V1", "dynamic"), 1.0, 500)
+    other = _series(strokes, block(8, "V2", "paper"), 1.0, 500)
     assert np.array_equal(paper, dynamic)
     assert not np.allclose(paper, other)
 
