@@ -6,9 +6,7 @@ Its peer answers on a thread, so the loop test is in the real-time group of test
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -17,6 +15,7 @@ from typing import Any, Self
 
 import can
 import pytest
+from tests.module_from_path import load_module
 
 from bowden.control import build_controller
 from bowden.hardware.protocols import ElevationSample, Motor
@@ -29,12 +28,7 @@ NM_PER_A = 0.091 * 9.0
 
 
 def load_example() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("servo_motor_example", EXAMPLE)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_module("servo_motor_example", EXAMPLE)
 
 
 example = load_example()

@@ -3,13 +3,13 @@ named in one line and counted, never a traceback that loses the run (issue 28, s
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
 from types import ModuleType
 
 import pandas as pd
 import pytest
+from tests.module_from_path import load_module
 
 from bowden.errors import RecordingError
 from bowden.sim.parameters import SuitParameters
@@ -21,13 +21,7 @@ REFUSAL = ("bench recording <table>: 1 problem:\n  - column motor_torque_nm, row
 
 
 def _benchmark() -> ModuleType:
-    path = ROOT / "benchmarks" / "compensation.py"
-    spec = importlib.util.spec_from_file_location("compensation_benchmark", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+    return load_module("compensation_benchmark", ROOT / "benchmarks" / "compensation.py")
 
 
 def _rows(plant: str) -> pd.DataFrame:
