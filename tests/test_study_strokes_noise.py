@@ -44,6 +44,9 @@ def test_both_compensations_of_a_cell_meet_the_same_noise_and_other_cells_other_
     other = _series(strokes, block(8, "V2", "paper"), 1.0, 500)
     assert np.array_equal(paper, dynamic)
     assert not np.allclose(paper, other)
+    # One support alone (bench validate --support 0.25) meets the noise of the whole protocol's 25 %.
+    alone = _series(StudyStrokes(supports=(0.25,)), block(0, "V1", "paper"), 1.0, 500)
+    assert np.array_equal(paper, alone)
 
 
 def test_a_noise_out_of_range_is_refused():

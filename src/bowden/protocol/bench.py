@@ -302,8 +302,10 @@ class MotorNoise:
     def __init__(self, strokes: StudyStrokes, block: StudyBlock, period_s: float) -> None:
         from bowden.contracts import SPEEDS
 
-        support = strokes.supports.index(block.support) if block.support in strokes.supports else 0
-        self._rng = np.random.default_rng([28, support, SPEEDS.index(block.speed)])
+        # Seeded by the support's value, not its place in the list: `bench validate --support 0.5`
+        # meets the noise `bench run`'s 50 % blocks met.
+        percent = 0 if block.support == "pretension" else round(100 * float(block.support))
+        self._rng = np.random.default_rng([28, percent, SPEEDS.index(block.speed)])
         self._decay = math.exp(-period_s / strokes.motor_noise_time_s)
         self._spread = math.sqrt(1.0 - self._decay * self._decay)
         self._constant_nm = strokes.motor_noise_nm
