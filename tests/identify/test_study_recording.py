@@ -66,6 +66,9 @@ def test_the_bench_runs_the_batch_segments_numbers():
     study = StudyStrokes()
     assert study.stiffness_nm_rad == bench_study.MANNEQUIN_STIFFNESS_NM_RAD
     assert study.damping_nms_rad == bench_study.MANNEQUIN_DAMPING_NMS_RAD
+    assert (study.motor_noise_nm, study.motor_noise_fraction, study.motor_noise_time_s) == (
+        bench_study.MANNEQUIN_MOTOR_NOISE_NM, bench_study.MANNEQUIN_MOTOR_NOISE_FRACTION,
+        bench_study.MANNEQUIN_MOTOR_NOISE_TIME_S)
     assert study.supports == bench_study.STUDY_SUPPORTS
     assert study.repetitions == getattr(bench_study, "VALIDATION_REPETITIONS", 4)
 
