@@ -16,6 +16,7 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 from typing import TypeVar
 
@@ -26,6 +27,7 @@ from bowden.errors import HardwareError, ParameterError
 from bowden.hardware.ads1115 import ADS1115LoadCell
 from bowden.hardware.ak60 import AK60Motor
 from bowden.hardware.backend import Backend
+from bowden.hardware.ngimu import NgimuClient, NgimuConfig
 from bowden.hardware.protocols import ElevationSample, MotorState
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim.backend import open_sim_backend
@@ -120,6 +122,22 @@ def test_the_drivers_talk_to_the_suit_and_the_arm_waits_for_the_loop(backend: Ba
     assert suit.loop_start_notified
     fresh_sample(backend, lambda s: s.elevation_rad > CYCLE.low_rad + math.radians(15.0),
                  "the arm follows the reference once the loop runs")
+
+
+def test_the_first_sample_after_the_plant_starts_is_the_running_arm_not_the_calibration_pose() -> None:
+    # A slow IMU (5 Hz) leaves 200 ms between its samples: were start_plant to return before the IMU
+    # sent a state of the running plant, the client's latest sample would still be the held pose (0°).
+    with NgimuClient(NgimuConfig(host="127.0.0.1", port=0)) as imu:
+        suit = SimulatedSuitProcess(imu_target=imu.address, cycle=CYCLE)
+        suit.settings = replace(suit.settings, imu_rate_hz=5.0)
+        with suit.start():
+            suit.hold_arm_down()
+            imu.calibrate_arm_down(1.0, min_samples=3)
+            suit.hold_arm_down(False)
+            suit.start_plant()
+            sample = imu.read()
+    assert sample is not None
+    assert sample.elevation_rad == pytest.approx(CYCLE.low_rad, abs=math.radians(3.0))
 
 
 def test_motor_faults(backend: Backend) -> None:

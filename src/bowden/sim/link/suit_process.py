@@ -50,6 +50,7 @@ _log = logging.getLogger(__name__)
 
 READY_TIMEOUT_S: Final = 300.0  # a first run compiles the plant: minutes on a slow, busy machine
 CHILD_PRIORITY: Final = 40
+PLANT_START_PATIENCE_S: Final = 5.0  # the IMU's first state of the running plant (the parent waits 10 s)
 FAULTS: Final = {
     "motor": ("mute", "ignore_next", "inject_error", "override_temperature", "replace_next_reply",
               "garble_replies"),
@@ -301,7 +302,8 @@ class SimulatedSuitProcess:
         return result
 
     def start_plant(self) -> float:
-        """Let the plant's time run from now on; returns ``time.monotonic()`` at plant time 0."""
+        """Let the plant's time run from now on; returns ``time.monotonic()`` at plant time 0, once the
+        IMU has sent a state of the running plant (what a client reads next is no calibration pose)."""
         self.plant_origin_s = float(self._call("plant", "start"))
         return self.plant_origin_s
 
@@ -511,6 +513,9 @@ class _ChildDevices:
         if target == "plant":
             if method == "start":
                 self.plant.start()
+                # The IMU sends nothing before the plant runs, so the client's latest sample is still
+                # the held calibration pose: answer once a state of the running plant is on the wire.
+                self.imu.wait_until_sent(timeout_s=PLANT_START_PATIENCE_S)
                 return self.plant.origin_s
             if method == "time":
                 return self.plant.plant_time_s()
