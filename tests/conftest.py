@@ -30,6 +30,7 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 SERIAL_GROUPS = {
     "bench": (  # the mannequin bench in real time
         "tests/cli/test_bench_run_cli.py",
+        "tests/runtime/test_bench_fit_sim.py",
         "tests/runtime/test_bench_full_disk.py",
         "tests/runtime/test_bench_protocol.py",
         "tests/runtime/test_bench_run_sim.py",

@@ -21,6 +21,7 @@ from bowden.hardware.backend import Backend
 from bowden.model import CompensationModel
 from bowden.protocol.bench import BenchProtocol, BenchStroke, LatencyChirp, StudyStrokes
 from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig, BenchSafety
+from bowden.runtime.bench_config import FitModels
 from bowden.runtime.bench_recording import BenchRecordingWriter
 from bowden.runtime.signals import stop_on_signals
 from bowden.runtime.slack import SlackTakeUp
@@ -193,7 +194,8 @@ def run_bench_on_backend(args: argparse.Namespace) -> int:
 
 
 def run_bench_config(args: argparse.Namespace, config: BenchRunConfig, *,
-                     model_source: Callable[[Path, Path | None], CompensationModel]) -> int:
+                     model_source: Callable[[Path, Path | None], CompensationModel],
+                     fit_models: FitModels | None = None) -> int:
     """Open the bench of ``args``, run ``config``'s protocol into ``args.output``, report; the exit code."""
     strokes = config.protocol.n_strokes if config.identification else 0
     total = config.n_units
@@ -220,7 +222,7 @@ def run_bench_config(args: argparse.Namespace, config: BenchRunConfig, *,
             devices = BenchDevices(tdu=tdu, mannequin=backend.mannequin, imu=backend.imu,
                                    load_cell=backend.load_cell, clock=backend.clock)
             bench = BenchRun(devices, config, writer, progress=progress, model_source=model_source,
-                             announce=_say)
+                             announce=_say, fit_models=fit_models)
             # SIGINT and SIGTERM (whatever the process inherited: a script's background job ignores
             # SIGINT) ask for the safe stop, taken at the next cycle's start: an exception raised
             # wherever the signal lands could leave a driver's lock held or cut the safe stop short.
@@ -257,8 +259,11 @@ def _say_written(config: BenchRunConfig, writer: BenchRecordingWriter, path: Pat
     latency, study = writer.segment_path("latency"), writer.segment_path("study")
     if config.latency is not None:
         print(f"wrote the latency chirp to {latency}")
-    if config.study is not None:
-        print(f"wrote {len(config.study.blocks())} study-like blocks to {study}")
+    if config.study is not None or config.fit is not None:
+        fit = f" (the first {len(config.fit.blocks())} the fit's)" if config.fit is not None else ""
+        print(f"wrote {len(config.study_blocks())} study-like blocks{fit} to {study}")
+    if not config.identification:  # bench validate: it judges what it ran itself
+        return
     command = f"bowden identify {path} -o model.json"
     if config.latency is not None:
         command += f" --latency-recording {latency}"

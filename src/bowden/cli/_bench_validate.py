@@ -2,24 +2,65 @@
 
 Private to the CLI. The bench runs only the protocol's study-like strokes (docs/identification.md,
 "The protocol, exactly", segment 3) with MODEL's compensations in turn — the slack taken up first, no
-identification strokes, no chirp — recorded crash-safe like ``bench run`` (``--resume``).
+identification strokes, no chirp — recorded crash-safe like ``bench run`` (``--resume``). With
+``--fit`` the study-like fit's blocks run first (:class:`~bowden.protocol.bench.StudyFit`: the batch
+fit's grid and repetitions, :mod:`bowden.sim.bench_study`), and the study-like blocks after them run
+the candidate the recorded fit chose (:func:`bowden.identify.study_recording.choose_fitted`).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import replace
 from pathlib import Path
 
 from bowden.cli._bench_run import bench_config, run_bench_config, study_strokes
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
+from bowden.protocol.bench import StudyFit
+from bowden.runtime.bench_config import BenchRunConfig
+
+
+def _say(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+def default_fit(args: argparse.Namespace) -> StudyFit:
+    """The batch fit's blocks on a bench: at ``--support`` (default 0.5, as the batch fit), the
+    ``--study-speeds`` (default V1-V3), every candidate of the grid, its repetitions."""
+    from bowden.contracts import SPEEDS
+    from bowden.sim.bench_study import FIT_REPETITIONS, fit_grid
+
+    return StudyFit(grid=fit_grid(), support=0.5 if args.support is None else args.support,
+                    speeds=tuple(args.study_speeds) if args.study_speeds else tuple(SPEEDS),
+                    repetitions=FIT_REPETITIONS)
+
+
+class GridModels:
+    """The fit's models from :mod:`bowden.sim.bench_study`'s grid (``BenchRun``'s ``fit_models``)."""
+
+    def __init__(self, flag: str) -> None:
+        self.flag = flag
+
+    def candidate(self, model: CompensationModel, index: int) -> CompensationModel:
+        from bowden.sim.bench_study import fit_candidate
+
+        return fit_candidate(model, index)
+
+    def chosen(self, model: CompensationModel, study_recording: Path) -> CompensationModel:
+        from bowden.identify.study_recording import choose_fitted
+
+        choice = choose_fitted(model, study_recording, self.flag)
+        _say(f"the fit chose candidate {choice.candidate} (study cost {choice.costs[choice.candidate]:.3f}); "
+             "the study-like blocks run it")
+        return choice.model
 
 
 def run_study_on_bench(args: argparse.Namespace, model: CompensationModel,
-                       supports: tuple[float | str, ...]) -> Path | None:
-    """Run the study-like blocks of ``model`` on the bench of ``args``; the study recording's path,
-    or None when the bench stopped (said on stderr)."""
+                       supports: tuple[float | str, ...], fit: StudyFit | None = None) -> Path | int:
+    """Run the study-like blocks of ``model`` on the bench of ``args`` (the ``fit``'s first, if any);
+    the study recording's path, or the exit code when the bench stopped (said on stderr)."""
     model_path = Path(args.model)
     output = Path(args.bench_output or model_path.with_name(model_path.stem + ".validate.csv"))
     run_args = argparse.Namespace(**vars(args))
@@ -32,11 +73,49 @@ def run_study_on_bench(args: argparse.Namespace, model: CompensationModel,
     study = study_strokes(run_args)
     if model.dynamic is None:
         study = replace(study, compensations=("paper",))
-    config = replace(config, identification=False, latency=None, study=study)
+    config = replace(config, identification=False, latency=None, study=study, fit=fit)
     if run_args.backend == "can" and args.i2c_bus is None:
         raise ParameterError("bowden bench validate --backend can needs the load cell (--i2c-bus N): it "
                              "judges the compensations against the measured tension")
-    code = run_bench_config(run_args, config, model_source=lambda _recording, _latency: model)
+    if fit is not None:
+        _say(estimate(config))
+    code = run_bench_config(run_args, config, model_source=lambda _recording, _latency: model,
+                            fit_models=GridModels("--bench-output"))
     if code != 0:
-        return None
+        return code
     return output.with_name(output.stem + ".study.csv")
+
+
+def estimate(config: BenchRunConfig) -> str:
+    """How many blocks and cycles the fit and the validation run, and roughly how long on the bench."""
+    from bowden.runtime.bench_segments import study_time_s
+
+    fit, study = config.fit, config.study
+    assert fit is not None and study is not None
+    blocks = config.study_blocks()
+    fitting = [(block, strokes) for block, strokes in blocks if block.fit]
+    validating = [(block, strokes) for block, strokes in blocks if not block.fit]
+    speeds = " ".join(fit.speeds)
+    return (f"bench validate --fit: the fit runs {len(fitting)} blocks ({len(fitting) * fit.repetitions} "
+            f"cycles: support {fit.support}, {speeds}, the paper's and {len(fit.candidates)} candidates, "
+            f"{fit.repetitions} cycles each), about {study_time_s(fitting) / 60:.0f} min; then the "
+            f"validation {len(validating)} blocks ({len(validating) * study.repetitions} cycles), about "
+            f"{study_time_s(validating) / 60:.0f} min; about {study_time_s(blocks) / 60:.0f} min in all")
+
+
+def print_fit(model: CompensationModel, study_recording: Path, flag: str) -> CompensationModel:
+    """Print the recorded fit's candidates with their study costs and the one chosen; the model with
+    it applied."""
+    from bowden.identify.study_recording import choose_fitted
+    from bowden.sim.bench_study import fit_grid
+
+    choice = choose_fitted(model, study_recording, flag)
+    grid = fit_grid()
+    print("candidate  drag scale  inertia scale  lowering shift (Nm)  study cost")
+    for candidate, cost in choice.costs.items():
+        drag, inertia, shift = grid[candidate]
+        print(f"{candidate:9d}  {drag:10g}  {inertia:13g}  {shift:19g}  {cost:10.3f}")
+    drag, inertia, shift = grid[choice.candidate]
+    print(f"fitted: candidate {choice.candidate} (drag ×{drag:g}, inertia ×{inertia:g}, lowering line "
+          f"{shift:+g} Nm): the lowest study cost; validated on the study-like blocks after the fit")
+    return choice.model

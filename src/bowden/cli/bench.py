@@ -83,8 +83,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
                           help="only this support fraction (default: the study's pretension, 0.25 and 0.5)")
     validate.add_argument("--seed", type=int, default=0, help="seed of the sensor noise (default 0)")
     validate.add_argument("--fit", action="store_true",
-                          help="first refit the dynamic compensation on one run of the strokes, then "
-                          "validate on a second run held out of the fit")
+                          help="first refit the dynamic compensation on one run of the strokes (at "
+                          "--support, default 0.5: the paper's lines and 12 candidates per speed, 4 cycles "
+                          "each), then validate on a second run held out of the fit; with --recording, "
+                          "refit from a recorded fit (its candidate blocks)")
     validate.add_argument("-o", "--output", type=Path,
                           help="write the model with its recommendation here (may be MODEL itself)")
     validate.set_defaults(handler=run_validate)
@@ -168,9 +170,6 @@ def run_validate(args: argparse.Namespace) -> int:
         supports = (args.support,)
     model = load_model(args.model)
     if args.recording is not None or args.backend != "sim":
-        if args.fit:
-            raise ParameterError("--fit refits on the batch simulated bench only (--backend sim, "
-                                 "no --recording)")
         return _validate_recorded(args, model, supports)
     suit = SuitParameters()
     seed = args.seed
@@ -184,17 +183,22 @@ def run_validate(args: argparse.Namespace) -> int:
 
 def _validate_recorded(args: argparse.Namespace, model: Any, supports: tuple[float | str, ...]) -> int:
     """``bench validate`` on a recorded study-like segment: the one given (``--recording``), or one
-    run now on a bench over its wires (``--backend can`` or ``sim-wire``) with both compensations."""
+    run now on a bench over its wires (``--backend can`` or ``sim-wire``) with both compensations;
+    with ``--fit`` the fit's blocks first, and the validation on the candidate they chose."""
+    from bowden.cli._bench_validate import default_fit, print_fit, run_study_on_bench
     from bowden.identify.study_recording import read_study_recording
 
-    path = args.recording
+    if args.fit and model.dynamic is None:
+        raise ParameterError(f"--fit: {args.model} has no dynamic compensation to refit")
+    path, flag = args.recording, "--recording"
     if path is None:
-        from bowden.cli._bench_validate import run_study_on_bench
-
-        path = run_study_on_bench(args, model, supports)
-        if path is None:
-            return 3
-    return _report_validation(args, model, read_study_recording(path, flag="--recording"))
+        ran = run_study_on_bench(args, model, supports, fit=default_fit(args) if args.fit else None)
+        if isinstance(ran, int):
+            return ran
+        path, flag = ran, "--bench-output"
+    if args.fit:
+        model = print_fit(model, path, flag)
+    return _report_validation(args, model, read_study_recording(path, flag=flag, after_fit=args.fit))
 
 
 def _report_validation(args: argparse.Namespace, model: Any, results: dict[Any, Any]) -> int:

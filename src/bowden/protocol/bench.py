@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, TypeVar, overload
 
 import numpy as np
@@ -192,12 +192,16 @@ class LatencyChirp:
 @dataclass(frozen=True)
 class StudyBlock:
     """One block of the study-like segment: its number (from 0), the controller's support and
-    compensation, the study speed (``"V1"``…), all repetitions of the cycle at that speed."""
+    compensation, the study speed (``"V1"``…), all repetitions of the cycle at that speed; ``fit``
+    if it belongs to a fit's blocks (:class:`StudyFit`), and then ``candidate``, the grid index of the
+    dynamic compensation it runs (−1: the model as given, e.g. the paper's lines)."""
 
     index: int
     support: float | str
     speed: str
     compensation: str
+    fit: bool = False
+    candidate: int = -1
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -286,6 +290,61 @@ class StudyStrokes:
         return self.rest_s + self.repetitions * self.cycle(speed).period_s + 0.5
 
 
+@dataclass(frozen=True, kw_only=True)
+class StudyFit:
+    """The study-like fit on a bench (``bowden bench validate --fit``), run before the study-like
+    strokes it is validated on: at ``support``, for each speed the paper's compensation once, then the
+    dynamic compensation of each of ``candidates`` in turn, ``repetitions`` cycles each (the first is
+    not judged); the strokes otherwise as :class:`StudyStrokes`'. The mannequin's motor noise of a fit
+    block depends only on the support and speed (every candidate meets the same) and differs from the
+    study-like blocks' (the validation's strokes are held out of the fit).
+
+    Parameters
+    ----------
+    grid
+        Every candidate of the fit, in its order: (drag scale, inertia scale, lowering-line shift Nm)
+        (:func:`bowden.sim.bench_study.fit_grid`; kept in the journal, so a resume with another grid
+        is refused).
+    candidates
+        The indices into ``grid`` run (all of it by default).
+    """
+
+    grid: tuple[tuple[float, float, float], ...]
+    candidates: tuple[int, ...] = ()
+    support: float | str = 0.5
+    speeds: tuple[str, ...] = ("V1", "V2", "V3")
+    repetitions: int = 4
+
+    def __post_init__(self) -> None:
+        if not self.grid:
+            raise ParameterError("the study-like fit needs a grid of candidates")
+        if not self.candidates:
+            object.__setattr__(self, "candidates", tuple(range(len(self.grid))))
+        if len(set(self.candidates)) != len(self.candidates) or not all(
+                0 <= index < len(self.grid) for index in self.candidates):
+            raise ParameterError(f"the study-like fit's candidates must be distinct indices into its "
+                                 f"grid of {len(self.grid)}, got {self.candidates}")
+        StudyStrokes(supports=(self.support,), speeds=self.speeds, repetitions=self.repetitions)
+
+    def strokes(self, base: StudyStrokes | None = None) -> StudyStrokes:
+        """The strokes the fit's blocks run: ``base``'s (the mannequin, the wearer, the rest) at the
+        fit's support, speeds and repetitions."""
+        return replace(base or StudyStrokes(), supports=(self.support,), speeds=self.speeds,
+                       repetitions=self.repetitions)
+
+    def blocks(self) -> list[StudyBlock]:
+        """Every block in the order run: for each speed, the paper's once, then each candidate."""
+        order = [(speed, name, candidate) for speed in self.speeds
+                 for name, candidate in (("paper", -1), *(("dynamic", k) for k in self.candidates))]
+        return [StudyBlock(index=i, support=self.support, speed=speed, compensation=name, fit=True,
+                           candidate=candidate) for i, (speed, name, candidate) in enumerate(order)]
+
+    def describe(self, candidate: int) -> str:
+        """One candidate in words: ``drag ×1.4, inertia ×2, lowering line −0.05 Nm``."""
+        drag, inertia, shift = self.grid[candidate]
+        return f"drag ×{drag:g}, inertia ×{inertia:g}, lowering line {shift:+g} Nm"
+
+
 class MotorNoise:
     """A wearer's motor noise for the mannequin's torque in one study-like block, one loop period
     at a time: (``motor_noise_nm`` + ``motor_noise_fraction`` · |feed-forward|) · z, z a unit
@@ -296,7 +355,8 @@ class MotorNoise:
     A noise-free mannequin creeps through the slow turn held back by the stuck cable, as no wearer
     does, and the bench then judged a spike the study does not see (docs/dynamic_compensation.md, "A
     noise-free mannequin is not a wearer at the slow turn"). The draws depend only on the block's
-    support and speed, so each compensation meets the same noise: the strokes stay paired.
+    support and speed, and whether it is a fit's (:class:`StudyFit`), so each compensation — and each
+    candidate of a fit — meets the same noise: the strokes stay paired.
     """
 
     def __init__(self, strokes: StudyStrokes, block: StudyBlock, period_s: float) -> None:
@@ -305,7 +365,10 @@ class MotorNoise:
         # Seeded by the support's value, not its place in the list: `bench validate --support 0.5`
         # meets the noise `bench run`'s 50 % blocks met.
         percent = 0 if block.support == "pretension" else round(100 * float(block.support))
-        self._rng = np.random.default_rng([28, percent, SPEEDS.index(block.speed)])
+        # A fit's blocks draw their own noise (held out of the validation's, as the batch fit's seed
+        # is); every candidate of the fit meets the same.
+        seed = [28, percent, SPEEDS.index(block.speed)] + ([1] if block.fit else [])
+        self._rng = np.random.default_rng(seed)
         self._decay = math.exp(-period_s / strokes.motor_noise_time_s)
         self._spread = math.sqrt(1.0 - self._decay * self._decay)
         self._constant_nm = strokes.motor_noise_nm

@@ -52,6 +52,7 @@ from bowden.runtime.bench_config import (
     BenchReport,
     BenchRunConfig,
     BenchSafety,
+    FitModels,
 )
 from bowden.runtime.bench_recording import LOG_COLUMNS, RECORDING_COLUMNS, BenchRecordingWriter
 from bowden.runtime.bench_safe_stop import safe_stop
@@ -78,18 +79,22 @@ class BenchRun(BenchSegments):
 
     ``model_source(recording, latency_recording)`` gives the model the study-like blocks run the
     controller on, called once before the first of them (the CLI identifies it from what the run
-    recorded); ``announce`` is told each later segment's block as it starts."""
+    recorded); ``announce`` is told each later segment's block as it starts; ``fit_models`` gives a
+    study-like fit's blocks their candidates and the study-like blocks after it the one chosen."""
 
     def __init__(self, devices: BenchDevices, config: BenchRunConfig, writer: BenchRecordingWriter, *,
                  progress: Progress | None = None,
                  model_source: Callable[[Path, Path | None], CompensationModel] | None = None,
-                 announce: Callable[[str], None] | None = None) -> None:
+                 announce: Callable[[str], None] | None = None,
+                 fit_models: FitModels | None = None) -> None:
         super().__init__(devices, config, writer, progress=progress)
         if not config.identification:
             self.strokes = []
         self.model_source = model_source
         self.announce = announce
+        self.fit_models = fit_models
         self._model: CompensationModel | None = None
+        self._chosen: CompensationModel | None = None
 
     def run(self) -> BenchReport:
         """Enable both motors, take up the slack, run the remaining strokes, leave both safe.
@@ -154,13 +159,10 @@ class BenchRun(BenchSegments):
             self._write(lambda: self.writer.write_segment("latency", rows, np.array(self._log_rows),
                                                           index + 1))
             return
-        study = self.config.study
-        assert study is not None
-        blocks = study.blocks()
-        block = blocks[index - strokes - (latency is not None)]
-        self._say(f"study-like block {block.index + 1} of {len(blocks)}: support {block.support}, "
-                  f"{block.speed}, {block.compensation} compensation")
-        rows = self._run_study_block(block, self._controller_for(block))
+        blocks = self.config.study_blocks()
+        block, study = blocks[index - strokes - (latency is not None)]
+        self._say(self._describe(block, len(blocks)))
+        rows = self._run_study_block(block, self._controller_for(block), study)
         self._write(lambda: self.writer.write_segment("study", rows, np.array(self._log_rows), index + 1))
 
     def _write(self, action: Callable[[], None]) -> None:
@@ -173,11 +175,46 @@ class BenchRun(BenchSegments):
         if self.announce is not None:
             self.announce(text)
 
+    def _describe(self, block: StudyBlock, blocks: int) -> str:
+        what = f"{block.compensation} compensation"
+        if block.fit and block.candidate >= 0 and self.config.fit is not None:
+            what = f"candidate {block.candidate} ({self.config.fit.describe(block.candidate)})"
+        kind = "study-like fit block" if block.fit else "study-like block"
+        return f"{kind} {block.index + 1} of {blocks}: support {block.support}, {block.speed}, {what}"
+
     def _controller_for(self, block: StudyBlock) -> Controller:
         """The controller ``bowden run`` would build for the block's support and compensation, on the
-        model the bench identified (or was given)."""
-        study = self.config.study
-        assert study is not None
+        model the bench identified (or was given) — a fit's candidate of it in a fit's block, and the
+        candidate the fit chose in the study-like blocks after a fit."""
+        study = self.config.study_blocks()[block.index][1]
+        model = self._block_model(block)
+        if block.compensation == "dynamic" and model.dynamic is None:
+            raise BenchFault("the model has no dynamic compensation for the study-like segment")
+        subject = Subject(height_m=study.subject_height_m, mass_kg=study.subject_mass_kg,
+                          sex=study.subject_sex)  # type: ignore[arg-type]
+        return build_controller(model=model, support=block.support,  # type: ignore[arg-type]
+                                subject=subject, hand_load_kg=study.hand_load_kg,
+                                geometry=self.config.geometry,
+                                compensation=block.compensation)  # type: ignore[arg-type]
+
+    def _block_model(self, block: StudyBlock) -> CompensationModel:
+        model = self._base_model()
+        if self.config.fit is None or (block.fit and block.candidate < 0):
+            return model
+        if self.fit_models is None:
+            raise BenchFault("the study-like fit needs its candidates' models (none were given)")
+        fit_models = self.fit_models
+        try:
+            if block.fit:
+                return fit_models.candidate(model, block.candidate)
+            if self._chosen is None:  # once, from the fit's blocks on disk (a resume reads them again)
+                study_path = self.writer.segment_path("study")
+                self._chosen = self._hold_while(lambda: fit_models.chosen(model, study_path))
+            return self._chosen
+        except BowdenError as error:
+            raise BenchFault(f"the study-like fit: {error}") from None
+
+    def _base_model(self) -> CompensationModel:
         if self._model is None:
             if self.model_source is None:
                 raise BenchFault("the study-like segment needs a model (none was given)")
@@ -188,14 +225,7 @@ class BenchRun(BenchSegments):
             except BowdenError as error:  # a recording identify refuses: said, the motors safe
                 raise BenchFault(f"no model for the study-like segment from what was recorded: "
                                  f"{error}") from None
-        if block.compensation == "dynamic" and self._model.dynamic is None:
-            raise BenchFault("the model has no dynamic compensation for the study-like segment")
-        subject = Subject(height_m=study.subject_height_m, mass_kg=study.subject_mass_kg,
-                          sex=study.subject_sex)  # type: ignore[arg-type]
-        return build_controller(model=self._model, support=block.support,  # type: ignore[arg-type]
-                                subject=subject, hand_load_kg=study.hand_load_kg,
-                                geometry=self.config.geometry,
-                                compensation=block.compensation)  # type: ignore[arg-type]
+        return self._model
 
     def _keep_partial_log(self) -> None:
         """The device log of the stroke under way when the run stopped (the stroke is not recorded)."""

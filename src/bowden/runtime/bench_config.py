@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
 from typing import Protocol
 
 from bowden.errors import BowdenError, ParameterError
 from bowden.hardware.protocols import Clock, ElevationSensor, MotorState, TensionSensor
+from bowden.model import CompensationModel
 from bowden.model.geometry import CuffGeometry
-from bowden.protocol.bench import BenchProtocol, LatencyChirp, StudyStrokes
+from bowden.protocol.bench import BenchProtocol, LatencyChirp, StudyBlock, StudyFit, StudyStrokes
 from bowden.runtime.slack import SlackTakeUp
 
 
@@ -36,6 +38,20 @@ class BenchMotor(Protocol):
 
     def command_mit(self, position_rad: float, velocity_rad_s: float, kp: float, kd: float,
                     torque_nm: float = 0.0) -> MotorState | None: ...
+
+
+class FitModels(Protocol):
+    """What gives a study-like fit's blocks their models (the CLI's: :mod:`bowden.sim.bench_study`'s
+    grid and choice, so that the bench and the batch fit share one definition)."""
+
+    def candidate(self, model: CompensationModel, index: int) -> CompensationModel:
+        """``model`` with the fit's candidate ``index`` applied."""
+        ...
+
+    def chosen(self, model: CompensationModel, study_recording: Path) -> CompensationModel:
+        """The candidate the fit's blocks recorded in ``study_recording`` choose (the validation's
+        model)."""
+        ...
 
 
 _SHARED_HOST_SILENCE_S = 0.25
@@ -168,6 +184,10 @@ class BenchRunConfig:
         default here; ``bowden bench run`` runs both (its default protocol is all three segments).
     identification
         Run the identification strokes (False: only the later segments, e.g. ``bench validate``).
+    fit
+        The study-like fit (:class:`~bowden.protocol.bench.StudyFit`, ``bench validate --fit``): its
+        blocks run after the latency chirp and before the study-like strokes, which then run the
+        candidate the fit chose.
     mannequin_inertia_kgm2
         The mannequin arm's moment of inertia about the shoulder, fed forward by its motor along the
         study's reference (the simulated mannequin's: 0.08 kg·m²).
@@ -189,6 +209,7 @@ class BenchRunConfig:
     study: StudyStrokes | None = None
     identification: bool = True
     mannequin_inertia_kgm2: float = 0.08
+    fit: StudyFit | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 50.0 <= self.rate_hz <= 2000.0):
@@ -217,15 +238,33 @@ class BenchRunConfig:
                 "study": None if self.study is None else {**asdict(self.study),
                                                           "supports": list(self.study.supports),
                                                           "speeds": list(self.study.speeds),
-                                                          "compensations": list(self.study.compensations)}}
+                                                          "compensations": list(self.study.compensations)},
+                **({} if self.fit is None else {"fit": _fit_fingerprint(self.fit)})}
 
     @property
     def n_units(self) -> int:
         """The protocol's units in the order run (the journal's count): the identification strokes,
         the latency chirp, the study-like blocks."""
         strokes = self.protocol.n_strokes if self.identification else 0
-        return (strokes + (self.latency is not None)
-                + (len(self.study.blocks()) if self.study is not None else 0))
+        return strokes + (self.latency is not None) + len(self.study_blocks())
+
+    def study_blocks(self) -> list[tuple[StudyBlock, StudyStrokes]]:
+        """The study-like blocks in the order run, each with the strokes it runs: the fit's, then the
+        study-like segment's (numbered on from the fit's, so ``block`` is unique in the recording)."""
+        blocks: list[tuple[StudyBlock, StudyStrokes]] = []
+        if self.fit is not None:
+            strokes = self.fit.strokes(self.study)
+            blocks += [(block, strokes) for block in self.fit.blocks()]
+        if self.study is not None:
+            offset = len(blocks)
+            blocks += [(replace(block, index=block.index + offset), self.study)
+                       for block in self.study.blocks()]
+        return blocks
+
+
+def _fit_fingerprint(fit: StudyFit) -> dict[str, object]:
+    return {"grid": [list(point) for point in fit.grid], "candidates": list(fit.candidates),
+            "support": fit.support, "speeds": list(fit.speeds), "repetitions": fit.repetitions}
 
 
 @dataclass(frozen=True)

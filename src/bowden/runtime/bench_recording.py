@@ -54,10 +54,10 @@ LATENCY_COLUMNS = ("time_s", "elevation_rad", "mannequin_elevation_rad")
 STUDY_COLUMNS = (
     "time_s", "block", "support", "speed", "compensation", "cycle_phase", "motor_torque_nm",
     "motor_velocity_rad_s", "tension_n", "elevation_rad", "mannequin_elevation_rad",
-    "reference_elevation_rad", "law_tension_n", "command_tension_n",
+    "reference_elevation_rad", "law_tension_n", "command_tension_n", "fit", "candidate",
 )
 SEGMENT_COLUMNS = {"latency": LATENCY_COLUMNS, "study": STUDY_COLUMNS}
-_SEGMENT_INTEGERS = {"latency": (), "study": (1, 3, 4)}
+_SEGMENT_INTEGERS = {"latency": (), "study": (1, 3, 4, 14, 15)}
 
 
 @dataclass(frozen=True)
@@ -165,9 +165,15 @@ class BenchRecordingWriter:
                 continue
             try:
                 with path.open("r+b") as handle:
+                    header = handle.readline().decode("utf-8", "replace").strip()
                     handle.truncate(size)
             except FileNotFoundError:
                 raise RecordingError(f"{path} is missing: the journal says it holds {size} bytes") from None
+            if header != ",".join(SEGMENT_COLUMNS[name]):
+                # Written by a bowden with other columns (the study-like segment's fit and candidate
+                # came later): rows of two layouts in one file would be misread.
+                raise RecordingError(f"{path} has other columns than this bowden writes ({header}): "
+                                     "finish it with the version that started it, or start a new recording")
             self._segment_bytes[name] = size
             self._segments[name] = path.open("a", encoding="utf-8", newline="")
 

@@ -22,7 +22,7 @@ import numpy as np
 from bowden.control import Controller
 from bowden.errors import TransmitError
 from bowden.model import AssistanceParameters, desired_tension_n
-from bowden.protocol.bench import MotorNoise, StudyBlock
+from bowden.protocol.bench import MotorNoise, StudyBlock, StudyStrokes
 from bowden.protocol.minimum_jerk import minimum_jerk_position
 from bowden.runtime.bench_config import BenchFault
 from bowden.runtime.bench_state import PHASE_LATENCY, PHASE_MANNEQUIN_MOVE, PHASE_STUDY, joint_rad
@@ -34,6 +34,13 @@ _MOVE_SPEED_RAD_S = 0.5  # the mannequin's moves between blocks (peak speed of a
 _FOLLOW_WINDOW_S = 0.2  # the joint this long off its reference by more than half the range margin
 SPEED_CODES = {"V1": 1, "V2": 2, "V3": 3}  # the study recording's ``speed`` column
 COMPENSATION_CODES = {"paper": 0, "dynamic": 1}  # its ``compensation`` column
+
+
+def study_time_s(blocks: list[tuple[StudyBlock, StudyStrokes]]) -> float:
+    """Roughly how long ``blocks`` take on a bench (s): each recorded block (``block_duration_s``),
+    and before it the arm held still and moved to the cycle's start (from the previous block's end,
+    already there: the move's shortest, 1 s, and 0.5 s still)."""
+    return sum(strokes.block_duration_s(block.speed) + _SETTLE_S + 1.5 for block, strokes in blocks)
 
 
 def support_code(support: float | str) -> float:
@@ -171,11 +178,9 @@ class BenchSegments(BenchStrokes):
         return np.array(rows)
 
     # --- segment 3: the study-like strokes --------------------------------------------------------
-    def _run_study_block(self, block: StudyBlock, controller: Controller) -> np.ndarray:
-        """One block: rest at the low end, then the cycles with the controller on the TDU; its rows
-        (``STUDY_COLUMNS``)."""
-        study = self.config.study
-        assert study is not None
+    def _run_study_block(self, block: StudyBlock, controller: Controller, study: StudyStrokes) -> np.ndarray:
+        """One block of ``study``'s strokes: rest at the low end, then the cycles with the controller on
+        the TDU; its rows (``STUDY_COLUMNS``)."""
         cycle = study.cycle(block.speed)
         kp, kd = study.stiffness_nm_rad, study.damping_nms_rad
         holding = self.config.latency.holding_torque_nm if self.config.latency else 0.5
@@ -188,6 +193,7 @@ class BenchSegments(BenchStrokes):
         every = max(1, round(self.config.rate_hz / study.controller_rate_hz))
         codes = (block.index, support_code(block.support), SPEED_CODES[block.speed],
                  COMPENSATION_CODES[block.compensation])
+        fit_codes = (float(block.fit), block.candidate if block.fit else -1)
         controller.reset()
         noise = MotorNoise(study, block, self.period_s)
         torque = 0.0
@@ -216,8 +222,9 @@ class BenchSegments(BenchStrokes):
                 torque = command.torque_nm
             self._impedance_cycle(elevation, velocity, lift, kp=kp, kd=kd, tdu_torque_nm=torque)
             if self._cycle % self.record_every == 0 and t < study.repetitions * cycle.period_s:
-                rows.append(self._study_row(codes, t / cycle.period_s, elevation, arm, geometry, assistance,
-                                            command.tension_n if command is not None else math.nan))
+                rows.append((*self._study_row(codes, t / cycle.period_s, elevation, arm, geometry, assistance,
+                                              command.tension_n if command is not None else math.nan),
+                             *fit_codes))
                 self._record_log(self._deadline)
         return np.array(rows)
 

@@ -24,6 +24,7 @@ from scipy.stats import t as student_t
 
 from bowden import contracts as c
 from bowden.control import build_controller
+from bowden.errors import FitError
 from bowden.model import AssistanceParameters, CompensationModel, arm_model, desired_tension_n
 from bowden.model.dynamic import support_label
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
@@ -275,6 +276,40 @@ def recommend_compensation(
 FIT_DRAG_SCALES = (1.0, 1.4, 1.8)
 FIT_INERTIA_SCALES = (1.0, 2.0)
 FIT_LOWERING_SHIFTS_NM = (0.0, -0.05)
+# Cycles per block of the fit's strokes (the first is not judged): the batch fit's and a bench's.
+FIT_REPETITIONS = 4
+
+
+def fit_grid() -> tuple[tuple[float, float, float], ...]:
+    """The fit's candidates in the order searched, each (drag scale, inertia scale, lowering shift Nm):
+    candidate k of a bench's fit (the study recording's ``candidate`` column) is the k-th."""
+    return tuple((drag, inertia, shift) for drag in FIT_DRAG_SCALES for inertia in FIT_INERTIA_SCALES
+                 for shift in FIT_LOWERING_SHIFTS_NM)
+
+
+def fit_candidate(model: CompensationModel, index: int) -> CompensationModel:
+    """``model`` with candidate ``index`` of :func:`fit_grid` applied to its dynamic compensation
+    (drag and inertia scaled within their bounds, the lowering line's intercept shifted)."""
+    dynamic = model.dynamic
+    if dynamic is None:
+        raise FitError("the model has no dynamic compensation to refit")
+    drag, inertia, shift = fit_grid()[index]
+    return replace(model, dynamic=replace(
+        dynamic,
+        viscous_nm_s_rad=min(1.0, dynamic.viscous_nm_s_rad * drag),
+        inertia_kg_m2=min(0.05, dynamic.inertia_kg_m2 * inertia),
+        lowering=replace(dynamic.lowering, intercept_nm=dynamic.lowering.intercept_nm + shift),
+    ))
+
+
+def lowest_cost(costs: dict[int, float]) -> int | None:
+    """The candidate with the lowest :func:`study_cost`, the first in grid order on a tie; None if no
+    cost is finite (the batch fit then keeps the model as identified)."""
+    best, best_cost = None, math.inf
+    for index in sorted(costs):
+        if costs[index] < best_cost:
+            best, best_cost = index, costs[index]
+    return best
 
 
 def study_cost(results: dict[Cell, dict[str, StrokeResult]]) -> float:
@@ -295,26 +330,17 @@ def fit_on_study_segment(
     Returns ``model`` unchanged when it has no dynamic compensation."""
     if model.dynamic is None:
         return model
-    dynamic = model.dynamic
     paper = {speed: run_study_segment(model, suit, compensation="paper", speed=speed, seed=seed,
-                                      support=support) for speed in c.SPEEDS}
-    best, best_cost = model, math.inf
-    for drag in FIT_DRAG_SCALES:
-        for inertia in FIT_INERTIA_SCALES:
-            for shift in FIT_LOWERING_SHIFTS_NM:
-                candidate = replace(model, dynamic=replace(
-                    dynamic,
-                    viscous_nm_s_rad=min(1.0, dynamic.viscous_nm_s_rad * drag),
-                    inertia_kg_m2=min(0.05, dynamic.inertia_kg_m2 * inertia),
-                    lowering=replace(dynamic.lowering, intercept_nm=dynamic.lowering.intercept_nm + shift),
-                ))
-                results = {
-                    (support_label(support), speed): {"paper": paper[speed],
-                            "dynamic": run_study_segment(candidate, suit, compensation="dynamic", speed=speed,
-                                                         seed=seed, support=support)}
-                    for speed in c.SPEEDS
-                }
-                cost = study_cost(results)
-                if cost < best_cost:
-                    best, best_cost = candidate, cost
-    return best
+                                      support=support, repetitions=FIT_REPETITIONS) for speed in c.SPEEDS}
+    costs = {}
+    for index in range(len(fit_grid())):
+        candidate = fit_candidate(model, index)
+        results = {
+            (support_label(support), speed): {"paper": paper[speed],
+                    "dynamic": run_study_segment(candidate, suit, compensation="dynamic", speed=speed,
+                                                 seed=seed, support=support, repetitions=FIT_REPETITIONS)}
+            for speed in c.SPEEDS
+        }
+        costs[index] = study_cost(results)
+    best = lowest_cost(costs)
+    return model if best is None else fit_candidate(model, best)
