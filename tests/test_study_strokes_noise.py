@@ -54,3 +54,21 @@ def test_a_noise_out_of_range_is_refused():
         StudyStrokes(motor_noise_nm=-0.1)
     with pytest.raises(ParameterError, match="motor noise"):
         StudyStrokes(motor_noise_time_s=0.0)
+
+
+def test_every_candidate_of_a_fit_meets_the_same_noise_and_the_validation_other_noise():
+    from bowden.protocol.bench import StudyFit
+    from bowden.sim.bench_study import fit_grid
+
+    fit = StudyFit(grid=fit_grid(), speeds=("V1", "V2"))
+    strokes = fit.strokes(StudyStrokes())
+    blocks = fit.blocks()
+    at_v1 = [block for block in blocks if block.speed == "V1"]
+    assert [block.candidate for block in at_v1] == [-1, *range(12)]  # the paper's, then the grid's
+    series = [_series(strokes, block, 1.0, 300) for block in at_v1]
+    assert all(np.array_equal(series[0], other) for other in series[1:])
+    v2 = next(block for block in blocks if block.speed == "V2")
+    assert not np.allclose(series[0], _series(strokes, v2, 1.0, 300))
+    # The validation's blocks at the fit's support and speed: held out, their own draws.
+    validation = StudyBlock(index=0, support=0.5, speed="V1", compensation="dynamic")
+    assert not np.allclose(series[0], _series(StudyStrokes(), validation, 1.0, 300))

@@ -87,3 +87,91 @@ def test_the_batch_bench_moves_the_arm_along_the_protocols_chirp():
     assert len(run_latency_segment(chirp=chirp, sample_rate_hz=100.0)) == len(times) // 2
     with pytest.raises(ParameterError, match="the latency segment's sample rate"):
         run_latency_segment(chirp=chirp, sample_rate_hz=0.0)
+
+
+def _fit_recording(path, candidates: dict[int, float], *, validation: bool = True, drop: int | None = None):
+    """A recorded study-like fit at 50 % V2: the paper's block (error 4 N, onset +6 N), one block per
+    candidate with the given constant error (N, no onset excess), then a validation pair."""
+    frames = [(_block(4.0, 6.0), 0, 1, -1)]
+    frames += [(_block(error, 0.0), 1, 1, candidate) for candidate, error in candidates.items()]
+    if validation:
+        frames += [(_block(4.0, 0.0), 0, 0, -1), (_block(2.0, 0.0), 1, 0, -1)]
+    blocks = []
+    for number, (frame, compensation, fit, candidate) in enumerate(frames):
+        if number == drop:
+            continue
+        frame["block"], frame["support"], frame["speed"] = number, 0.5, 2
+        frame["compensation"], frame["fit"], frame["candidate"] = compensation, fit, candidate
+        blocks.append(frame)
+    pd.concat(blocks).to_csv(path, index=False)
+
+
+def test_a_recorded_fit_chooses_the_candidate_of_lowest_study_cost(tmp_path):
+    from bowden.identify.study_recording import choose_fitted
+    from bowden.model import CompensationModel
+    from bowden.sim.bench_study import fit_candidate
+
+    path = tmp_path / "v.study.csv"
+    _fit_recording(path, {3: 2.0, 5: 1.0, 8: 3.0})
+    model = _dynamic_model()
+    choice = choose_fitted(model, path, "--recording")
+    # By hand: the paper's RMSE sqrt((949·16 + 51·100) / 1000), its onset peak (4 + 6) / 20 = 50 %; a
+    # candidate's cost is its error over that RMSE plus its onset peak (error / 20 N) over 50 %.
+    paper_rmse = math.sqrt((949 * 16.0 + 51 * 100.0) / 1000)
+    expected = {k: e / paper_rmse + (100 * e / 20) / 50.0 for k, e in {3: 2.0, 5: 1.0, 8: 3.0}.items()}
+    assert choice.costs == pytest.approx(expected, rel=1e-9)
+    assert choice.candidate == 5 and choice.model == fit_candidate(model, 5)
+    assert isinstance(choice.model, CompensationModel)
+    # The held-out validation blocks are judged apart from the fit's.
+    results = read_study_recording(path, after_fit=True)
+    assert results[("50", "V2")]["dynamic"].tension_rmse_n == pytest.approx(2.0)
+
+
+def test_a_recording_without_a_whole_fit_is_refused_in_one_line(tmp_path):
+    from bowden.identify.study_recording import choose_fitted
+
+    path = tmp_path / "v.study.csv"
+    model = _dynamic_model()
+    _fit_recording(path, {}, validation=True)  # no candidate blocks: a plain study-like segment
+    with pytest.raises(FitError, match=r"--recording .*holds no candidate blocks .*fit and candidate"):
+        choose_fitted(model, path, "--recording")
+    old = tmp_path / "old.study.csv"  # written before the columns existed: no fit in it either
+    pd.read_csv(path).drop(columns=["fit", "candidate"]).to_csv(old, index=False)
+    assert list(read_study_recording(old)) == [("50", "V2")]
+    with pytest.raises(FitError, match="holds no candidate blocks"):
+        choose_fitted(model, old, "--recording")
+    _fit_recording(path, {0: 1.0, 1: 2.0}, drop=0)  # the fit's paper block lost: incomplete
+    with pytest.raises(FitError, match="the study-like fit is incomplete: candidate 0"):
+        choose_fitted(model, path, "--recording")
+    _fit_recording(path, {0: 1.0, 1: 2.0})  # a fit judged as a plain segment would mix candidates
+    with pytest.raises(FitError, match="--fit"):
+        read_study_recording(path)
+    _fit_recording(path, {0: 1.0, 1: 2.0}, validation=False)  # stopped before the validation
+    with pytest.raises(FitError, match="no study-like blocks after the fit"):
+        read_study_recording(path, after_fit=True)
+
+
+def test_bench_validate_recording_fit_says_what_is_missing(tmp_path, capsys):
+    from bowden.cli import main
+    from bowden.model.model_file import save_model
+
+    model, path = tmp_path / "model.json", tmp_path / "v.study.csv"
+    save_model(_dynamic_model(), model)
+    _fit_recording(path, {})
+    assert main(["bench", "validate", str(model), "--recording", str(path), "--fit"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--recording" in err[0] and "candidate blocks" in err[0], err
+    _fit_recording(path, {2: 1.0, 4: 0.5})
+    assert main(["bench", "validate", str(model), "--recording", str(path), "--fit"]) == 0
+    assert "fitted: candidate 4 (drag ×1.4, inertia ×1, lowering line +0 Nm)" in capsys.readouterr().out
+
+
+def _dynamic_model():
+    from bowden.identify import TransmissionIdentifier
+    from bowden.protocol.bench import QUICK_BENCH
+    from bowden.sim.bench import run_bench
+    from bowden.sim.parameters import SuitParameters
+
+    model = TransmissionIdentifier().fit(run_bench(SuitParameters(), QUICK_BENCH, seed=0)).model_
+    assert model.dynamic is not None
+    return model

@@ -150,3 +150,24 @@ def test_a_crash_in_a_later_segment_resumes_into_it_with_its_complete_blocks(tmp
     assert tuple(frame.columns) == STUDY_COLUMNS and len(frame) == 20  # the partial line is gone
     assert len(pd.read_csv(tmp_path / "bench.latency.csv")) == 20
     assert pd.read_csv(path)["trial"].nunique() == 1  # the strokes' recording holds only strokes
+
+
+def test_a_study_file_with_other_columns_is_not_resumed_into(tmp_path):
+    # A run started before the study-like segment had its fit and candidate columns: appending rows of
+    # sixteen columns under a header of fourteen would be misread, so the resume is refused.
+    from bowden.runtime.bench_recording import STUDY_COLUMNS
+
+    path = tmp_path / "bench.csv"
+    writer = BenchRecordingWriter(path, PROTOCOL)
+    block = np.zeros((10, len(STUDY_COLUMNS)))
+    block[:, 0] = 1.0 + np.arange(10) * 0.005
+    writer.write_segment("study", block, np.empty((0, len(LOG_COLUMNS))), units_done=1)
+    writer.close()
+    study = tmp_path / "bench.study.csv"
+    text = study.read_text().replace(",fit,candidate\n", "\n", 1).replace(",0,0\n", "\n")
+    study.write_text(text)
+    journal = json.loads((tmp_path / "bench.csv.journal").read_text())
+    journal["segments"]["study"] = len(text.encode())
+    (tmp_path / "bench.csv.journal").write_text(json.dumps(journal))
+    with pytest.raises(RecordingError, match="other columns than this bowden writes"):
+        BenchRecordingWriter(path, PROTOCOL, resume=True)
