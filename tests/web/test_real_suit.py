@@ -163,7 +163,7 @@ def test_serve_backend_can_runs_console_trials_on_the_wire(wire_suit: WireSuit, 
     trial, rows, events = stored(store, trial_id)
     assert trial[:5] == ("P01", "support_50", "V3", 0.5, "operator stop (console)") and trial[5] is not None
     # Each trial takes up the slack first (a `slack` event, unless the stop came before it was done).
-    assert [kind for kind, _ in events[:-1]] in ([], ["slack"])
+    assert run_events(events[:-1]) in ([], ["slack"]), events
     assert events[-1] == ("safe_stop", "operator stop (console)")
     assert len(rows) == result["cycles"] == result["committed_rows"]  # every cycle is in the store
     assert_ramped_down(rows)
@@ -172,6 +172,12 @@ def test_serve_backend_can_runs_console_trials_on_the_wire(wire_suit: WireSuit, 
     assert not any(math.isnan(r[1]) for r in rows)  # the reference shown is recorded
     second_trial, _, _ = stored(store, trial_id + 1)
     assert second_trial[0] == "P02" and second_trial[4] == "server shutting down"
+
+
+def run_events(events: list[tuple[object, ...]]) -> list[object]:
+    """The kinds of the trial's events but the host's: a busy machine may not schedule the loop for a
+    while, which the loop records (``host_stall``) and tolerates up to ``--host-stall-ms``."""
+    return [kind for kind, _ in events if kind != "host_stall"]
 
 
 class Lines(io.TextIOBase):
@@ -251,7 +257,7 @@ def test_run_serve_shows_the_run_and_the_console_stops_it(wire_suit: WireSuit, t
     assert len(rows) == result["cycles"] == result["committed_rows"]
     assert trial_row[:5] == ("P07", "support_50", "V2", 0.5, "operator stop (console)")
     # The real suit starts each trial by taking up the slack (a `slack` event once it is done).
-    assert [kind for kind, _ in events[:-1]] in ([], ["slack"])
+    assert run_events(events[:-1]) in ([], ["slack"]), events
     assert events[-1] == ("safe_stop", "STOP_REQUESTED: operator stop (console)")
     assert_ramped_down(rows)
     assert not any(math.isnan(r[1]) for r in rows)  # the reference the display showed
