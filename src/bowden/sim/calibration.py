@@ -25,7 +25,8 @@ def activation_iemg_rows(trial: TrialSimulation) -> list[dict[str, Any]]:
     """Per kept repetition (the first is dropped), phase and muscle: the envelope's mean and peak."""
     act = trial.activations()[list(c.MUSCLES)].to_numpy()
     gains = np.asarray(trial.participant.emg_gains)
-    envelope = np.hypot(act * gains * FULL_ACTIVATION_V, BASELINE_NOISE_V)
+    factors = trial.emg_amplitude_factors()  # the trial's and each repetition's, as the sEMG has them
+    envelope = np.hypot(act * factors * gains * FULL_ACTIVATION_V, BASELINE_NOISE_V)
     rep, frac = trial.repetition_index(), trial.cycle_fraction()
     rows: list[dict[str, Any]] = []
     for r in range(1, trial.repetitions):

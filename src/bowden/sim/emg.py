@@ -8,6 +8,14 @@ IEEE TBME 27:382). Here: unit-variance white noise through a 2nd-order Butterwor
 amplifier noise (3 µV RMS) and, on the chest and back muscles, an ECG (P–QRS–T as Gaussian
 waves, McSharry et al. 2003, IEEE TBME 50:289) at the participant's heart rate with beat-to-beat
 variability.
+
+Beyond the noise of the carrier itself, a recorded sEMG amplitude varies between trials and between
+repetitions for reasons a muscle model does not see: the electrode-skin interface drifts over a
+session (sweat lowers the impedance), the electrode moves over the muscle, the participant shifts
+its posture or strategy between blocks, and no two repetitions recruit alike. :func:`amplitude_factors`
+draws these as mean-one log-normal factors per muscle: one per trial and one per repetition
+(sizes and sources: :class:`bowden.sim.participants.VirtualParticipant`, ``emg_trial_sd`` and
+``emg_repetition_sd``; docs/simulation.md, "Amplitude variability").
 """
 
 from __future__ import annotations
@@ -29,6 +37,9 @@ CARRIER_BAND_HZ = (30.0, 250.0)
 # (relative time of the wave to the R peak in s, amplitude relative to R, width in s), McSharry 2003.
 _ECG_WAVES = ((-0.20, 0.12, 0.025), (-0.03, -0.15, 0.010), (0.0, 1.0, 0.010),
               (0.03, -0.25, 0.010), (0.26, 0.30, 0.040))
+# Stream of a trial's seed that draws its amplitude factors (apart from the carrier's noise, so
+# the factors' sizes change no other draw).
+_AMPLITUDE_STREAM = 7411
 
 
 @functools.lru_cache(maxsize=8)
@@ -65,6 +76,51 @@ def ecg_artefact(
     return out * amplitude * ECG_PEAK_V
 
 
+def mean_one_lognormal(
+    rng: np.random.Generator, log_sd: float, shape: tuple[int, ...]
+) -> NDArray[np.float64]:
+    """Log-normal factors of log-SD ``log_sd`` and mean exactly one in expectation (exp(σz − σ²/2)).
+
+    Always draws ``shape`` normals, so ``log_sd = 0`` (all ones) leaves the generator where any
+    other size would.
+    """
+    z = rng.standard_normal(shape)
+    return np.asarray(np.exp(log_sd * z - 0.5 * log_sd**2), dtype=np.float64)
+
+
+def amplitude_factors(
+    repetition_index: NDArray[np.int64],
+    *,
+    trial_sd: float,
+    repetition_sd: float,
+    seed: int,
+    n_muscles: int = len(MUSCLES),
+) -> NDArray[np.float64]:
+    """Multiplicative sEMG amplitude factors, shape (samples, muscles): one per trial and muscle
+    times one per repetition and muscle.
+
+    Parameters
+    ----------
+    repetition_index
+        Repetition (0-based) of each sample, −1 outside the movement (there only the trial's factor).
+    trial_sd, repetition_sd
+        Log-normal SDs of the trial's and of each repetition's factor (each of mean one).
+    seed
+        The trial's seed (the factors are drawn from a stream of their own).
+    """
+    if not (0.0 <= trial_sd <= 2.0 and 0.0 <= repetition_sd <= 2.0):
+        raise ParameterError(f"amplitude SDs must be in [0, 2], got {trial_sd}, {repetition_sd}")
+    index = np.asarray(repetition_index, dtype=np.int64)
+    rng = np.random.default_rng([seed, _AMPLITUDE_STREAM])
+    trial = mean_one_lognormal(rng, trial_sd, (n_muscles,))
+    n_repetitions = int(index.max()) + 1 if index.size else 0
+    per_repetition = mean_one_lognormal(rng, repetition_sd, (max(n_repetitions, 0), n_muscles))
+    out = np.tile(trial, (index.size, 1))
+    inside = index >= 0
+    out[inside] *= per_repetition[index[inside]]
+    return out
+
+
 def emg_synthesize(
     activation_time_s: NDArray[np.float64],
     activations: NDArray[np.float64],
@@ -74,6 +130,7 @@ def emg_synthesize(
     ecg_amplitude: float,
     seed: int,
     rate_hz: float = EMG_RATE_HZ,
+    factors: NDArray[np.float64] | None = None,
 ) -> pd.DataFrame:
     """Raw sEMG (V) at ``rate_hz`` for the eight muscles from their activations.
 
@@ -87,6 +144,9 @@ def emg_synthesize(
         ECG artefact on ``contracts.ECG_CONTAMINATED_MUSCLES``.
     seed
         Seed of the noise (the same seed gives the same signal).
+    factors
+        Multiplicative amplitude factors at the activation times, shape of ``activations``
+        (:func:`amplitude_factors`); None: all one.
 
     Returns
     -------
@@ -100,6 +160,10 @@ def emg_synthesize(
         raise ParameterError("activation times must be increasing with at least two samples")
     if len(gains) != len(MUSCLES):
         raise ParameterError(f"gains needs {len(MUSCLES)} values, got {len(gains)}")
+    if factors is not None:
+        if np.shape(factors) != act.shape:
+            raise ParameterError(f"amplitude factors must have the activations' shape {act.shape}")
+        act = act * np.asarray(factors, dtype=np.float64)
     rng = np.random.default_rng(seed)
     n = int(np.floor((t_act[-1] - t_act[0]) * rate_hz)) + 1
     time_s = t_act[0] + np.arange(n) / rate_hz

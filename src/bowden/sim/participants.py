@@ -43,6 +43,22 @@ PAPER_AGE_YEARS = (29.33, 7.04)
 # speed nor direction. 0.3 is a wrap angle that differs by about +-30 % between bodies (k ~ mu*Phi/2);
 # no measurement of the paper's suit exists, docs/simulation.md shows the effect of the value.
 WEARER_FRICTION_LOG_SD = 0.3
+# sEMG amplitude from one trial (block) to the next within a session, per muscle (log-normal SD):
+# electrode-skin impedance drifts as the skin sweats, the electrode shifts over the muscle, the
+# participant's posture and strategy change between blocks. Nordander et al. 2004 (J Electromyogr
+# Kinesiol 14:443, "Precision of measurements of physical workload during standardised manual
+# handling. Part I") measured the within-subject, between-day CV of shoulder sEMG amplitude at
+# 8 % (trapezius) to 15 % (infraspinatus); between days includes re-applying the electrodes, which a
+# session does not, so the within-session spread is at most that: 0.10, inside their range.
+EMG_TRIAL_SD = 0.10
+# sEMG amplitude from one repetition to the next within a trial, per muscle (log-normal SD).
+# CALIBRATED, NOT EVIDENCE: no published cycle-to-cycle spread of shoulder iEMG in repeated arm
+# elevations was found. The value is the dispersion the paper's own GLMMs imply: its condition
+# tests of Table S7 (posterior deltoid p = 0.005, biceps 0.006, triceps 0.061, entire cycle) on
+# 459 repetitions per condition need phi ~ 0.5 (Var(y) = phi mu^2); a mean-one log-normal factor
+# of SD s adds exp(s^2) - 1, so s = 0.63 (chosen on seed 0; the register in
+# bowden.study.departures.calibration; docs/simulation.md, "Amplitude variability").
+EMG_REPETITION_SD = 0.63
 # Sources of the muscle activations (VirtualParticipant.muscles, `bowden study --muscles`).
 MUSCLE_MODELS = ("simple", "musculoskeletal")
 WEARER_FRICTION_SCALE_RANGE = (0.5, 2.0)
@@ -163,6 +179,13 @@ class VirtualParticipant:
         Log-normal SD of each repetition's excursion about :attr:`amplitude_gain`: people do not
         reach the same peak twice (endpoint variability grows with the movement, Harris & Wolpert
         1998; van Beers, Haggard & Wolpert 2004, J Neurophysiol 91:1050).
+    emg_trial_sd, emg_repetition_sd
+        Log-normal SDs of mean-one sEMG amplitude factors per muscle, one per trial (block) and one
+        per repetition (:func:`bowden.sim.emg.amplitude_factors`): what changes a recorded amplitude
+        beyond the muscle's activation (electrode-skin impedance, electrode over the muscle, posture
+        and strategy between blocks, recruitment from one repetition to the next). The trial's,
+        :data:`EMG_TRIAL_SD`, is from the literature; the repetition's, :data:`EMG_REPETITION_SD`,
+        is calibrated (docs/simulation.md, "Amplitude variability").
     muscles
         Where the activations come from: ``"simple"``, the hand-made model of :mod:`bowden.sim.muscles`,
         or ``"musculoskeletal"``, MyoArm's mechanics and static optimisation
@@ -206,6 +229,8 @@ class VirtualParticipant:
     lag_wander_sd: float = 0.3
     lag_wander_time_s: float = 0.5
     excursion_repetition_sd: float = 0.05
+    emg_trial_sd: float = EMG_TRIAL_SD
+    emg_repetition_sd: float = EMG_REPETITION_SD
     muscles: str = "simple"
 
     def __post_init__(self) -> None:
@@ -240,6 +265,8 @@ class VirtualParticipant:
             "lag_wander_sd": (0.0, 0.5),
             "lag_wander_time_s": (0.1, 60.0),
             "excursion_repetition_sd": (0.0, 0.3),
+            "emg_trial_sd": (0.0, 1.0),
+            "emg_repetition_sd": (0.0, 1.0),
         }
         for name, (low, high) in checks.items():
             value = getattr(self, name)

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from bowden import contracts as c
 from bowden.errors import ParameterError
-from bowden.sim.emg import emg_synthesize
+from bowden.sim.emg import amplitude_factors, emg_synthesize
 from bowden.sim.muscles import max_elevation_torque_nm, muscle_activations
 from bowden.sim.participants import VirtualParticipant
 
@@ -163,6 +163,15 @@ class TrialSimulation:
         self._cache["activations"] = frame
         return frame
 
+    def emg_amplitude_factors(self) -> NDArray[np.float64]:
+        """The sEMG amplitude factors per control cycle and muscle: the trial's times each
+        repetition's (:func:`bowden.sim.emg.amplitude_factors`), drawn from the trial's seed."""
+        p = self.participant
+        return amplitude_factors(
+            self.repetition_index(), trial_sd=p.emg_trial_sd, repetition_sd=p.emg_repetition_sd,
+            seed=self.seed,
+        )
+
     def emg(self, rate_hz: float = c.EMG_RATE_HZ) -> pd.DataFrame:
         """Synthetic raw sEMG (V): ``time_s`` and ``contracts.MUSCLES`` at ``rate_hz`` (paper: 2 kHz)."""
         act = self.activations()
@@ -175,6 +184,7 @@ class TrialSimulation:
             ecg_amplitude=p.ecg_amplitude,
             seed=self.seed + 7919,
             rate_hz=rate_hz,
+            factors=self.emg_amplitude_factors(),
         )
 
 

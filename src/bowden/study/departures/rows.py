@@ -83,7 +83,7 @@ def comparison_row(
         "study p": study_p,
         "paper p": str(paper_p) if paper_p is not None else "–",
         "departs in": "no data" if no_data else ", ".join(flags),
-        "evidence": CALIBRATED if calibrated(family, outcome) else "",
+        "evidence": CALIBRATED if calibrated(family, outcome, comparison) else "",
     }
 
 
