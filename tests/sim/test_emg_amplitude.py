@@ -128,3 +128,12 @@ def test_a_trials_semg_and_its_activation_iemg_carry_the_drawn_factors(two_trial
         for m, muscle in enumerate(("anterior_deltoid", "trapezius")):
             rms = [np.sqrt(np.mean(e.loc[inside, muscle].to_numpy() ** 2)) for e in emg]
             assert rms[1] / rms[0] == pytest.approx(expected[r - 1, MUSCLES.index(muscle)], rel=0.03), (r, m)
+
+
+def test_the_cohort_carries_the_spreads_and_they_draw_nothing() -> None:
+    default = generate_cohort(4)
+    assert {(p.emg_trial_sd, p.emg_repetition_sd) for p in default} == {(EMG_TRIAL_SD, EMG_REPETITION_SD)}
+    quiet = generate_cohort(4, emg_trial_sd=0.0, emg_repetition_sd=0.0)
+    assert [dataclasses.replace(p, emg_trial_sd=0.0, emg_repetition_sd=0.0) for p in default] == list(quiet)
+    with pytest.raises(ParameterError, match="emg_repetition_sd"):
+        dataclasses.replace(default[0], emg_repetition_sd=1.5)

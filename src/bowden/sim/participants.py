@@ -378,6 +378,8 @@ def generate_cohort(
     age_years: tuple[float, float] = PAPER_AGE_YEARS,
     wearer_friction_log_sd: float = WEARER_FRICTION_LOG_SD,
     muscles: str = "simple",
+    emg_trial_sd: float = EMG_TRIAL_SD,
+    emg_repetition_sd: float = EMG_REPETITION_SD,
 ) -> tuple[VirtualParticipant, ...]:
     """Draw a cohort like the paper's (defaults), reproducibly from ``seed``.
 
@@ -389,7 +391,9 @@ def generate_cohort(
     ``wearer_friction_log_sd`` is the log-normal spread of the sheath friction between wearers
     (:data:`WEARER_FRICTION_LOG_SD`; 0 gives every wearer the bench's friction). ``muscles`` is
     every participant's :attr:`VirtualParticipant.muscles`; it draws nothing, so both muscle models
-    get the same cohort.
+    get the same cohort. ``emg_trial_sd`` and ``emg_repetition_sd`` are every participant's sEMG
+    amplitude spreads (0 and 0: the activations' own iEMG, as a test of the muscles' mechanism wants);
+    they draw nothing here either.
     """
     if not (2 <= n_participants <= 500):
         raise ParameterError(f"n_participants must be between 2 and 500, got {n_participants}")
@@ -437,6 +441,8 @@ def generate_cohort(
                     np.clip(rng.lognormal(0.0, wearer_friction_log_sd), *WEARER_FRICTION_SCALE_RANGE)
                 ),
                 muscles=muscles,
+                emg_trial_sd=emg_trial_sd,
+                emg_repetition_sd=emg_repetition_sd,
             )
         )
     return tuple(cohort)
