@@ -6,6 +6,8 @@ landing never depends on luck. Tests never assert on wall time, so the deadline 
 """
 
 import os
+import subprocess
+import sys
 
 import pytest
 from hypothesis import settings
@@ -145,7 +147,11 @@ def pytest_sessionstart(session: pytest.Session) -> None:
     """Compile the simulated suit's kernels once, before the workers start (xdist starts them after
     this hook). On a fresh checkout every worker compiled them at once, beside the lanes' first
     real-time tests; the one failure of a fresh clone's run on 2026-11-27 came then (a resumed bench
-    run's IMU apart from the mannequin's joint), and a starved start is the likely cause."""
+    run's IMU apart from the mannequin's joint), and a starved start is the likely cause.
+
+    The study's kernels (a trial simulated, encoded, analysed) are compiled in the background at the
+    lowest priority (tests/warm_kernels.py): on a fresh checkout the suit lane's first analysis
+    compiled them, in the lane whose wall time is the suite's."""
     if hasattr(session.config, "workerinput"):  # a worker: the controller has filled numba's cache
         return
     from bowden.sim.arm import MannequinArm, PrescribedArm
@@ -153,6 +159,24 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 
     warm_up_suit(MannequinArm(load_torque_nm=1.0))  # the bench's mannequin
     warm_up_suit(PrescribedArm.hold(0.0))  # the suit's arm
+    if session.config.getoption("numprocesses", None):  # workers: the study's kernels, in the background
+        _STUDY_WARM_UP.append(subprocess.Popen(
+            [sys.executable, str(session.config.rootpath / "tests" / "warm_kernels.py")],
+            cwd=session.config.rootpath, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+            preexec_fn=lambda: os.nice(19),  # only what the lanes leave of the CPU
+        ))
+
+
+_STUDY_WARM_UP: list[subprocess.Popen[bytes]] = []
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    for process in _STUDY_WARM_UP:  # done long before the suite ends, unless the host was busy
+        if process.poll() is None:
+            process.kill()
+        _, error = process.communicate()
+        if process.returncode > 0:  # it costs only time, but say so: a renamed function broke it
+            print(f"\ntests/warm_kernels.py failed:\n{error.decode(errors='replace')}", file=sys.stderr)
 
 
 def pytest_configure(config: pytest.Config) -> None:
