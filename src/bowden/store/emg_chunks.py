@@ -162,11 +162,6 @@ def insert_encoded_emg(
     connection.executemany(_INSERT_SQL, ((trial_id, *chunk) for chunk in chunks))
 
 
-def insert_trial_emg(connection: sqlite3.Connection, trial_id: int, emg: pd.DataFrame) -> None:
-    """Store a trial's EMG, in the caller's transaction (see :func:`encode_trial_emg`)."""
-    insert_encoded_emg(connection, trial_id, encode_trial_emg(emg))
-
-
 def delete_trial_emg(connection: sqlite3.Connection, trial_id: int) -> None:
     connection.execute("DELETE FROM emg_chunks WHERE trial_id = ?", (trial_id,))
     if has_table(connection, _LEGACY_TABLE):

@@ -255,11 +255,6 @@ def delete_chunks(connection: sqlite3.Connection, rowids: Iterable[int]) -> None
     connection.executemany("DELETE FROM sample_chunks WHERE rowid = ?", ((rowid,) for rowid in rowids))
 
 
-def insert_samples(connection: sqlite3.Connection, trial_id: int, columns: ColumnsView) -> None:
-    """Insert a trial's samples as full chunks (inside the caller's transaction)."""
-    insert_encoded_samples(connection, trial_id, encode_samples(columns))
-
-
 def iter_trial_samples(connection: sqlite3.Connection, trial_id: int) -> Iterator[pd.DataFrame]:
     """A trial's samples a chunk at a time (at most :data:`CHUNK_ROWS` rows each), in time order of
     the chunks; bounded memory whatever the trial's length. Old stores' rows come in blocks too.
