@@ -3,11 +3,17 @@ over its wire peers (docs/identification.md, "The protocol, exactly": the fit's 
 through the run's one internal knob (``default_fit``: 2 candidates, V3, 2 cycles; the command's own
 default is the whole grid): it records each block's candidate, is interrupted within the fit and
 resumes without running a finished block again, chooses the candidate whose study cost — computed here
-from the recording alone — is lowest, and validates that candidate on blocks after the fit."""
+from the recording alone — is lowest, and validates that candidate on blocks after the fit. A
+study-like block recorded while the load cell's reader was starved is run again (its stale tension
+would judge a candidate)."""
 
 from __future__ import annotations
 
 import json
+import math
+import time
+from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -18,9 +24,12 @@ import bowden.cli._bench_validate as bench_validate
 from bowden.cli import main
 from bowden.errors import ParameterError
 from bowden.identify import TransmissionIdentifier
+from bowden.model import CompensationModel
 from bowden.model.model_file import load_model, save_model
-from bowden.protocol.bench import QUICK_BENCH, StudyFit
-from bowden.runtime.bench_recording import STUDY_COLUMNS
+from bowden.protocol.bench import QUICK_BENCH, StudyFit, StudyStrokes
+from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig
+from bowden.runtime.bench_recording import STUDY_COLUMNS, BenchRecordingWriter
+from bowden.sim.backend import open_sim_bench
 from bowden.sim.bench import run_bench
 from bowden.sim.bench_study import FIT_REPETITIONS, fit_candidate, fit_grid
 from bowden.sim.parameters import SuitParameters
@@ -116,8 +125,6 @@ def test_the_fit_runs_on_the_wire_bench_resumes_and_validates_its_choice(tmp_pat
 
 def test_the_fit_s_candidates_are_the_batch_fit_s_grid():
     # The journal of a fit run keeps the grid its candidate numbers index.
-    from bowden.runtime.bench import BenchRunConfig
-
     fit = StudyFit(grid=fit_grid(), speeds=("V3",))
     config = BenchRunConfig(fit=fit, identification=False)
     fingerprint = json.loads(json.dumps(config.protocol_fingerprint()))
@@ -128,3 +135,64 @@ def test_the_fit_s_candidates_are_the_batch_fit_s_grid():
     assert fit.repetitions == FIT_REPETITIONS  # the batch fit's
     with pytest.raises(ParameterError, match="candidates"):
         StudyFit(grid=fit_grid(), candidates=(0, 12))
+
+
+class _StarvedOnce:
+    """The bench's load cell, whose reader the host starves once for ``starve_s`` (from ``start``,
+    monotonic time): its newest reading and its read attempts stand still meanwhile, as an
+    ADS1115 reader thread's do when it is not scheduled (runtime/bench_cell.py)."""
+
+    def __init__(self, cell, starve_s: float) -> None:
+        self._cell, self.starve_s = cell, starve_s
+        self.start = math.inf
+        self._sample = self._counters = None
+
+    def _starved(self) -> bool:
+        return self.start <= time.monotonic() < self.start + self.starve_s and self._sample is not None
+
+    @property
+    def counters(self):
+        if self._starved():
+            return self._counters
+        counters = self._cell.counters
+        self._counters = SimpleNamespace(samples=counters.samples, io_errors=counters.io_errors,
+                                         malformed=counters.malformed)
+        return self._counters
+
+    def read(self):
+        if self._starved():
+            return self._sample
+        self._sample = self._cell.read()
+        return self._sample
+
+    def __getattr__(self, name):
+        return getattr(self._cell, name)
+
+
+def test_a_study_like_block_with_a_gap_in_the_load_cell_s_data_is_run_again(tmp_path):
+    # Before, only identification strokes were run again: a study-like block kept the starved
+    # reader's stale tension in its rows (and a fit judged a candidate on it).
+    config = BenchRunConfig(identification=False, study=StudyStrokes(
+        supports=(0.5,), speeds=("V3",), compensations=("paper",), repetitions=2))
+    config = replace(config, safety=config.safety.on_shared_host())
+    model = CompensationModel.from_friction(k=0.1)
+    with open_sim_bench() as backend, \
+            BenchRecordingWriter(tmp_path / "b.csv", config.protocol_fingerprint()) as writer:
+        cell = _StarvedOnce(backend.load_cell, starve_s=0.45)
+
+        def announce(text: str) -> None:  # the block's cycles start about 3.5 s after it is announced
+            if cell.start == math.inf:
+                cell.start = time.monotonic() + 5.0
+
+        devices = BenchDevices(tdu=backend.motor, mannequin=backend.mannequin, imu=backend.imu,
+                               load_cell=cell, clock=backend.clock)
+        report = BenchRun(devices, config, writer, model_source=lambda *_: model, announce=announce).run()
+    assert report.complete, report.fault
+    assert report.data_gaps == 1
+    study = pd.read_csv(tmp_path / "b.study.csv")
+    assert study["block"].nunique() == 1
+    # The block recorded is the second run, without a stale stretch: no tension held for 0.25 s.
+    tension, times = study["tension_n"].to_numpy(), study["time_s"].to_numpy()
+    changes = np.flatnonzero(np.diff(tension) != 0.0)
+    held_s = np.diff(times[np.concatenate([[0], changes + 1, [len(times) - 1]])])
+    assert held_s.max() < 0.25, held_s.max()

@@ -162,7 +162,7 @@ class BenchRun(BenchSegments):
         blocks = self.config.study_blocks()
         block, study = blocks[index - strokes - (latency is not None)]
         self._say(self._describe(block, len(blocks)))
-        rows = self._run_study_block(block, self._controller_for(block), study)
+        rows = self._run_study_whole(block, self._controller_for(block), study)
         self._write(lambda: self.writer.write_segment("study", rows, np.array(self._log_rows), index + 1))
 
     def _write(self, action: Callable[[], None]) -> None:

@@ -12,6 +12,7 @@ mannequin's motor must also follow its reference (within the range margin).
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -26,9 +27,10 @@ from bowden.protocol.bench import MotorNoise, StudyBlock, StudyStrokes
 from bowden.protocol.minimum_jerk import minimum_jerk_position
 from bowden.runtime.bench_config import BenchFault
 from bowden.runtime.bench_state import PHASE_LATENCY, PHASE_MANNEQUIN_MOVE, PHASE_STUDY, joint_rad
-from bowden.runtime.bench_strokes import BenchStrokes
+from bowden.runtime.bench_strokes import _GAP_RETRIES, BenchStrokes
 
 _T = TypeVar("_T")
+_log = logging.getLogger(__name__)
 _SETTLE_S = 1.0  # the arm held still before a segment: the joint's offset to the IMU is measured then
 _MOVE_SPEED_RAD_S = 0.5  # the mannequin's moves between blocks (peak speed of a minimum-jerk path)
 _FOLLOW_WINDOW_S = 0.2  # the joint this long off its reference by more than half the range margin
@@ -178,6 +180,19 @@ class BenchSegments(BenchStrokes):
         return np.array(rows)
 
     # --- segment 3: the study-like strokes --------------------------------------------------------
+    def _run_study_whole(self, block: StudyBlock, controller: Controller, study: StudyStrokes) -> np.ndarray:
+        """The block, run again while the load cell's reader starved during its cycles (its rows would
+        hold a stale tension, and a fit would judge a candidate on it), up to ``_GAP_RETRIES`` times as
+        a stroke; the same mannequin noise each time (:class:`MotorNoise` starts over)."""
+        for _ in range(_GAP_RETRIES + 1):
+            rows = self._run_study_block(block, controller, study)
+            if not self._gap_in_attempt:
+                return rows
+            _log.warning("bench: study-like block %d is run again (a gap in the load cell's data)",
+                         block.index + 1)
+        raise BenchFault(f"study-like block {block.index + 1}: the load cell's reader was starved in "
+                         f"{_GAP_RETRIES + 1} attempts in a row: the host is too busy")
+
     def _run_study_block(self, block: StudyBlock, controller: Controller, study: StudyStrokes) -> np.ndarray:
         """One block of ``study``'s strokes: rest at the low end, then the cycles with the controller on
         the TDU; its rows (``STUDY_COLUMNS``)."""
@@ -187,6 +202,7 @@ class BenchSegments(BenchStrokes):
         self._segment_high_rad = cycle.high_rad
         self._move_arm(cycle.low_rad, holding, kp, kd)
         self._phase = PHASE_STUDY
+        self._gap_in_attempt = False  # a gap while the arm was moved there is not in the block's rows
         assistance = AssistanceParameters(support=block.support,  # type: ignore[arg-type]
                                           floor_tension_n=10.0, pretension_n=10.0)
         geometry, arm = controller.geometry, controller.arm

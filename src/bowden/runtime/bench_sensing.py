@@ -17,6 +17,7 @@ from bowden.runtime.bench_state import (
     PHASE_POSITION,
     PHASE_SETTLE,
     PHASE_STROKE,
+    PHASE_STUDY,
     PHASE_TAKE_UP,
     BenchState,
 )
@@ -66,7 +67,7 @@ class BenchSensing(BenchState):
         # A reader the host starves (no attempt either) is a gap in the data (bench_cell).
         reading, fresh = self._cell_watch.read(cell, now, self._stall_end_s)
         if not fresh:
-            if self._phase in (PHASE_HOLD, PHASE_STROKE, PHASE_SETTLE):
+            if self._phase in (PHASE_HOLD, PHASE_STROKE, PHASE_SETTLE, PHASE_STUDY):
                 self._gap_in_attempt = True  # its rows would hold a stale tension: run it again
             pull = self._pull_n()
             if pull > safety.max_tension_n:  # the tension limit, from the TDU's torque meanwhile
