@@ -6,16 +6,19 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from scipy import stats
+from tests.module_from_path import load_module
 
 from bowden.contracts import MUSCLES
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
 from bowden.sim.batch import ProtocolSettings, simulate_trial
-from bowden.sim.calibration import activation_iemg_rows
+from bowden.sim.calibration import activation_iemg_rows, implied_dispersion
 from bowden.sim.emg import amplitude_factors, emg_synthesize
 from bowden.sim.participants import EMG_REPETITION_SD, EMG_TRIAL_SD, generate_cohort
 
@@ -137,3 +140,21 @@ def test_the_cohort_carries_the_spreads_and_they_draw_nothing() -> None:
     assert [dataclasses.replace(p, emg_trial_sd=0.0, emg_repetition_sd=0.0) for p in default] == list(quiet)
     with pytest.raises(ParameterError, match="emg_repetition_sd"):
         dataclasses.replace(default[0], emg_repetition_sd=1.5)
+
+
+def test_the_implied_dispersion_inverts_the_condition_f_test() -> None:
+    # Four conditions at log means 0, 0, +0.1, −0.1: Σ(η − η̄)² = 0.02, so with 459 repetitions each
+    # the between-condition mean square is 459·0.02/3 = 3.06; at φ = 0.5 the F is 6.12 and its p on
+    # (3, 1824) df is what the inversion must turn back into 0.5.
+    p = float(stats.f.sf(6.12, 3, 1824))
+    assert implied_dispersion([0.0, 0.0, 0.1, -0.1], p, n_per_condition=459, residual_df=1824) == (
+        pytest.approx(0.5, rel=1e-9))
+    # The paper's three condition tests the repetition spread was set by (Table S7) imply φ ≈ 0.45-0.47,
+    # and a mean-one log-normal factor of SD 0.63 gives exp(0.63²) − 1 = 0.49 of it.
+    script = load_module("emg_dispersion", Path(__file__).parents[2] / "scripts" / "emg_dispersion.py")
+    implied = [script.paper_dispersion("entire", m) for m in ("posterior_deltoid", "biceps", "triceps")]
+    assert implied == pytest.approx([0.456, 0.449, 0.467], abs=0.002)
+    assert math.expm1(EMG_REPETITION_SD**2) == pytest.approx(np.mean(implied), abs=0.05)
+    assert math.isnan(script.paper_dispersion("entire", "anterior_deltoid"))  # p printed "< 0.001"
+    with pytest.raises(ValueError, match="p must be"):
+        implied_dispersion([0.0, 0.1], 1.0, n_per_condition=10, residual_df=10)

@@ -9,10 +9,12 @@ count are those of the full pipeline (``bowden study``'s report).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from bowden import contracts as c
 from bowden.sim.emg import BASELINE_NOISE_V, FULL_ACTIVATION_V
@@ -67,3 +69,24 @@ def iemg_changes(rows: pd.DataFrame) -> pd.DataFrame:
                 out.append({"phase": phase, "muscle": muscle, "condition": condition,
                             "change_pct": float(np.mean(list(changes.values()))), **changes})
     return pd.DataFrame(out)
+
+
+def implied_dispersion(
+    condition_log_means: Sequence[float], p: float, *, n_per_condition: int, residual_df: int
+) -> float:
+    """The gamma dispersion φ (Var(y) = φμ²) under which a GLMM's condition test on these means has ``p``.
+
+    For a balanced design with a log link, each condition's log mean is estimated with variance
+    φ/n (the participant's intercept cancels in the contrasts), so the condition test's
+    F = n·Σ(ηᵢ − η̄)²/(k − 1)/φ on (k − 1, ``residual_df``) degrees of freedom: φ is that sum over
+    the F whose upper tail is ``p``. This is how the sEMG amplitude's repetition spread was set from
+    the paper's Table S7 (docs/simulation.md, "Amplitude variability"; ``scripts/emg_dispersion.py``).
+    """
+    eta = np.asarray(condition_log_means, dtype=np.float64)
+    if eta.ndim != 1 or eta.size < 2 or not np.isfinite(eta).all():
+        raise ValueError("condition_log_means needs two or more finite values")
+    if not (0.0 < p < 1.0 and n_per_condition > 0 and residual_df > 0):
+        raise ValueError("p must be in (0, 1) and the counts positive")
+    k = eta.size
+    between = n_per_condition * float(np.sum((eta - eta.mean()) ** 2)) / (k - 1)
+    return between / float(stats.f.isf(p, k - 1, residual_df))
