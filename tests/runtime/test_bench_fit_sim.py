@@ -108,7 +108,8 @@ def test_the_fit_runs_on_the_wire_bench_resumes_and_validates_its_choice(tmp_pat
     assert all(table[k] == pytest.approx(costs[k], abs=1e-3) for k in CANDIDATES), (table, costs)
     assert f"fitted: candidate {expected} " in out, out
     assert f"the fit chose candidate {expected} " in captured.err  # the validation ran it
-    assert "50          V3     dynamic" in out and "recommended:" in out
+    assert "50          V3     paper" in out and "50          V3     dynamic" in out and "recommended:" in out
+    assert not (tmp_path / "v.latency.csv").exists()  # only the study-like strokes
     written = load_model(fitted_path).dynamic
     chosen = fit_candidate(model, expected).dynamic
     assert written is not None and chosen is not None
