@@ -33,6 +33,9 @@ _T = TypeVar("_T")
 _log = logging.getLogger(__name__)
 _SETTLE_S = 1.0  # the arm held still before a segment: the joint's offset to the IMU is measured then
 _MOVE_SPEED_RAD_S = 0.5  # the mannequin's moves between blocks (peak speed of a minimum-jerk path)
+# No move shorter than this: the block's rest (its reference held at the start, the mannequin's
+# impedance on) brings the arm there, in the second a move would take.
+_THERE_RAD = math.radians(5.0)
 _FOLLOW_WINDOW_S = 0.2  # the joint this long off its reference by more than half the range margin
 SPEED_CODES = {"V1": 1, "V2": 2, "V3": 3}  # the study recording's ``speed`` column
 COMPENSATION_CODES = {"paper": 0, "dynamic": 1}  # its ``compensation`` column
@@ -145,6 +148,8 @@ class BenchSegments(BenchStrokes):
         self._phase = PHASE_MANNEQUIN_MOVE
         self._hold_still(holding_nm, kp, kd)
         start = self._joint_elevation_rad()
+        if abs(to_rad - start) < _THERE_RAD:  # a block after a block: its arm ended 2-4° above the low end
+            return
         duration = max(1.0, 1.875 * abs(to_rad - start) / _MOVE_SPEED_RAD_S)
         began = self._deadline
         while self._deadline - began < duration + 0.5:
