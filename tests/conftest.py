@@ -8,6 +8,7 @@ landing never depends on luck. Tests never assert on wall time, so the deadline 
 import os
 import subprocess
 import sys
+import time
 
 import pytest
 from hypothesis import settings
@@ -96,12 +97,38 @@ AFTER_THE_LANES = (
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
-    """``-n auto``: one worker per core, at least one per lane. Each lane's tests run one after the
-    other on one worker while the rest waits, so the lanes meet no CPU-bound neighbour. One worker more
-    was faster idle (4 min 31 s against 5 min 20 s on 2026-11-27) but beside two busy processes starved
-    the lanes' devices and the recorder's writer (four failures; see the comment above SERIAL_GROUPS)."""
+    """``-n auto``: one worker per core, at least one per lane, and one more on a machine nothing else
+    is using. Each lane's tests run one after the other on one worker; they wait on the wall clock, so
+    beside two lanes the cores were a third idle (CPU 471 of 690 core-seconds in an idle 5 min 45 s run
+    on 2026-11-28), which the extra worker takes for the rest (4 min 31 s against 5 min 20 s idle on
+    2026-11-27). Beside two busy processes that worker starved the lanes' devices and the recorder's
+    writer (four failures; see the comment above SERIAL_GROUPS): so only when the machine is idle."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    return max(cores, len(SERIAL_GROUPS))
+    workers = max(cores, len(SERIAL_GROUPS))
+    return workers + 1 if _others_use_of_the_cores(cores) < IDLE_BELOW_CORES else workers
+
+
+IDLE_BELOW_CORES = 0.25  # what other processes may use of the machine for it to count as idle
+
+
+def _others_use_of_the_cores(cores: int, window_s: float = 0.5) -> float:
+    """How many cores the machine's processes kept busy over ``window_s`` (Linux /proc/stat; elsewhere
+    as many as there are, which says "not idle"). Measured now, not the load average: that lags a
+    minute behind, and .ci/run starts the suite right after pip's install."""
+    def busy_and_total() -> tuple[int, int]:
+        with open("/proc/stat", encoding="ascii") as stat:
+            # user nice system idle iowait irq softirq steal (guest time is already in user)
+            ticks = [int(field) for field in stat.readline().split()[1:9]]
+        idle = ticks[3] + ticks[4]  # idle, iowait
+        return sum(ticks) - idle, sum(ticks)
+
+    try:
+        busy0, total0 = busy_and_total()
+        time.sleep(window_s)
+        busy1, total1 = busy_and_total()
+    except (OSError, ValueError, IndexError):
+        return float(cores)
+    return cores * (busy1 - busy0) / max(total1 - total0, 1)
 
 
 def _unit(nodeid: str) -> str:
