@@ -73,8 +73,14 @@ def test_the_fit_runs_on_the_wire_bench_resumes_and_validates_its_choice(tmp_pat
     study_path = tmp_path / "v.study.csv"
     first = pd.read_csv(study_path)
     assert sorted(first["block"].unique()) == [0, 1]
-    # Resumed: the fit's third block on, the two finished ones not run again.
     monkeypatch.setattr(bench_run, "_say", say)
+    # Resumed with another model: refused in one line before the bench moves (its blocks would mix two).
+    other_path = tmp_path / "other.json"
+    save_model(fit_candidate(model, 11), other_path)
+    assert main([*command[:2], str(other_path), *command[3:], "--resume"]) != 0
+    err = capsys.readouterr().err
+    assert "cannot resume" in err and "with another model" in err, err
+    # Resumed: the fit's third block on, the two finished ones not run again.
     code = main([*command, "--resume"])
     captured = capsys.readouterr()
     assert code == 0, captured.err

@@ -171,3 +171,46 @@ def test_a_study_file_with_other_columns_is_not_resumed_into(tmp_path):
     (tmp_path / "bench.csv.journal").write_text(json.dumps(journal))
     with pytest.raises(RecordingError, match="other columns than this bowden writes"):
         BenchRecordingWriter(path, PROTOCOL, resume=True)
+
+
+def test_a_validation_is_not_resumed_with_another_model(tmp_path):
+    # bench validate's blocks ran one model's coefficients: a resume with another model's would mix
+    # the two in one recording, so it is refused; a model whose per-cell recommendation alone was
+    # rewritten (bench validate -o MODEL) runs the same blocks and resumes.
+    from dataclasses import replace
+
+    from bowden.model import CompensationModel
+    from bowden.model.model_record import controller_sha256
+    from bowden.runtime.bench_config import BenchRunConfig
+
+    model = CompensationModel.from_friction(k=0.1)
+    other = CompensationModel.from_friction(k=0.12)
+    assert controller_sha256(model) != controller_sha256(other)
+    started = BenchRunConfig(identification=False, model_digest=controller_sha256(model))
+    assert BenchRunConfig(identification=False).protocol_fingerprint().get("model") is None  # bench run
+    path = tmp_path / "validate.csv"
+    writer = BenchRecordingWriter(path, started.protocol_fingerprint())
+    writer.write_stroke(*stroke(0, 0.0), strokes_done=1)
+    writer.close()
+    resumed = replace(started, model_digest=controller_sha256(other))
+    with pytest.raises(OutputFileError, match="with another model"):
+        BenchRecordingWriter(path, resumed.protocol_fingerprint(), resume=True)
+    BenchRecordingWriter(path, started.protocol_fingerprint(), resume=True).close()
+
+
+def test_the_controller_digest_leaves_out_the_recommendation_only():
+    from dataclasses import replace
+
+    from bowden.identify import TransmissionIdentifier
+    from bowden.model.model_record import controller_sha256
+    from bowden.protocol.bench import QUICK_BENCH
+    from bowden.sim.bench import run_bench
+    from bowden.sim.parameters import SuitParameters
+
+    model = TransmissionIdentifier().fit(run_bench(SuitParameters(), QUICK_BENCH, seed=0)).model_
+    assert model.dynamic is not None
+    told = replace(model, dynamic=replace(model.dynamic, recommended=not model.dynamic.recommended,
+                                          recommendation="another line"))
+    assert controller_sha256(told) == controller_sha256(model)
+    heavier = replace(model, dynamic=replace(model.dynamic, inertia_kg_m2=model.dynamic.inertia_kg_m2 * 2))
+    assert controller_sha256(heavier) != controller_sha256(model)

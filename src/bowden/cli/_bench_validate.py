@@ -18,6 +18,7 @@ from pathlib import Path
 from bowden.cli._bench_run import bench_config, run_bench_config, study_strokes
 from bowden.errors import ParameterError
 from bowden.model import CompensationModel
+from bowden.model.model_record import controller_sha256
 from bowden.protocol.bench import StudyFit
 from bowden.runtime.bench_config import BenchRunConfig
 
@@ -73,7 +74,8 @@ def run_study_on_bench(args: argparse.Namespace, model: CompensationModel,
     study = study_strokes(run_args)
     if model.dynamic is None:
         study = replace(study, compensations=("paper",))
-    config = replace(config, identification=False, latency=None, study=study, fit=fit)
+    config = replace(config, identification=False, latency=None, study=study, fit=fit,
+                     model_digest=controller_sha256(model))
     if run_args.backend == "can" and args.i2c_bus is None:
         raise ParameterError("bowden bench validate --backend can needs the load cell (--i2c-bus N): it "
                              "judges the compensations against the measured tension")

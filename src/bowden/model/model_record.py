@@ -14,6 +14,7 @@ traced to its model even after ``model.json`` was replaced or moved.
 from __future__ import annotations
 
 import hashlib
+import json
 from pathlib import Path
 from typing import Any, Final
 
@@ -42,6 +43,16 @@ def file_sha256(path: str | Path) -> str:
         return hashlib.sha256(Path(path).read_bytes()).hexdigest()
     except OSError as error:
         raise ModelFileError(f"cannot read the model file {path}: {error.strerror or error}") from None
+
+
+def controller_sha256(model: CompensationModel) -> str:
+    """The SHA-256 of the coefficients the controller runs (:func:`model_coefficients`) without the
+    per-cell recommendation, which ``bench validate -o MODEL`` rewrites and no block depends on."""
+    coefficients = model_coefficients(model)
+    if coefficients["dynamic"] is not None:
+        coefficients["dynamic"] = {key: value for key, value in coefficients["dynamic"].items()
+                                   if not key.startswith("recommend")}
+    return hashlib.sha256(json.dumps(coefficients, sort_keys=True).encode()).hexdigest()
 
 
 def model_coefficients(model: CompensationModel) -> dict[str, Any]:

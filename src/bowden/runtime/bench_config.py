@@ -191,6 +191,10 @@ class BenchRunConfig:
     mannequin_inertia_kgm2
         The mannequin arm's moment of inertia about the shoulder, fed forward by its motor along the
         study's reference (the simulated mannequin's: 0.08 kg·m²).
+    model_digest
+        ``bench validate``: the digest of the model the study-like blocks run
+        (:func:`~bowden.model.model_record.controller_sha256`), so that a resume with another model is
+        refused; None for ``bench run``, whose model is identified during the run.
     """
 
     protocol: BenchProtocol = field(default_factory=BenchProtocol)
@@ -210,6 +214,7 @@ class BenchRunConfig:
     identification: bool = True
     mannequin_inertia_kgm2: float = 0.08
     fit: StudyFit | None = None
+    model_digest: str | None = None
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.rate_hz) and 50.0 <= self.rate_hz <= 2000.0):
@@ -239,7 +244,8 @@ class BenchRunConfig:
                                                           "supports": list(self.study.supports),
                                                           "speeds": list(self.study.speeds),
                                                           "compensations": list(self.study.compensations)},
-                **({} if self.fit is None else {"fit": _fit_fingerprint(self.fit)})}
+                **({} if self.fit is None else {"fit": _fit_fingerprint(self.fit)}),
+                **({} if self.model_digest is None else {"model": self.model_digest})}
 
     @property
     def n_units(self) -> int:

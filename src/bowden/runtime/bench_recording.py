@@ -131,6 +131,11 @@ class BenchRecordingWriter:
                                      else "add --resume to continue it, or choose another file name"))
         if journal.get("complete"):
             raise OutputFileError(f"{self.path} is already complete ({journal['strokes_done']} strokes)")
+        started_model = (journal.get("protocol") or {}).get("model")
+        if started_model != self.protocol.get("model"):
+            raise OutputFileError(f"cannot resume {self.path} with another model: its blocks ran the one "
+                                  f"whose coefficients hash to {str(started_model)[:12]}, this one's hash to "
+                                  f"{str(self.protocol.get('model'))[:12]}; validate it into another file")
         if journal.get("protocol") != self.protocol:
             raise OutputFileError(f"cannot resume {self.path} with another protocol: it was started with "
                                   f"{journal.get('protocol')}, this run has {self.protocol}")
