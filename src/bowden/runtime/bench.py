@@ -43,7 +43,7 @@ import numpy as np
 from bowden.control import Controller, build_controller
 from bowden.errors import BowdenError, HardwareError, OutputFileError
 from bowden.model import CompensationModel, Subject
-from bowden.protocol.bench import StudyBlock
+from bowden.protocol.bench import StudyBlock, StudyStrokes
 from bowden.runtime.bench_config import (
     BenchDevices,
     BenchFault,
@@ -162,7 +162,7 @@ class BenchRun(BenchSegments):
         blocks = self.config.study_blocks()
         block, study = blocks[index - strokes - (latency is not None)]
         self._say(self._describe(block, len(blocks)))
-        rows = self._run_study_whole(block, self._controller_for(block), study)
+        rows = self._run_study_whole(block, self._controller_for(block, study), study)
         self._write(lambda: self.writer.write_segment("study", rows, np.array(self._log_rows), index + 1))
 
     def _write(self, action: Callable[[], None]) -> None:
@@ -182,11 +182,10 @@ class BenchRun(BenchSegments):
         kind = "study-like fit block" if block.fit else "study-like block"
         return f"{kind} {block.index + 1} of {blocks}: support {block.support}, {block.speed}, {what}"
 
-    def _controller_for(self, block: StudyBlock) -> Controller:
+    def _controller_for(self, block: StudyBlock, study: StudyStrokes) -> Controller:
         """The controller ``bowden run`` would build for the block's support and compensation, on the
         model the bench identified (or was given) — a fit's candidate of it in a fit's block, and the
         candidate the fit chose in the study-like blocks after a fit."""
-        study = self.config.study_blocks()[block.index][1]
         model = self._block_model(block)
         if block.compensation == "dynamic" and model.dynamic is None:
             raise BenchFault("the model has no dynamic compensation for the study-like segment")

@@ -17,6 +17,7 @@ import pandas as pd
 from scipy import stats
 
 from bowden import contracts as c
+from bowden.errors import ParameterError
 from bowden.sim.emg import BASELINE_NOISE_V, FULL_ACTIVATION_V
 from bowden.sim.results import TrialSimulation
 
@@ -84,9 +85,9 @@ def implied_dispersion(
     """
     eta = np.asarray(condition_log_means, dtype=np.float64)
     if eta.ndim != 1 or eta.size < 2 or not np.isfinite(eta).all():
-        raise ValueError("condition_log_means needs two or more finite values")
+        raise ParameterError("condition_log_means needs two or more finite values")
     if not (0.0 < p < 1.0 and n_per_condition > 0 and residual_df > 0):
-        raise ValueError("p must be in (0, 1) and the counts positive")
+        raise ParameterError("p must be in (0, 1) and the counts positive")
     k = eta.size
     between = n_per_condition * float(np.sum((eta - eta.mean()) ** 2)) / (k - 1)
     return between / float(stats.f.isf(p, k - 1, residual_df))
