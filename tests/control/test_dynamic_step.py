@@ -216,9 +216,10 @@ def test_bad_inputs_fault_like_the_paper_step() -> None:
 
 @pytest.mark.parametrize("compensation", ["paper", "dynamic"])
 def test_the_specialised_step_is_the_generic_one_without_the_other_branches(compensation: str) -> None:
-    """The controller runs step_closure's step with only its compensation's branches
-    (control/step.py, _specialise): the same commands, bit for bit, and none of the other's work."""
-    from bowden.control.step import step_closure
+    """The controller runs step_closure's step with its parts spliced in and only its compensation's
+    branches (control/step.py, _specialise): the same commands as the step that calls its parts, bit
+    for bit, and none of the other's work."""
+    from bowden.control.step import _PARTS, step_closure
 
     controller = build_controller(model=MODEL, support=0.5, subject=SUBJECT, compensation=compensation)  # type: ignore[arg-type]
     generic = step_closure(MODEL, compensation, controller.arm, controller.geometry,  # type: ignore[arg-type]
@@ -227,6 +228,8 @@ def test_the_specialised_step_is_the_generic_one_without_the_other_branches(comp
     assert "dynamic" not in code.co_freevars and "dynamic" in generic.__code__.co_freevars  # type: ignore[attr-defined]
     assert ("e0" in code.co_varnames) == (compensation == "dynamic")  # the estimator's locals
     assert ("x" in code.co_varnames) == (compensation == "paper")  # the sigmoid's
+    assert not set(code.co_names) & set(_PARTS)  # its parts spliced in: no call on the hot path
+    assert set(generic.__code__.co_names) & set(_PARTS)  # type: ignore[attr-defined]
     for i, (elevation, velocity) in enumerate(movement(3000, 4)):
         if i == 1200:
             elevation = math.nan

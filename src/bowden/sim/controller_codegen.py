@@ -29,7 +29,7 @@ from pathlib import Path
 
 from bowden.control import step as step_module
 from bowden.control.limits import ControllerLimits
-from bowden.control.step import step_closure
+from bowden.control.step import spliced_step, step_closure
 from bowden.model import CompensationModel, CuffGeometry, Subject
 from bowden.model.anthropometry import arm_model
 from bowden.model.assistance import AssistanceParameters
@@ -49,15 +49,16 @@ def _step_names() -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
     tree = _step_tree()
     state = tuple(name for node in ast.walk(tree) if isinstance(node, ast.Nonlocal) for name in node.names)
     constants = tuple(name for name in code.co_freevars if name not in state)
-    globals_used = tuple(sorted(name for name in code.co_names if name.startswith("_")))
+    # The module globals the spliced step reads (its parts' too, which the built step only calls).
+    loaded = {node.id for node in ast.walk(tree) if isinstance(node, ast.Name)}
+    globals_used = tuple(sorted(name for name in loaded - set(state) - set(constants)
+                                if name.startswith("_") and hasattr(step_module, name)))
     return constants, state, globals_used
 
 
 def _step_tree() -> ast.FunctionDef:
-    module = ast.parse(inspect.getsource(step_module))
-    compile_fn = next(node for node in module.body
-                      if isinstance(node, ast.FunctionDef) and node.name == "step_closure")
-    return next(node for node in compile_fn.body if isinstance(node, ast.FunctionDef) and node.name == "step")
+    """The step with its parts spliced in (:func:`bowden.control.step.spliced_step`)."""
+    return spliced_step(ast.parse(inspect.getsource(step_module)))[1]
 
 
 def constant_index(name: str) -> str:
