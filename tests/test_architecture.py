@@ -53,6 +53,21 @@ def test_the_store_never_imports_the_layers_above_it():
     assert not offenders, "\n".join(offenders)
 
 
+# Identification turns bench recordings into a model; a real bench's recording must not need the
+# simulator to be judged (issue 32), nor anything else above the model (docs/design.md).
+IDENTIFY_FORBIDDEN = ("hardware", "runtime", "sim", "web", "study", "sweep", "engine", "cli")
+
+
+def test_identification_never_imports_the_simulator_or_the_layers_above_it():
+    offenders = []
+    for path in sorted((PACKAGE / "identify").rglob("*.py")):
+        for module in imported_modules(path):
+            parts = module.split(".")
+            if parts[0] == "bowden" and len(parts) > 1 and parts[1] in IDENTIFY_FORBIDDEN:
+                offenders.append(f"{path.relative_to(PACKAGE)} imports {module}")
+    assert not offenders, "\n".join(offenders)
+
+
 def test_controller_contract_of_design_md(tmp_path):
     # The controller contract of docs/design.md, run as written.
     from bowden.control import build_controller

@@ -57,8 +57,8 @@ def test_a_noise_out_of_range_is_refused():
 
 
 def test_every_candidate_of_a_fit_meets_the_same_noise_and_the_validation_other_noise():
+    from bowden.identify.study_fit import fit_grid
     from bowden.protocol.bench import StudyFit
-    from bowden.sim.bench_study import fit_grid
 
     fit = StudyFit(grid=fit_grid(), speeds=("V1", "V2"))
     strokes = fit.strokes(StudyStrokes())

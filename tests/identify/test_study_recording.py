@@ -61,6 +61,8 @@ def test_the_file_is_read_per_cell_and_compensation(tmp_path):
 
 
 def test_the_bench_runs_the_batch_segments_numbers():
+    from bowden.identify.study_fit import STUDY_SUPPORTS
+    from bowden.identify.study_recommendation import VALIDATION_REPETITIONS
     from bowden.sim import bench_study
 
     study = StudyStrokes()
@@ -69,8 +71,8 @@ def test_the_bench_runs_the_batch_segments_numbers():
     assert (study.motor_noise_nm, study.motor_noise_fraction, study.motor_noise_time_s) == (
         bench_study.MANNEQUIN_MOTOR_NOISE_NM, bench_study.MANNEQUIN_MOTOR_NOISE_FRACTION,
         bench_study.MANNEQUIN_MOTOR_NOISE_TIME_S)
-    assert study.supports == bench_study.STUDY_SUPPORTS
-    assert study.repetitions == getattr(bench_study, "VALIDATION_REPETITIONS", 4)
+    assert study.supports == STUDY_SUPPORTS
+    assert study.repetitions == VALIDATION_REPETITIONS
 
 
 def test_the_batch_bench_moves_the_arm_along_the_protocols_chirp():
@@ -107,9 +109,9 @@ def _fit_recording(path, candidates: dict[int, float], *, validation: bool = Tru
 
 
 def test_a_recorded_fit_chooses_the_candidate_of_lowest_study_cost(tmp_path):
+    from bowden.identify.study_fit import fit_candidate
     from bowden.identify.study_recording import choose_fitted
     from bowden.model import CompensationModel
-    from bowden.sim.bench_study import fit_candidate
 
     path = tmp_path / "v.study.csv"
     _fit_recording(path, {3: 2.0, 5: 1.0, 8: 3.0})

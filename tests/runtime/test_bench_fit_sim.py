@@ -24,6 +24,7 @@ import bowden.cli._bench_validate as bench_validate
 from bowden.cli import main
 from bowden.errors import ParameterError
 from bowden.identify import TransmissionIdentifier
+from bowden.identify.study_fit import FIT_REPETITIONS, fit_candidate, fit_grid
 from bowden.model import CompensationModel
 from bowden.model.model_file import load_model, save_model
 from bowden.protocol.bench import QUICK_BENCH, StudyFit, StudyStrokes
@@ -31,7 +32,6 @@ from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig
 from bowden.runtime.bench_recording import STUDY_COLUMNS, BenchRecordingWriter
 from bowden.sim.backend import open_sim_bench
 from bowden.sim.bench import run_bench
-from bowden.sim.bench_study import FIT_REPETITIONS, fit_candidate, fit_grid
 from bowden.sim.parameters import SuitParameters
 
 CANDIDATES = (0, 11)  # the grid's first (the model as identified) and last (drag ×1.8, inertia ×2, −0.05 Nm)

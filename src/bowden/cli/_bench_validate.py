@@ -4,7 +4,7 @@ Private to the CLI. The bench runs only the protocol's study-like strokes (docs/
 "The protocol, exactly", segment 3) with MODEL's compensations in turn — the slack taken up first, no
 identification strokes, no chirp — recorded crash-safe like ``bench run`` (``--resume``). With
 ``--fit`` the study-like fit's blocks run first (:class:`~bowden.protocol.bench.StudyFit`: the batch
-fit's grid and repetitions, :mod:`bowden.sim.bench_study`), and the study-like blocks after them run
+fit's grid and repetitions, :mod:`bowden.identify.study_fit`), and the study-like blocks after them run
 the candidate the recorded fit chose (:func:`bowden.identify.study_recording.choose_fitted`).
 """
 
@@ -31,7 +31,7 @@ def default_fit(args: argparse.Namespace) -> StudyFit:
     """The batch fit's blocks on a bench: at ``--support`` (default 0.5, as the batch fit), the
     ``--study-speeds`` (default V1-V3), every candidate of the grid, its repetitions."""
     from bowden.contracts import SPEEDS
-    from bowden.sim.bench_study import FIT_REPETITIONS, fit_grid
+    from bowden.identify.study_fit import FIT_REPETITIONS, fit_grid
 
     return StudyFit(grid=fit_grid(), support=0.5 if args.support is None else args.support,
                     speeds=tuple(args.study_speeds) if args.study_speeds else tuple(SPEEDS),
@@ -39,13 +39,13 @@ def default_fit(args: argparse.Namespace) -> StudyFit:
 
 
 class GridModels:
-    """The fit's models from :mod:`bowden.sim.bench_study`'s grid (``BenchRun``'s ``fit_models``)."""
+    """The fit's models from :mod:`bowden.identify.study_fit`'s grid (``BenchRun``'s ``fit_models``)."""
 
     def __init__(self, flag: str) -> None:
         self.flag = flag
 
     def candidate(self, model: CompensationModel, index: int) -> CompensationModel:
-        from bowden.sim.bench_study import fit_candidate
+        from bowden.identify.study_fit import fit_candidate
 
         return fit_candidate(model, index)
 
@@ -108,8 +108,8 @@ def estimate(config: BenchRunConfig) -> str:
 def print_fit(model: CompensationModel, study_recording: Path, flag: str) -> CompensationModel:
     """Print the recorded fit's candidates with their study costs and the one chosen; the model with
     it applied."""
+    from bowden.identify.study_fit import fit_grid
     from bowden.identify.study_recording import choose_fitted
-    from bowden.sim.bench_study import fit_grid
 
     choice = choose_fitted(model, study_recording, flag)
     grid = fit_grid()

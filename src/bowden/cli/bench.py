@@ -159,9 +159,8 @@ def run_bench_command(args: argparse.Namespace) -> int:
 
 
 def run_validate(args: argparse.Namespace) -> int:
+    from bowden.identify.study_fit import STUDY_SUPPORTS
     from bowden.model.model_file import load_model
-    from bowden.sim.bench_study import STUDY_SUPPORTS, fit_on_study_segment, validate_compensations
-    from bowden.sim.parameters import SuitParameters
 
     supports: tuple[float | str, ...] = STUDY_SUPPORTS
     if args.support is not None:
@@ -171,6 +170,15 @@ def run_validate(args: argparse.Namespace) -> int:
     model = load_model(args.model)
     if args.recording is not None or args.backend != "sim":
         return _validate_recorded(args, model, supports)
+    return _validate_simulated(args, model, supports)
+
+
+def _validate_simulated(args: argparse.Namespace, model: Any, supports: tuple[float | str, ...]) -> int:
+    """``bench validate --backend sim``: the study-like segment on the batch simulated bench (with
+    ``--fit`` the batch fit first, validated on other strokes)."""
+    from bowden.sim.bench_study import fit_on_study_segment, validate_compensations
+    from bowden.sim.parameters import SuitParameters
+
     suit = SuitParameters()
     seed = args.seed
     if args.fit:
@@ -203,8 +211,8 @@ def _validate_recorded(args: argparse.Namespace, model: Any, supports: tuple[flo
 
 def _report_validation(args: argparse.Namespace, model: Any, results: dict[Any, Any]) -> int:
     from bowden.cli.identify import print_study_results
+    from bowden.identify.study_recommendation import recommendation
     from bowden.model.model_file import save_model
-    from bowden.sim.bench_study import recommendation
 
     print_study_results(results)
     choice = recommendation(results)

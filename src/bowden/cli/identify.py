@@ -173,8 +173,8 @@ def run(args: argparse.Namespace) -> int:
 def recommend_from_study_recording(model: CompensationModel, path: Path) -> CompensationModel:
     """``model`` with the recommendation the recorded study-like strokes give (the per-cell table
     printed); unchanged, and said so, when it has no dynamic compensation."""
+    from bowden.identify.study_recommendation import recommendation
     from bowden.identify.study_recording import read_study_recording
-    from bowden.sim.bench_study import recommendation
 
     results = read_study_recording(path)
     print_study_results(results)

@@ -3,22 +3,23 @@
 ``bowden bench run`` writes the study-like strokes to ``<stem>.study.csv`` (docs/identification.md,
 "The protocol, exactly": its columns). Each block is one support, speed and compensation; its
 repetitions are numbered by ``cycle_phase`` (the cycle number plus the fraction of the cycle, negative
-during the rest before the first). As the batch segment (:mod:`bowden.sim.bench_study`) judges them:
-on the repetitions after the first, the tension RMSE of the load cell (``tension_n``) against the
-support law at the mannequin joint's elevation (``law_tension_n``), and the lowering-onset peak (the
-largest percent error of the repetition-mean curve, in 1 % bins of the cycle, between 45 % and 75 %);
-the same measures of each held-out repetition alone for the recommendation's paired bound.
+during the rest before the first). Judged as the batch segment (:mod:`bowden.sim.bench_study`) judges
+its own, with the same measures (:mod:`bowden.identify.study_fit`): on the repetitions after the
+first, the tension RMSE of the load cell (``tension_n``) against the support law at the mannequin
+joint's elevation (``law_tension_n``), and the lowering-onset peak (the largest percent error of the
+repetition-mean curve, in 1 % bins of the cycle, between 45 % and 75 %); the same measures of each
+held-out repetition alone for the recommendation's paired bound.
 
 A study-like fit on a bench (``bowden bench validate --fit``) records its blocks in the same file,
-marked by ``fit`` (1) and ``candidate`` (the index into :func:`bowden.sim.bench_study.fit_grid`; −1
+marked by ``fit`` (1) and ``candidate`` (the index into :func:`bowden.identify.study_fit.fit_grid`; −1
 for its paper's blocks), before the study-like blocks it is validated on: :func:`choose_fitted`
-judges them by the batch fit's :func:`~bowden.sim.bench_study.study_cost`.
+judges them by the batch fit's :func:`~bowden.identify.study_fit.study_cost`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,33 +27,21 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bowden.errors import FitError
-from bowden.model import CompensationModel
-from bowden.model.dynamic import support_label
-from bowden.sim.bench_study import (
-    ONSET_WINDOW,
+from bowden.identify.study_fit import (
     Cell,
     StrokeResult,
     fit_candidate,
     fit_grid,
     lowest_cost,
+    onset_peak_pct,
     study_cost,
 )
+from bowden.model import CompensationModel
+from bowden.model.dynamic import support_label
 
 REQUIRED = ("block", "support", "speed", "compensation", "cycle_phase", "tension_n", "law_tension_n")
 SPEEDS = {1: "V1", 2: "V2", 3: "V3"}
 COMPENSATIONS = {0: "paper", 1: "dynamic"}
-
-
-def onset_peak_pct(fraction: NDArray[np.float64], percent: NDArray[np.float64]) -> float:
-    """Largest percent error of the curve binned over the cycle (1 % bins) inside the onset window."""
-    bins = np.minimum((fraction * 100).astype(int), 99)
-    counts = np.bincount(bins, minlength=100)
-    curve = np.bincount(bins, weights=percent, minlength=100) / np.maximum(counts, 1)
-    centres = (np.arange(100) + 0.5) / 100
-    window = (centres >= ONSET_WINDOW[0]) & (centres <= ONSET_WINDOW[1]) & (counts > 0)
-    if not window.any():
-        raise FitError("a study-like block holds no sample in the lowering onset (45-75 % of the cycle)")
-    return float(curve[window].max())
 
 
 def judge_block(cycle_phase: NDArray[np.float64], tension_n: NDArray[np.float64],
@@ -72,14 +61,12 @@ def judge_block(cycle_phase: NDArray[np.float64], tension_n: NDArray[np.float64]
     percent = 100.0 * error / law_tension_n[held_out]
     stroke = np.floor(phase).astype(int)
     strokes = [stroke == r for r in np.unique(stroke)]
-    result = (float(np.sqrt(np.mean(error**2))), onset_peak_pct(fraction, percent))
-    names = {f.name for f in fields(StrokeResult)}
-    if "stroke_rmse_n" in names:  # the per-repetition measures of the paired bound
-        per_rmse = tuple(float(np.sqrt(np.mean(error[one] ** 2))) for one in strokes)
-        per_peak = tuple(onset_peak_pct(fraction[one], percent[one]) for one in strokes)
-        return StrokeResult(*result, stroke_rmse_n=per_rmse,
-                            stroke_peak_pct=per_peak)
-    return StrokeResult(*result)
+    # Each repetition's own measures too: the paired bound of the recommendation is taken from them.
+    return StrokeResult(
+        float(np.sqrt(np.mean(error**2))), onset_peak_pct(fraction, percent),
+        stroke_rmse_n=tuple(float(np.sqrt(np.mean(error[one] ** 2))) for one in strokes),
+        stroke_peak_pct=tuple(onset_peak_pct(fraction[one], percent[one]) for one in strokes),
+    )
 
 
 def _read_frame(path: str | Path, flag: str) -> Any:
@@ -162,8 +149,8 @@ def read_study_recording(path: str | Path, flag: str = "--study-recording", *, a
 @dataclass(frozen=True)
 class FitChoice:
     """What a recorded study-like fit chose: the candidate (its index into
-    :func:`~bowden.sim.bench_study.fit_grid`), the model with it applied, and every candidate's
-    :func:`~bowden.sim.bench_study.study_cost`."""
+    :func:`~bowden.identify.study_fit.fit_grid`), the model with it applied, and every candidate's
+    :func:`~bowden.identify.study_fit.study_cost`."""
 
     candidate: int
     model: CompensationModel
@@ -196,7 +183,8 @@ def fit_results(path: str | Path, flag: str) -> dict[int, dict[Cell, dict[str, S
 
 def choose_fitted(model: CompensationModel, path: str | Path, flag: str) -> FitChoice:
     """The candidate of the recorded fit with the lowest study cost — the batch fit's function and
-    grid (:func:`~bowden.sim.bench_study.fit_on_study_segment`) on the bench's strokes."""
+    grid (:mod:`bowden.identify.study_fit`, as :func:`bowden.sim.bench_study.fit_on_study_segment`) on
+    the bench's strokes."""
     costs = {candidate: study_cost(results) for candidate, results in fit_results(path, flag).items()}
     best = lowest_cost(costs)
     if best is None:
