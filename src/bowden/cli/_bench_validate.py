@@ -16,11 +16,12 @@ from dataclasses import replace
 from pathlib import Path
 
 from bowden.cli._bench_run import bench_config, run_bench_config, study_strokes
-from bowden.errors import ParameterError
+from bowden.errors import ParameterError, RecordingError
 from bowden.model import CompensationModel
 from bowden.model.model_record import controller_sha256
 from bowden.protocol.bench import StudyFit
 from bowden.runtime.bench_config import BenchRunConfig
+from bowden.runtime.bench_recording import journal_path, read_journal
 
 
 def _say(text: str) -> None:
@@ -80,7 +81,7 @@ def run_study_on_bench(args: argparse.Namespace, model: CompensationModel,
         raise ParameterError("bowden bench validate --backend can needs the load cell (--i2c-bus N): it "
                              "judges the compensations against the measured tension")
     if fit is not None:
-        _say(estimate(config))
+        _say(estimate(config, blocks_done=_blocks_done(run_args, config)))
     code = run_bench_config(run_args, config, model_source=lambda _recording, _latency: model,
                             fit_models=GridModels("--bench-output"))
     if code != 0:
@@ -88,21 +89,67 @@ def run_study_on_bench(args: argparse.Namespace, model: CompensationModel,
     return output.with_name(output.stem + ".study.csv")
 
 
-def estimate(config: BenchRunConfig) -> str:
-    """How many blocks and cycles the fit and the validation run, and roughly how long on the bench."""
+def _blocks_done(args: argparse.Namespace, config: BenchRunConfig) -> int:
+    """The study-like blocks a ``--resume`` finds recorded (its journal's units done after the units
+    before the blocks); 0 without ``--resume``, or when the journal is of another protocol (the run
+    is then refused before the bench moves)."""
+    journal = read_journal(args.output) if args.resume else None
+    if journal is None or journal.get("protocol") != config.protocol_fingerprint():
+        return 0
+    before_blocks = config.n_units - len(config.study_blocks())
+    return max(0, int(journal["strokes_done"]) - before_blocks)
+
+
+def estimate(config: BenchRunConfig, *, blocks_done: int = 0) -> str:
+    """How many blocks and cycles the fit and the validation run, and roughly how long on the bench;
+    after ``blocks_done`` blocks (a resumed run), what is left of each."""
     from bowden.runtime.bench_segments import study_time_s
 
     fit, study = config.fit, config.study
     assert fit is not None and study is not None
     blocks = config.study_blocks()
-    fitting = [(block, strokes) for block, strokes in blocks if block.fit]
-    validating = [(block, strokes) for block, strokes in blocks if not block.fit]
+    left = blocks[blocks_done:]
+    fitting = [(block, strokes) for block, strokes in left if block.fit]
+    validating = [(block, strokes) for block, strokes in left if not block.fit]
+    if blocks_done:
+        return (f"bench validate --fit, resumed with {blocks_done} of {len(blocks)} blocks done: the fit's "
+                f"{len(fitting)} blocks left, about {study_time_s(fitting) / 60:.0f} min; then the "
+                f"validation {len(validating)} blocks, about {study_time_s(validating) / 60:.0f} min; about "
+                f"{study_time_s(left) / 60:.0f} min left")
     speeds = " ".join(fit.speeds)
     return (f"bench validate --fit: the fit runs {len(fitting)} blocks ({len(fitting) * fit.repetitions} "
             f"cycles: support {fit.support}, {speeds}, the paper's and {len(fit.candidates)} candidates, "
             f"{fit.repetitions} cycles each), about {study_time_s(fitting) / 60:.0f} min; then the "
             f"validation {len(validating)} blocks ({len(validating) * study.repetitions} cycles), about "
             f"{study_time_s(validating) / 60:.0f} min; about {study_time_s(blocks) / 60:.0f} min in all")
+
+
+def check_recorded_model(model: CompensationModel, model_path: Path, study_recording: Path) -> str | None:
+    """Refuse a ``--recording`` whose blocks ran another model than MODEL, by the SHA-256 of the
+    controller's coefficients its run's journal keeps (``<stem>.csv.journal`` or
+    ``<stem>.parquet.journal`` beside ``<stem>.study.csv``); the one line to say when it cannot be told
+    (said once the recording was judged: a recording refused gets its one error line alone)."""
+    stem = study_recording.name.removesuffix(".study.csv")
+    recordings = [study_recording.with_name(stem + suffix) for suffix in (".csv", ".parquet")]
+    recording = next((path for path in recordings if journal_path(path).exists()), None)
+    unchecked = f"bench validate: the model of --recording {study_recording} could not be checked"
+    if stem == study_recording.name or recording is None:
+        return f"{unchecked} (no journal of its run beside it): give the MODEL its blocks ran"
+    try:
+        journal = read_journal(recording)
+    except RecordingError as error:
+        return f"{unchecked}: {error}"
+    recorded = None if journal is None else (journal.get("protocol") or {}).get("model")
+    if recorded is None:
+        return (f"{unchecked} ({journal_path(recording).name} keeps none: `bench run` identifies its model "
+                "during the run)")
+    digest = controller_sha256(model)
+    if recorded != digest:
+        raise ParameterError(
+            f"--recording {study_recording}: its blocks ran another model than MODEL {model_path} (its "
+            f"journal keeps the coefficients' SHA-256 {str(recorded)[:12]}…, MODEL's is {digest[:12]}…): "
+            "give the model it was recorded with")
+    return None
 
 
 def print_fit(model: CompensationModel, study_recording: Path, flag: str) -> CompensationModel:

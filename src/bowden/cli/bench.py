@@ -193,20 +193,25 @@ def _validate_recorded(args: argparse.Namespace, model: Any, supports: tuple[flo
     """``bench validate`` on a recorded study-like segment: the one given (``--recording``), or one
     run now on a bench over its wires (``--backend can`` or ``sim-wire``) with both compensations;
     with ``--fit`` the fit's blocks first, and the validation on the candidate they chose."""
-    from bowden.cli._bench_validate import default_fit, print_fit, run_study_on_bench
+    from bowden.cli._bench_validate import check_recorded_model, default_fit, print_fit, run_study_on_bench
     from bowden.identify.study_recording import read_study_recording
 
     if args.fit and model.dynamic is None:
         raise ParameterError(f"--fit: {args.model} has no dynamic compensation to refit")
-    path, flag = args.recording, "--recording"
-    if path is None:
+    path, flag, unchecked = args.recording, "--recording", None
+    if path is not None:
+        unchecked = check_recorded_model(model, args.model, path)
+    else:
         ran = run_study_on_bench(args, model, supports, fit=default_fit(args) if args.fit else None)
         if isinstance(ran, int):
             return ran
         path, flag = ran, "--bench-output"
+    results = read_study_recording(path, flag=flag, after_fit=args.fit)
     if args.fit:
         model = print_fit(model, path, flag)
-    return _report_validation(args, model, read_study_recording(path, flag=flag, after_fit=args.fit))
+    if unchecked is not None:  # once the recording was judged: a refused one gets one error line alone
+        print(unchecked, file=sys.stderr)
+    return _report_validation(args, model, results)
 
 
 def _report_validation(args: argparse.Namespace, model: Any, results: dict[Any, Any]) -> int:

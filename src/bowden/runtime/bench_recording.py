@@ -70,6 +70,34 @@ class ResumePoint:
     learned: dict[str, Any] = field(default_factory=dict)
 
 
+def journal_path(recording: str | Path) -> Path:
+    """The journal of the bench recording ``recording``: ``<recording>.journal``."""
+    path = Path(recording)
+    return path.with_name(path.name + ".journal")
+
+
+def read_journal(recording: str | Path) -> dict[str, Any] | None:
+    """The journal of the bench recording ``recording`` (strokes done, the protocol's numbers, …), or
+    None when it has none; a file that is not a journal is a :class:`RecordingError`."""
+    path = journal_path(recording)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return None
+    except OSError as error:
+        raise RecordingError(f"cannot read {path}: {error.strerror or error}") from None
+    try:
+        journal: dict[str, Any] = json.loads(text)
+        if journal.get("version") != _JOURNAL_VERSION:
+            raise ValueError(f"version {journal.get('version')!r}")
+        for key in ("strokes_done", "data_bytes", "log_bytes", "last_time_s"):
+            if not isinstance(journal.get(key), int | float):
+                raise ValueError(f"no {key}")
+    except (ValueError, AttributeError) as error:
+        raise RecordingError(f"{path} is not a bench-run journal ({error})") from None
+    return journal
+
+
 class BenchRecordingWriter:
     """Appends complete strokes to a bench recording and its device log (a context manager).
 
@@ -95,7 +123,7 @@ class BenchRecordingWriter:
         self._parquet = suffix == ".parquet"
         self.data_path = self.path.with_name(self.path.name + ".partial.csv") if self._parquet else self.path
         self.log_path = self.path.with_name(self.path.stem + ".log.csv")
-        self.journal_path = self.path.with_name(self.path.name + ".journal")
+        self.journal_path = journal_path(self.path)
         self.protocol = protocol
         self._data: TextIO | None = None
         self._log: TextIO | None = None
@@ -183,22 +211,7 @@ class BenchRecordingWriter:
             self._segments[name] = path.open("a", encoding="utf-8", newline="")
 
     def _read_journal(self) -> dict[str, Any] | None:
-        try:
-            text = self.journal_path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            return None
-        except OSError as error:
-            raise RecordingError(f"cannot read {self.journal_path}: {error.strerror or error}") from None
-        try:
-            journal: dict[str, Any] = json.loads(text)
-            if journal.get("version") != _JOURNAL_VERSION:
-                raise ValueError(f"version {journal.get('version')!r}")
-            for key in ("strokes_done", "data_bytes", "log_bytes", "last_time_s"):
-                if not isinstance(journal.get(key), int | float):
-                    raise ValueError(f"no {key}")
-        except (ValueError, AttributeError) as error:
-            raise RecordingError(f"{self.journal_path} is not a bench-run journal ({error})") from None
-        return journal
+        return read_journal(self.path)
 
     def _start_files(self) -> None:
         try:
