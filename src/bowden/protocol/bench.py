@@ -303,7 +303,7 @@ class StudyFit:
     ----------
     grid
         Every candidate of the fit, in its order: (drag scale, inertia scale, lowering-line shift Nm)
-        (:func:`bowden.sim.bench_study.fit_grid`; kept in the journal, so a resume with another grid
+        (:func:`bowden.identify.study_fit.fit_grid`; kept in the journal, so a resume with another grid
         is refused).
     candidates
         The indices into ``grid`` run (all of it by default).

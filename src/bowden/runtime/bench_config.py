@@ -41,7 +41,7 @@ class BenchMotor(Protocol):
 
 
 class FitModels(Protocol):
-    """What gives a study-like fit's blocks their models (the CLI's: :mod:`bowden.sim.bench_study`'s
+    """What gives a study-like fit's blocks their models (the CLI's: :mod:`bowden.identify.study_fit`'s
     grid and choice, so that the bench and the batch fit share one definition)."""
 
     def candidate(self, model: CompensationModel, index: int) -> CompensationModel:
