@@ -139,7 +139,8 @@ def check_recorded_model(model: CompensationModel, model_path: Path, study_recor
         journal = read_journal(recording)
     except RecordingError as error:
         return f"{unchecked}: {error}"
-    recorded = None if journal is None else (journal.get("protocol") or {}).get("model")
+    protocol = None if journal is None else journal.get("protocol")
+    recorded = protocol.get("model") if isinstance(protocol, dict) else None
     if recorded is None:
         return (f"{unchecked} ({journal_path(recording).name} keeps none: `bench run` identifies its model "
                 "during the run)")
