@@ -25,17 +25,23 @@ def imported_modules(path: Path) -> set[str]:
     return names
 
 
+def _imports_of(room: str, forbidden: tuple[str, ...]) -> list[str]:
+    """Each import in ``bowden.<room>`` of a package in ``forbidden``, as "<file> imports <module>"."""
+    offenders = []
+    for path in sorted((PACKAGE / room).rglob("*.py")):
+        for module in imported_modules(path):
+            parts = module.split(".")
+            if parts[0] == "bowden" and len(parts) > 1 and parts[1] in forbidden:
+                offenders.append(f"{path.relative_to(PACKAGE)} imports {module}")
+    return offenders
+
+
 @pytest.mark.parametrize("layer", PURE)
 def test_pure_layers_never_import_the_outer_layers(layer):
     folder = PACKAGE / layer
     if not folder.exists():
         pytest.skip(f"bowden.{layer} does not exist yet")
-    offenders = []
-    for path in sorted(folder.rglob("*.py")):
-        for module in imported_modules(path):
-            parts = module.split(".")
-            if parts[0] == "bowden" and len(parts) > 1 and parts[1] in FORBIDDEN:
-                offenders.append(f"{path.relative_to(PACKAGE)} imports {module}")
+    offenders = _imports_of(layer, FORBIDDEN)
     assert not offenders, "\n".join(offenders)
 
 
@@ -44,12 +50,7 @@ STORE_FORBIDDEN = ("runtime", "sim", "web", "study", "sweep", "engine", "identif
 
 
 def test_the_store_never_imports_the_layers_above_it():
-    offenders = []
-    for path in sorted((PACKAGE / "store").rglob("*.py")):
-        for module in imported_modules(path):
-            parts = module.split(".")
-            if parts[0] == "bowden" and len(parts) > 1 and parts[1] in STORE_FORBIDDEN:
-                offenders.append(f"{path.relative_to(PACKAGE)} imports {module}")
+    offenders = _imports_of("store", STORE_FORBIDDEN)
     assert not offenders, "\n".join(offenders)
 
 
@@ -59,12 +60,7 @@ IDENTIFY_FORBIDDEN = ("hardware", "runtime", "sim", "web", "study", "sweep", "en
 
 
 def test_identification_never_imports_the_simulator_or_the_layers_above_it():
-    offenders = []
-    for path in sorted((PACKAGE / "identify").rglob("*.py")):
-        for module in imported_modules(path):
-            parts = module.split(".")
-            if parts[0] == "bowden" and len(parts) > 1 and parts[1] in IDENTIFY_FORBIDDEN:
-                offenders.append(f"{path.relative_to(PACKAGE)} imports {module}")
+    offenders = _imports_of("identify", IDENTIFY_FORBIDDEN)
     assert not offenders, "\n".join(offenders)
 
 
