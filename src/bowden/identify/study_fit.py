@@ -45,17 +45,24 @@ class StrokeResult:
     stroke_peak_pct: tuple[float, ...] = ()
 
 
-def onset_peak_pct(fraction: NDArray[np.float64], percent: NDArray[np.float64]) -> float:
-    """Largest percent error of the curve binned over the cycle (1 % bins) inside the onset window;
-    a :class:`FitError` when no sample falls in it."""
+def onset_curve(fraction: NDArray[np.float64], percent: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The percent error binned over the cycle (1 % bins, by the samples' ``fraction`` of it): the
+    bins inside the onset window that hold a sample."""
     bins = np.minimum((fraction * 100).astype(int), 99)
     counts = np.bincount(bins, minlength=100)
     curve = np.bincount(bins, weights=percent, minlength=100) / np.maximum(counts, 1)
     centres = (np.arange(100) + 0.5) / 100
     window = (centres >= ONSET_WINDOW[0]) & (centres <= ONSET_WINDOW[1]) & (counts > 0)
-    if not window.any():
+    return curve[window]
+
+
+def onset_peak_pct(fraction: NDArray[np.float64], percent: NDArray[np.float64]) -> float:
+    """Largest percent error of the curve binned over the cycle inside the onset window
+    (:func:`onset_curve`); a :class:`FitError` when no sample falls in it."""
+    onset = onset_curve(fraction, percent)
+    if not onset.size:
         raise FitError("a study-like block holds no sample in the lowering onset (45-75 % of the cycle)")
-    return float(curve[window].max())
+    return float(onset.max())
 
 
 # The grid the study-like fit searches: scale on the identified drag and inertia, shift of the lowering

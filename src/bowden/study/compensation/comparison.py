@@ -25,6 +25,7 @@ from bowden import contracts as c
 from bowden.errors import FitError
 from bowden.identify import TransmissionIdentifier
 from bowden.identify.latency import identify_imu_latency
+from bowden.identify.study_fit import onset_curve
 from bowden.model import AssistanceParameters, CompensationModel, CuffGeometry, arm_model, desired_tension_n
 from bowden.protocol.bench import BenchProtocol
 from bowden.sim import ProtocolSettings, generate_cohort, simulate_trial
@@ -38,8 +39,6 @@ from bowden.sim.plant_family import FamilyPlant
 from bowden.sim.results import TRUE_ELEVATION, TRUE_TENSION, TrialSimulation, phase_masks
 
 COMPENSATIONS = ("paper", "dynamic")
-ONSET_WINDOW = (0.45, 0.75)
-_BINS = 100
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -91,16 +90,8 @@ def trial_errors(trial: TrialSimulation, reference: NDArray[np.float64]) -> dict
     rmse = float(np.sqrt(np.mean(error * error)))
     fraction = trial.cycle_fraction()[inside]
     percent = 100.0 * error / reference[inside]
-    bins = np.minimum((fraction * _BINS).astype(int), _BINS - 1)
-    counts = np.bincount(bins, minlength=_BINS)
-    curve = np.bincount(bins, weights=percent, minlength=_BINS) / np.maximum(counts, 1)
-    centres = (np.arange(_BINS) + 0.5) / _BINS
-    window = (centres >= ONSET_WINDOW[0]) & (centres <= ONSET_WINDOW[1]) & (counts > 0)
-    return {
-        "tension_rmse_n": rmse,
-        "onset_peak_pct": float(curve[window].max()),
-        "onset_dip_pct": float(curve[window].min()),
-    }
+    onset = onset_curve(fraction, percent)
+    return {"tension_rmse_n": rmse, "onset_peak_pct": float(onset.max()), "onset_dip_pct": float(onset.min())}
 
 
 @dataclass(frozen=True, eq=False)

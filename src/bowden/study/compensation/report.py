@@ -15,12 +15,12 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from bowden import contracts as c
+from bowden.identify.study_fit import ONSET_WINDOW
 from bowden.model import CompensationModel
 from bowden.sim.parameters import SuitParameters
 from bowden.sim.results import TRUE_ELEVATION, TRUE_TENSION, phase_masks
 from bowden.study.compensation.comparison import (
     COMPENSATIONS,
-    ONSET_WINDOW,
     ComparedTrial,
     ComparisonSettings,
     compared_trials,
