@@ -33,7 +33,7 @@ def test_batch_solver_hand_solved_sharing() -> None:
 pytest.importorskip("mujoco")
 pytest.importorskip("myo_sim")
 
-from bowden.sim.musculoskeletal.myoarm import ARM_MUSCLES, COORDINATES, ELEVATION  # noqa: E402
+from bowden.sim.musculoskeletal.myoarm import ARM_MUSCLES, COORDINATES, ELEVATION, recruitable  # noqa: E402
 from bowden.sim.musculoskeletal.table import load_table  # noqa: E402
 from bowden.sim.musculoskeletal.trial import required_and_capacity  # noqa: E402
 from bowden.sim.participants import generate_cohort  # noqa: E402
@@ -43,21 +43,44 @@ from bowden.sim.participants import generate_cohort  # noqa: E402
 def test_cocontraction_activates_the_posterior_deltoid_and_keeps_the_net_torque(cable_n: float) -> None:
     participant = generate_cohort(0, muscles="musculoskeletal")[0]
     table = load_table()
-    theta = np.array([math.radians(60.0)] * 2)
-    zero = np.zeros(2)
+    theta = np.array([math.radians(60.0)] * 3)
+    zero = np.zeros(3)
     capacity, required = required_and_capacity(
-        table, participant, theta, zero, zero, np.full(2, cable_n), np.array([0.0, 2.0])
+        table, participant, theta, zero, zero, np.full(3, cable_n), np.array([0.0, 0.5, 2.5])
     )
     solution = solve_static_batch(capacity, required)
     delt3 = ARM_MUSCLES.index("DELT3")
-    # Least Σa² alone leaves the antagonist silent; 2 Nm of co-contraction recruits it.
+    # Least Σa² alone leaves the antagonist silent; 2 Nm more co-contraction recruits it. (Without the
+    # biceps' long head the plane of elevation needs ≈ 0.3 Nm from the extensors at 60°, so below that
+    # the row cannot hold exactly: the states compared start from 0.5 Nm.)
     assert solution.activations[0, delt3] < 1e-6
-    assert solution.activations[1, delt3] > 0.005
+    assert solution.activations[2, delt3] > solution.activations[1, delt3] + 0.005
     row = COORDINATES.index(ELEVATION)
     net = np.einsum("nm,nm->n", capacity[:, row, :], solution.activations)
     # The net elevation torque is what the arm needs either way (the flexors add what the extensors take).
-    assert net[1] == pytest.approx(net[0], abs=1e-3)
-    assert np.abs(solution.reserve_nm[:, :2]).max() < 1e-3
+    assert net[2] == pytest.approx(net[1], abs=1e-3)
+    assert np.abs(solution.reserve_nm[1:, :2]).max() < 1e-3
+
+
+def test_the_long_head_of_the_biceps_is_not_recruited() -> None:
+    # Levy et al. 2001: no EMG activity of the biceps' long head in shoulder motion with the elbow
+    # held extended. Its capacity column is zero, every other muscle's is unchanged, and least Σa²
+    # leaves it at exactly zero while the arm is held at 60° (before, MoBL's 6.5 mm flexion moment
+    # arm gave it a share of the elevation torque).
+    participant = generate_cohort(0, muscles="musculoskeletal")[0]
+    table = load_table()
+    theta = np.array([math.radians(60.0)])
+    zero = np.zeros(1)
+    capacity, required = required_and_capacity(table, participant, theta, zero, zero, zero, np.array([0.5]))
+    biceps = ARM_MUSCLES.index("BIClong")
+    raw = recruitable(np.ones((2, len(ARM_MUSCLES))))
+    assert raw[:, biceps].tolist() == [0.0, 0.0]
+    assert np.delete(raw, biceps, axis=1).min() == 1.0
+    assert np.all(capacity[..., biceps] == 0.0)
+    assert np.abs(capacity[0, COORDINATES.index(ELEVATION), ARM_MUSCLES.index("BICshort")]) > 0.0
+    solution = solve_static_batch(capacity, required)
+    assert solution.activations[0, biceps] == 0.0
+    assert solution.activations[0, ARM_MUSCLES.index("DELT1")] > 0.05
 
 
 def test_the_cable_lowers_the_anterior_deltoid_through_the_table() -> None:

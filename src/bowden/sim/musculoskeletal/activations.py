@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from bowden.contracts import MUSCLES
 from bowden.model import CuffGeometry
-from bowden.sim.musculoskeletal.myoarm import ARM_MUSCLES, COORDINATES, ELBOW, MyoArm
+from bowden.sim.musculoskeletal.myoarm import ARM_MUSCLES, COORDINATES, ELBOW, MyoArm, recruitable
 from bowden.sim.musculoskeletal.static_optimisation import StaticSolution, solve_static
 
 ELECTRODES: dict[str, tuple[str, ...]] = {
@@ -62,7 +62,7 @@ def solve_state(
     elbow = COORDINATES.index(ELBOW)
     required[elbow] = min(required[elbow], 0.0)
     passive = state.moment_arm_m @ state.passive_force_n
-    capacity = state.moment_arm_m * state.active_force_n[None, :]
+    capacity = recruitable(state.moment_arm_m * state.active_force_n[None, :])
     return solve_static(capacity, required - passive)
 
 

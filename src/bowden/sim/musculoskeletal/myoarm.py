@@ -57,6 +57,23 @@ ARM_MUSCLES = (
     "LAT1", "LAT2", "LAT3", "CORB", "TRIlong", "TRIlat", "TRImed", "ANC", "SUP", "BIClong",
     "BICshort", "BRA", "BRD", "PT",
 )
+# Muscles the static optimisation does not recruit: the long head of the biceps shows no EMG
+# activity in shoulder flexion, extension or rotation (slow and fast, with and without a 2.3 kg load)
+# when the elbow is held extended and the forearm neutral (Levy et al. 2001, J Shoulder Elbow Surg
+# 10:250, fine-wire EMG), as the paper's participants held theirs ("keep the elbow fully extended, but
+# relaxed"); MoBL nevertheless gives it a flexion moment arm of 6-8 mm at 20-100°, which least
+# Σ a² would use. Its elevation moment measured by stimulation is near zero from 60° up (Landin,
+# Myers, Thompson, Castle & Porter 2008, J Electromyogr Kinesiol 18:270).
+NOT_RECRUITED = ("BIClong",)
+
+
+def recruitable(capacity_nm: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The capacity (..., muscles of :data:`ARM_MUSCLES`) with the :data:`NOT_RECRUITED` muscles'
+    columns zero: least Σ a² then leaves them at rest (their passive forces still act)."""
+    out = np.array(capacity_nm, dtype=np.float64, copy=True)
+    for name in NOT_RECRUITED:
+        out[..., ARM_MUSCLES.index(name)] = 0.0
+    return out
 
 
 def _mujoco() -> Any:

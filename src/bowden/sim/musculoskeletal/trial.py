@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 from bowden.contracts import MUSCLES
 from bowden.sim.muscles import ACTIVATION_TIME_S, DEACTIVATION_TIME_S, activation_dynamics
 from bowden.sim.musculoskeletal.activations import electrode_activations
-from bowden.sim.musculoskeletal.myoarm import COORDINATES, ELBOW, ELEVATION
+from bowden.sim.musculoskeletal.myoarm import COORDINATES, ELBOW, ELEVATION, recruitable
 from bowden.sim.musculoskeletal.static_optimisation import solve_static_batch
 from bowden.sim.musculoskeletal.table import MechanicsTable, interpolate, load_table
 from bowden.sim.participants import VirtualParticipant
@@ -73,7 +73,7 @@ def required_and_capacity(
     # The elbow rests at its extension stop: a load that would hyperextend it is borne by the joint.
     elbow = COORDINATES.index(ELBOW)
     required[:, elbow] = np.minimum(required[:, elbow], 0.0)
-    capacity = body_scale * fields["capacity"]
+    capacity = recruitable(body_scale * fields["capacity"])
     required = required - body_scale * fields["passive"]
     capacity = np.concatenate([capacity, cocontraction_row(capacity)[:, None, :]], axis=1)
     required = np.concatenate([required, np.maximum(cocontraction_nm, 0.0)[:, None]], axis=1)
