@@ -13,13 +13,14 @@ Each cycle (paper, "Control architecture"; the dynamic parts: :mod:`bowden.model
 4. torque clamped to the motor's range (never below zero: a cable cannot push) and rate-limited.
 
 Every constant is folded into the closure's cells (on CPython a closure variable is the cheapest load
-there is), so the step is plain float arithmetic with no calls but ``math``'s. It is written once,
-in :func:`step_closure`, for both compensations; :func:`compile_step` gives the controller that
-definition with only its compensation's branches (compiled from the same lines at import). The batch
-simulator runs the same arithmetic compiled: ``bowden.sim._controller_kernel`` is generated from
-this file's source by :mod:`bowden.sim.controller_codegen` (a test fails when it is out of date) and
-reads the constants from the cells of :func:`step_closure`. Change the arithmetic here, then
-regenerate.
+there is). It is written once, in :func:`step_closure`, for both compensations: a short step that
+calls one part per item above, each a plain function of this module. :func:`compile_step` gives the
+controller that definition with its parts spliced in (:mod:`bowden.control.splice`) and only its
+compensation's branches, compiled from the same lines at import: plain float arithmetic with no
+calls but ``math``'s. The batch simulator runs the same arithmetic compiled:
+``bowden.sim._controller_kernel`` is generated from the spliced step by
+:mod:`bowden.sim.controller_codegen` (a test fails when it is out of date) and reads the constants
+from the cells of :func:`step_closure`. Change the arithmetic here, then regenerate.
 """
 
 from __future__ import annotations
