@@ -177,3 +177,18 @@ def _dynamic_model():
     model = TransmissionIdentifier().fit(run_bench(SuitParameters(), QUICK_BENCH, seed=0)).model_
     assert model.dynamic is not None
     return model
+
+
+def test_identify_refuses_a_recorded_fit_before_it_fits_the_lines(tmp_path, capsys):
+    # The study-like recording is judged before the bench recording is read and fitted: the file it
+    # refuses costs no fit (and here the bench file, unreadable, would have been the error instead).
+    from bowden.cli import main
+
+    study, bench = tmp_path / "v.study.csv", tmp_path / "bench.csv"
+    _fit_recording(study, {0: 1.0, 1: 2.0})
+    bench.write_text("not a bench recording\n", encoding="utf-8")
+    code = main(["identify", str(bench), "-o", str(tmp_path / "m.json"), "--study-recording", str(study)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code != 0 and len(err) == 1, err
+    assert "--study-recording" in err[0] and "bench validate MODEL" in err[0], err
+    assert not (tmp_path / "m.json").exists()

@@ -134,6 +134,8 @@ def run(args: argparse.Namespace) -> int:
         dynamic=not args.paper_only,
         imu_latency_s=imu_latency_s,
     )
+    # The study-like recording is read and judged before the fit: a file it refuses costs no fit.
+    study_results = None if args.study_recording is None else read_study_results(args.study_recording)
     if args.ignore_extra_columns:
         from bowden.identify.recording import read_bench_recording
 
@@ -141,8 +143,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         identifier.fit(args.bench)
     model = identifier.model_
-    if args.study_recording is not None:
-        model = recommend_from_study_recording(model, args.study_recording)
+    if study_results is not None:
+        model = recommend_from_study_results(model, study_results)
     save_model(model, args.output, motor=args.motor)
     print(identifier.summary_.format())
     dynamic = model.dynamic
@@ -170,13 +172,19 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def recommend_from_study_recording(model: CompensationModel, path: Path) -> CompensationModel:
+def read_study_results(path: Path) -> dict[tuple[str, str], dict[str, Any]]:
+    """The recorded study-like strokes judged per cell (``--study-recording``)."""
+    from bowden.identify.study_recording import read_study_recording
+
+    return read_study_recording(path)
+
+
+def recommend_from_study_results(model: CompensationModel,
+                                 results: dict[tuple[str, str], dict[str, Any]]) -> CompensationModel:
     """``model`` with the recommendation the recorded study-like strokes give (the per-cell table
     printed); unchanged, and said so, when it has no dynamic compensation."""
     from bowden.identify.study_recommendation import recommendation
-    from bowden.identify.study_recording import read_study_recording
 
-    results = read_study_recording(path)
     print_study_results(results)
     if model.dynamic is None:
         print("the model has no dynamic compensation: the study-like strokes recommend nothing")
