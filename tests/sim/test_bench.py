@@ -124,7 +124,7 @@ def test_cli_refuses_a_bad_seed_or_output_before_simulating(
     assert "seed must be an integer in [0, 4294967295], got -1" in capsys.readouterr().err
     missing = tmp_path / "no-such-dir" / "bench.csv"
     assert main([*args, "-o", str(missing)]) == 1
-    assert "is not a directory" in capsys.readouterr().err
+    assert "no-such-dir does not exist" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())
 
 

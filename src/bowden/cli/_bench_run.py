@@ -16,6 +16,7 @@ from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any
 
+from bowden.cli._flag_errors import flag_errors
 from bowden.errors import ParameterError
 from bowden.hardware.backend import Backend
 from bowden.model import CompensationModel
@@ -33,8 +34,21 @@ def _say(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
 
+# The protocol's and the bench's fields that a flag sets in the field's own unit (flag_errors).
+_BENCH_FLAGS = {
+    "BenchProtocol.spool_speeds_rad_s": "--speeds",
+    "BenchProtocol.loads_nm": "--loads",
+    "BenchProtocol.repetitions": "--repetitions",
+    "BenchProtocol gains": "--kp and --kd",
+    "BenchSafety.max_tension_n": "--max-tension",
+    "SlackTakeUp.pretension_n": "--pretension",
+    "SlackTakeUp.pulley_radius_m": "--spool-radius",
+}
+
+
 def bench_protocol(args: argparse.Namespace) -> BenchProtocol:
     """The protocol of ``bowden bench simulate`` or ``run`` from its options (validated)."""
+    _check_stroke_range(getattr(args, "low_deg", None), getattr(args, "high_deg", None))
     overrides: dict[str, object] = {}
     if args.speeds:
         overrides["spool_speeds_rad_s"] = tuple(args.speeds)
@@ -50,15 +64,27 @@ def bench_protocol(args: argparse.Namespace) -> BenchProtocol:
         overrides["position_gain_nm_rad"] = args.kp
     if getattr(args, "kd", None) is not None:
         overrides["velocity_gain_nms_rad"] = args.kd
-    return BenchProtocol(**overrides)  # type: ignore[arg-type]
+    with flag_errors(_BENCH_FLAGS):
+        return BenchProtocol(**overrides)  # type: ignore[arg-type]
+
+
+def _check_stroke_range(low_deg: float | None, high_deg: float | None) -> None:
+    """``--low-deg`` and ``--high-deg`` in degrees, as typed (the protocol checks them in radians)."""
+    default = BenchProtocol()
+    low = math.degrees(default.low_rad) if low_deg is None else low_deg
+    high = math.degrees(default.high_rad) if high_deg is None else high_deg
+    if not 0.0 < low < high < 180.0:  # NaN fails too
+        raise ParameterError(f"--low-deg and --high-deg need 0 < low < high < 180 degrees, "
+                             f"got {low:g} and {high:g}")
 
 
 def bench_config(args: argparse.Namespace) -> BenchRunConfig:
     """The run's configuration from the command line (validated: bad numbers are one line)."""
     protocol = bench_protocol(args)
     _check_loads(protocol, args.mannequin_motor)
-    slack = SlackTakeUp(pretension_n=args.pretension, pulley_radius_m=args.spool_radius)
-    safety = BenchSafety(max_tension_n=args.max_tension)
+    with flag_errors(_BENCH_FLAGS):
+        slack = SlackTakeUp(pretension_n=args.pretension, pulley_radius_m=args.spool_radius)
+        safety = BenchSafety(max_tension_n=args.max_tension)
     if getattr(args, "backend", "can") == "sim":  # its devices share this host's CPUs
         safety = safety.on_shared_host()
     later = not getattr(args, "no_later_segments", True)

@@ -161,7 +161,9 @@ def run_bench_command(args: argparse.Namespace) -> int:
 def run_validate(args: argparse.Namespace) -> int:
     from bowden.identify.study_fit import STUDY_SUPPORTS
     from bowden.model.model_file import load_model
+    from bowden.sim.parameters import check_seed
 
+    check_seed(args.seed, "--seed")
     supports: tuple[float | str, ...] = STUDY_SUPPORTS
     if args.support is not None:
         if not 0.0 < args.support <= 1.0:
@@ -232,15 +234,21 @@ def _report_validation(args: argparse.Namespace, model: Any, results: dict[Any, 
 
 def run_simulate(args: argparse.Namespace) -> int:
     from bowden.cli._bench_run import bench_protocol
+    from bowden.cli._outputs import check_output_file, refuse_overwriting_inputs
     from bowden.sim.bench import run_bench
+    from bowden.sim.parameters import check_seed
 
     output: Path = args.output
     fmt = _FORMATS.get(output.suffix.lower())
     if fmt is None:
         raise ParameterError(f"cannot tell the format of {output}: use a .csv or .parquet extension")
-    if not output.absolute().parent.is_dir():  # before a minute of simulation, not after it
-        raise OutputFileError(f"cannot write the bench recording to {output}: "
-                              f"{output.absolute().parent} is not a directory")
+    check_seed(args.seed, "--seed")
+    # Every output is checked before a minute of simulation, not after it.
+    check_output_file("the bench recording (-o)", output.absolute(), create_parents=False)
+    if args.latency_out is not None:
+        refuse_overwriting_inputs("--latency-out", args.latency_out, {output: "the -o recording"})
+        check_output_file("the latency segment (--latency-out)", args.latency_out.absolute(),
+                          create_parents=False)
     protocol = bench_protocol(args)
 
     # A line redrawn in place on a terminal; in a log (not a terminal) only every tenth of the way.

@@ -17,12 +17,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from bowden.cli._flag_errors import flag_errors
 from bowden.cli._outputs import check_output_file, refuse_overwriting_inputs
 from bowden.errors import FitError, OutputFileError, ParameterError
 from bowden.hardware.motors import AK_MOTORS, DEFAULT_MOTOR
 from bowden.identify.settings import DEFAULT_IMU_LATENCY_S, LOWERING, RAISING, PreprocessSettings
 from bowden.model.compensation import CompensationModel
 from bowden.model.model_file import save_model
+from bowden.validation import check_number
 
 _DEFAULTS = PreprocessSettings()
 
@@ -120,20 +122,23 @@ def run(args: argparse.Namespace) -> int:
         imu_latency_s = latency.latency_s
         print(f"IMU latency identified from {args.latency_recording}: {1e3 * latency.latency_s:.1f} ms "
               f"(residual {math.degrees(latency.residual_rms_rad):.2f}°)")
-    settings = PreprocessSettings(
-        cutoff_hz=args.cutoff_hz,
-        min_speed_rad_s=math.radians(args.min_speed_deg_s),
-        max_abs_acceleration_rad_s2=math.radians(args.max_acceleration_deg_s2),
-        min_elevation_rad=math.radians(args.min_elevation_deg),
-        max_elevation_rad=math.radians(args.max_elevation_deg),
-    )
-    identifier = TransmissionIdentifier(
-        preprocessing=settings,
-        pulley_radius_m=args.pulley_radius_mm / 1000.0,
-        min_samples_per_direction=args.min_samples,
-        dynamic=not args.paper_only,
-        imu_latency_s=imu_latency_s,
-    )
+    _check_degree_and_mm_flags(args)
+    # The settings check the flags in their own units too; their refusals name the flags.
+    with flag_errors({"cutoff_hz": "--cutoff-hz", "min_samples_per_direction": "--min-samples"}):
+        settings = PreprocessSettings(
+            cutoff_hz=args.cutoff_hz,
+            min_speed_rad_s=math.radians(args.min_speed_deg_s),
+            max_abs_acceleration_rad_s2=math.radians(args.max_acceleration_deg_s2),
+            min_elevation_rad=math.radians(args.min_elevation_deg),
+            max_elevation_rad=math.radians(args.max_elevation_deg),
+        )
+        identifier = TransmissionIdentifier(
+            preprocessing=settings,
+            pulley_radius_m=args.pulley_radius_mm / 1000.0,
+            min_samples_per_direction=args.min_samples,
+            dynamic=not args.paper_only,
+            imu_latency_s=imu_latency_s,
+        )
     # The study-like recording is read and judged before the fit: a file it refuses costs no fit.
     study_results = None if args.study_recording is None else read_study_results(args.study_recording)
     if args.ignore_extra_columns:
@@ -170,6 +175,20 @@ def run(args: argparse.Namespace) -> int:
     if identifier.summary_.warnings:
         print(f"bowden identify: {len(identifier.summary_.warnings)} warning(s), see above", file=sys.stderr)
     return 0
+
+
+def _check_degree_and_mm_flags(args: argparse.Namespace) -> None:
+    """The flags given in another unit than their settings' fields, checked as typed (degrees, mm)."""
+    check_number(args.min_speed_deg_s, "--min-speed-deg-s", 0.0)
+    check_number(args.max_acceleration_deg_s2, "--max-acceleration-deg-s2", 0.0, low_open=True)
+    check_number(args.min_elevation_deg, "--min-elevation-deg", -90.0, 180.0)
+    check_number(args.max_elevation_deg, "--max-elevation-deg", -90.0, 180.0)
+    if not args.min_elevation_deg < args.max_elevation_deg:
+        raise ParameterError(f"--min-elevation-deg ({args.min_elevation_deg:g}) must be below "
+                             f"--max-elevation-deg ({args.max_elevation_deg:g})")
+    # TransmissionIdentifier's bound, (0, 0.5) m, in the flag's millimetres.
+    if not 0.0 < args.pulley_radius_mm < 500.0:  # NaN fails too
+        raise ParameterError(f"--pulley-radius-mm must be in (0, 500) mm, got {args.pulley_radius_mm:g}")
 
 
 def read_study_results(path: Path) -> dict[tuple[str, str], dict[str, Any]]:

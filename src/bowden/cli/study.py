@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from bowden.cli._flag_errors import flag_errors
+
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
@@ -55,18 +57,22 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 def run(args: argparse.Namespace) -> int:
     # Imported here, not at the top: building the parser (bowden --help) needs none of the study.
+    from bowden.engine.pool import check_workers
     from bowden.study.pipeline import StudySettings, run_study
     from bowden.study.progress import StageProgress
 
-    settings = StudySettings(
-        participants=args.participants,
-        seed=args.seed,
-        repetitions=args.repetitions,
-        quick_bench=args.quick_bench,
-        store_emg=not args.no_emg,
-        compensation=args.compensation,
-        muscles=args.muscles,
-    )
+    # The settings and the pool check their fields; the refusals name the flags instead.
+    with flag_errors({name: f"--{name}" for name in ("participants", "seed", "repetitions", "workers")}):
+        settings = StudySettings(
+            participants=args.participants,
+            seed=args.seed,
+            repetitions=args.repetitions,
+            quick_bench=args.quick_bench,
+            store_emg=not args.no_emg,
+            compensation=args.compensation,
+            muscles=args.muscles,
+        )
+        check_workers(args.workers)
     result = run_study(
         settings,
         args.out,

@@ -7,6 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from bowden.cli._flag_errors import flag_errors
 from bowden.errors import ParameterError
 from bowden.sweep import axes as ax
 from bowden.sweep.presets import PRESETS, preset
@@ -92,7 +93,9 @@ def build_spec(args: argparse.Namespace) -> SweepSpec:
         changes["identification"] = args.identification
     if args.bench is not None:
         changes["bench"] = args.bench
-    return replace(spec, **changes) if changes else spec
+    # The flags' values are checked as the spec's (a file's own values were checked as it was read).
+    with flag_errors({name: f"--{name}" for name in ("participants", "repetitions", "seeds", "speeds")}):
+        return replace(spec, **changes) if changes else spec
 
 
 def run(args: argparse.Namespace) -> int:
@@ -114,9 +117,12 @@ def run(args: argparse.Namespace) -> int:
     out = args.out if args.out is not None else Path(f"bowden-sweep-{spec.name}")
     # Dask is imported only now: the rest of bowden works without the cluster extra.
     from bowden.engine.cluster import dask_client
+    from bowden.engine.pool import check_workers
     from bowden.sweep.runner import run_sweep
 
     progress = StageProgress(enabled=not args.quiet)
+    with flag_errors({"workers": "--workers"}):
+        check_workers(args.workers)
     with dask_client(args.scheduler, args.workers) as client:
         result = run_sweep(spec, out, client, force=args.force, progress=progress)
     console.print(points_table(result.points, spec.axis_names, top=args.top))

@@ -42,6 +42,8 @@ def load_channel_map(source: str | Path) -> dict[str, str]:
         raise RecordingError(f"channel map {path}: cannot be read ({error.strerror or error})") from None
     except json.JSONDecodeError as error:
         raise RecordingError(f"channel map {path}: not JSON ({error})") from None
+    except UnicodeDecodeError:  # a binary file given by mistake (an EDF, a picture)
+        raise RecordingError(f"channel map {path}: not JSON (not UTF-8 text)") from None
     if not isinstance(content, dict) or not all(
         isinstance(k, str) and isinstance(v, str) for k, v in content.items()
     ):
