@@ -1,0 +1,151 @@
+"""Bad input as a hurried lab gives it (scripts/cli_misuse.py found these): one line naming the flag.
+
+Each case is refused before any simulation or device runs, so the tests call :func:`bowden.cli.main`
+in-process and take well under a second each.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+
+import pytest
+
+from bowden.cli import main
+
+PNG = b"\x89PNG\r\n\x1a\n" + bytes(range(256))
+
+
+def refusal(capsys: pytest.CaptureFixture[str], *argv: str) -> str:
+    """The one stderr line of a refused ``bowden`` command line (exit code 1, nothing else on stderr)."""
+    code = main(list(argv))
+    err = capsys.readouterr().err
+    lines = err.splitlines()
+    assert code == 1, err
+    assert len(lines) == 1, err
+    assert lines[0].startswith("bowden: error: "), err
+    return lines[0]
+
+
+def digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def test_bench_validate_refuses_a_negative_seed_naming_it(capsys, tmp_path):
+    # Was a numpy traceback from deep inside the simulated bench.
+    model = tmp_path / "model.json"
+    assert main(["bench", "simulate", "-o", str(tmp_path / "b.csv"), "--speeds", "1", "2", "--loads", "1",
+                 "2", "--repetitions", "1", "--quiet"]) == 0
+    assert main(["identify", str(tmp_path / "b.csv"), "-o", str(model), "--paper-only"]) == 0
+    capsys.readouterr()
+    line = refusal(capsys, "bench", "validate", str(model), "--seed", "-1")
+    assert "--seed must be an integer in [0, " in line
+
+
+def test_bench_simulate_refuses_a_negative_seed_naming_the_flag(capsys, tmp_path):
+    line = refusal(capsys, "bench", "simulate", "-o", str(tmp_path / "b.csv"), "--seed", "-1")
+    assert "--seed must be" in line
+
+
+def test_emg_import_refuses_a_binary_channel_map_in_one_line(capsys, tmp_path):
+    # Was a UnicodeDecodeError traceback.
+    (tmp_path / "map.png").write_bytes(PNG)
+    (tmp_path / "emg.csv").write_text("time_s,biceps\n0,0\n0.0005,0\n")
+    line = refusal(capsys, "emg", "import", str(tmp_path / "study.db"), str(tmp_path / "emg.csv"),
+                   "--channels", str(tmp_path / "map.png"))
+    assert "channel map" in line and "not JSON" in line
+
+
+def test_bench_simulate_checks_its_output_before_simulating(capsys):
+    # /proc takes no new files: the refusal used to come after the whole simulation (its progress lines).
+    line = refusal(capsys, "bench", "simulate", "-o", "/proc/bowden-bench.csv")
+    assert "cannot write the bench recording (-o) to /proc/bowden-bench.csv" in line
+
+
+def test_bench_simulate_refuses_a_latency_out_that_is_its_output(capsys, tmp_path):
+    # Was accepted: the latency segment then overwrote the bench recording just written.
+    output = tmp_path / "bench.csv"
+    output.write_text("a recording\n")
+    before = digest(output)
+    line = refusal(capsys, "bench", "simulate", "-o", str(output), "--latency-out", str(output))
+    assert "--latency-out" in line and "-o recording" in line
+    assert digest(output) == before
+
+
+def test_bench_simulate_checks_latency_out_before_simulating(capsys, tmp_path):
+    line = refusal(capsys, "bench", "simulate", "-o", str(tmp_path / "b.csv"),
+                   "--latency-out", str(tmp_path / "missing" / "l.csv"))
+    assert "--latency-out" in line and "does not exist" in line
+    assert not (tmp_path / "b.csv").exists()
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    (["--speeds", "0"], "--speeds"),
+    (["--speeds", "nan"], "--speeds"),
+    (["--loads", "-1"], "--loads"),
+    (["--repetitions", "0"], "--repetitions"),
+    (["--low-deg", "110", "--high-deg", "20"], "--low-deg and --high-deg"),
+    (["--high-deg", "500"], "--low-deg and --high-deg"),
+    (["--low-deg", "nan"], "--low-deg and --high-deg"),
+])
+def test_bench_simulate_names_the_protocol_flags(capsys, tmp_path, flags, named):
+    line = refusal(capsys, "bench", "simulate", "-o", str(tmp_path / "b.csv"), *flags)
+    assert named in line
+    assert "BenchProtocol" not in line and "_rad" not in line
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    (["--max-tension", "0"], "--max-tension"),
+    (["--pretension", "-1"], "--pretension"),
+    (["--spool-radius", "0"], "--spool-radius"),
+    (["--speeds", "-2"], "--speeds"),
+    (["--kp", "-1"], "--kp and --kd"),
+])
+def test_bench_run_names_the_bench_flags(capsys, tmp_path, flags, named):
+    # Refused before the simulated bench is opened.
+    line = refusal(capsys, "bench", "run", "--backend", "sim", "-o", str(tmp_path / "b.csv"), *flags)
+    assert named in line
+    assert "BenchSafety" not in line and "SlackTakeUp" not in line and "BenchProtocol" not in line
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    (["--pulley-radius-mm", "0"], "--pulley-radius-mm"),
+    (["--pulley-radius-mm", "nan"], "--pulley-radius-mm"),
+    (["--cutoff-hz", "-5"], "--cutoff-hz"),
+    (["--cutoff-hz", "inf"], "--cutoff-hz"),
+    (["--min-elevation-deg", "90", "--max-elevation-deg", "20"], "--min-elevation-deg (90)"),
+    (["--min-speed-deg-s", "-1"], "--min-speed-deg-s"),
+    (["--max-acceleration-deg-s2", "0"], "--max-acceleration-deg-s2"),
+    (["--min-samples", "0"], "--min-samples"),
+])
+def test_identify_names_its_flags_in_their_units(capsys, tmp_path, flags, named):
+    # The settings' own checks said pulley_radius_m, cutoff_hz, min_elevation_rad (in radians).
+    bench = tmp_path / "bench.csv"
+    bench.write_text("time_s,motor_torque_nm,motor_velocity_rad_s,tension_n,elevation_rad\n0,0,0,0,0\n")
+    line = refusal(capsys, "identify", str(bench), "-o", str(tmp_path / "m.json"), *flags)
+    assert named in line
+    assert "_rad" not in line and "_hz" not in line and "_m " not in line and "per_direction" not in line
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    (["--participants", "0"], "--participants must"),
+    (["--repetitions", "0"], "--repetitions must"),
+    (["--seed", "-1"], "--seed must"),
+    (["--workers", "0"], "--workers must"),
+])
+def test_study_names_its_flags(capsys, tmp_path, flags, named):
+    line = refusal(capsys, "study", "--out", str(tmp_path / "study"), *flags)
+    assert named in line
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    (["--participants", "0"], "--participants must"),
+    (["--repetitions", "-1"], "--repetitions must"),
+    (["--seeds", "-1"], "--seeds must"),
+    (["--speeds", "V9"], "--speeds: unknown"),
+    (["--workers", "0"], "--workers must"),
+])
+def test_sweep_names_its_flags(capsys, tmp_path, flags, named):
+    pytest.importorskip("dask")
+    line = refusal(capsys, "sweep", "blend-velocity", "--out", str(tmp_path / "sweep"), *flags)
+    assert named in line
