@@ -149,3 +149,36 @@ def test_sweep_names_its_flags(capsys, tmp_path, flags, named):
     pytest.importorskip("dask")
     line = refusal(capsys, "sweep", "blend-velocity", "--out", str(tmp_path / "sweep"), *flags)
     assert named in line
+
+
+@pytest.mark.parametrize("content", [PNG, b"SQLite format 3\x00" + bytes(2000)])
+def test_check_fails_a_record_that_is_not_a_study_store(tmp_path, content):
+    # bowden check said "ok store: img.png writable" and bowden run then refused the file at the trial.
+    from bowden.cli.check import _store
+
+    record = tmp_path / "study.db"
+    record.write_bytes(content)
+    check = _store(record, session_s=60.0, rate_hz=500.0)
+    assert not check.ok
+    assert check.message.startswith(f"--record {record}: ")
+    assert record.read_bytes() == content
+
+
+def test_check_fails_a_record_that_is_a_directory(tmp_path):
+    from bowden.cli.check import _store
+
+    check = _store(tmp_path, session_s=60.0, rate_hz=500.0)
+    assert not check.ok and "is a directory" in check.message
+
+
+def test_check_passes_a_new_store_and_a_bowden_one(tmp_path):
+    import sqlite3
+
+    from bowden.cli.check import _store
+    from bowden.store.schema import create_schema
+
+    assert _store(tmp_path / "new.db", session_s=60.0, rate_hz=500.0).ok
+    with sqlite3.connect(tmp_path / "study.db") as connection:
+        create_schema(connection)
+    connection.close()
+    assert _store(tmp_path / "study.db", session_s=60.0, rate_hz=500.0).ok

@@ -132,7 +132,7 @@ def run_checks(args: argparse.Namespace, options: CanSuitOptions) -> list[Check]
     if args.lsl:
         checks.append(_lsl(args.rate))
     if args.record is not None:
-        checks.append(check_store(args.record, session_s=60.0 * args.session_min, rate_hz=args.rate))
+        checks.append(_store(args.record, session_s=60.0 * args.session_min, rate_hz=args.rate))
     if args.model is not None:
         checks.append(_model(args.model, options.motor, allow_other=args.allow_other_motor))
     return checks
@@ -280,6 +280,38 @@ def _lsl(rate_hz: float) -> Check:
         return Check("lsl", False, f"published {', '.join(missing)} but cannot find it: is multicast "
                      "blocked, or liblsl's ResolveScope too narrow (lsl_api.cfg)?")
     return Check("lsl", True, f"{' and '.join(wanted)} visible")
+
+
+def _store(path: Path, *, session_s: float, rate_hz: float) -> Check:
+    """``--record``: an existing file must be a bowden store (``bowden run`` would refuse it at the
+    trial); then its folder must take files, with room for the session."""
+    if path.is_dir():
+        return Check("store", False, f"--record {path} is a directory: give the store's file (study.db)")
+    if path.exists():
+        problem = _not_a_store(path)
+        if problem is not None:
+            return Check("store", False, f"--record {problem}")
+    return check_store(path, session_s=session_s, rate_hz=rate_hz)
+
+
+def _not_a_store(path: Path) -> str | None:
+    """Why the existing file ``path`` is not a bowden store (None if it is one), read-only."""
+    import sqlite3
+
+    from bowden.errors import StoreError
+    from bowden.store.schema import check_store as check_store_file
+
+    try:
+        connection = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+    except sqlite3.Error as error:
+        return f"{path}: cannot be opened ({error})"
+    try:
+        check_store_file(connection)
+    except StoreError as error:
+        return str(error)
+    finally:
+        connection.close()
+    return None
 
 
 def _model(path: Path, motor: str, *, allow_other: bool) -> Check:
