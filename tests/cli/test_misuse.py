@@ -182,3 +182,17 @@ def test_check_passes_a_new_store_and_a_bowden_one(tmp_path):
         create_schema(connection)
     connection.close()
     assert _store(tmp_path / "study.db", session_s=60.0, rate_hz=500.0).ok
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    (["--lsl-wait", "5"], "--lsl-wait waits for a recorder of the --lsl streams"),
+    (["--lsl-wait", "nan", "--lsl"], "--lsl-wait must be"),
+    (["--lsl-wait", "-1", "--lsl"], "--lsl-wait must be"),
+    (["--slack-timeout", "-1"], "--slack-timeout"),
+    (["--slack-timeout", "nan"], "--slack-timeout"),
+])
+def test_run_refuses_sync_and_slack_flags_it_used_to_ignore(capsys, flags, named):
+    # Each ran the trial (--lsl-wait without --lsl waited for nothing; the simulated suit takes up no
+    # slack, so its --slack-timeout was never read). --duration keeps a regression short.
+    line = refusal(capsys, "run", "--backend", "sim", "--duration", "0.2", *flags)
+    assert named in line

@@ -11,11 +11,13 @@ from __future__ import annotations
 import argparse
 import math
 
+from bowden.cli._flag_errors import flag_errors
 from bowden.errors import ParameterError
 from bowden.runtime import SafetyConfig
 from bowden.runtime.realtime import RealtimeConfig
 from bowden.runtime.safety import FAULT_POLICIES
 from bowden.runtime.slack import SlackTakeUp
+from bowden.validation import check_number
 
 DEFAULT_RT_PRIORITY = 50
 
@@ -77,8 +79,12 @@ def slack_config(args: argparse.Namespace, pulley_radius_m: float) -> SlackTakeU
     """The slack take-up of ``--slack-take-up`` (on by default on the real suit), or None."""
     choice = args.slack_take_up or ("on" if args.backend == "can" else "off")
     if choice == "off":
+        # Checked all the same (as SlackTakeUp checks it): a bad value is refused, not ignored on one
+        # backend and refused on the other.
+        check_number(args.slack_timeout, "--slack-timeout", 0.0, low_open=True)
         return None
-    return SlackTakeUp(timeout_s=args.slack_timeout, pulley_radius_m=pulley_radius_m)
+    with flag_errors({"SlackTakeUp.timeout_s": "--slack-timeout"}):
+        return SlackTakeUp(timeout_s=args.slack_timeout, pulley_radius_m=pulley_radius_m)
 
 
 def realtime_config(args: argparse.Namespace) -> RealtimeConfig:

@@ -13,10 +13,12 @@ than ``bowden emg import`` accepts.
 from __future__ import annotations
 
 import argparse
+import math
 from collections.abc import Callable, Mapping
 from contextlib import ExitStack
 from dataclasses import dataclass
 
+from bowden.errors import ParameterError
 from bowden.hardware.trigger import TriggerLine, open_trigger
 from bowden.runtime.lsl_outlets import LslOutlets
 from bowden.runtime.trial_sync import TrialSync
@@ -116,6 +118,10 @@ def open_sync_outputs(
     ParameterError, MissingExtraError, HardwareError
         For a trigger spec that is wrong or a line that cannot be opened, or a missing extra.
     """
+    if not (math.isfinite(args.lsl_wait) and args.lsl_wait >= 0.0):
+        raise ParameterError(f"--lsl-wait must be a number of seconds >= 0, got {args.lsl_wait:g}")
+    if args.lsl_wait > 0.0 and not args.lsl:
+        raise ParameterError("--lsl-wait waits for a recorder of the --lsl streams: add --lsl or drop it")
     if not args.lsl and args.trigger is None:
         return None
     trigger = open_trigger(args.trigger) if args.trigger is not None else None
