@@ -37,7 +37,7 @@ INTERNAL_NAME = re.compile(
 ALLOWED = {"time_s", "tension_n", "motor_torque_nm", "elevation_rad", "motor_velocity_rad_s",
            "mannequin_elevation_rad", "law_tension_n", "slope_m", "intercept_nm"}
 # A bare field name opening the message ("seed must be ...", "speeds: unknown ..."): not a flag's spelling.
-BARE_FIELD = re.compile(r"error: ([a-z][a-z0-9_]*)(?: must|:)")
+BARE_FIELD = re.compile(r"error: ([a-z][a-z0-9_]*)(?: must|: unknown value)")
 
 
 @dataclass
@@ -371,7 +371,12 @@ def run_case(case: Case, d: Path) -> tuple[int | None, str]:
     lines = _message_lines(stderr)
     if case.expect_fail and done.returncode == 0:
         case.flags.append("exit 0 on bad input")
-    if done.returncode != 0 and len(lines) != 1:
+    if case.argv.startswith("check") and not lines:
+        # bowden check reports on stdout, one line per check: a refusal there is its FAIL lines.
+        lines = [line for line in done.stdout.splitlines() if line.startswith("FAIL")]
+        if done.returncode != 0 and not lines:
+            case.flags.append("exit code 1 without a FAIL line")
+    elif done.returncode != 0 and len(lines) != 1:
         case.flags.append(f"{len(lines)} lines on stderr")
     text = " ".join(lines)
     words = {m.group(0) for m in INTERNAL_NAME.finditer(text)} | set(BARE_FIELD.findall(text))
@@ -381,7 +386,7 @@ def run_case(case: Case, d: Path) -> tuple[int | None, str]:
         if _digest(d / name) != digest:
             case.flags.append(f"{name} modified or deleted")
     shutil.rmtree(d / "nodir", ignore_errors=True)  # a case that made it must not hide the next's refusal
-    return done.returncode, stderr
+    return done.returncode, "\n".join(lines) if case.argv.startswith("check") else stderr
 
 
 def main() -> int:

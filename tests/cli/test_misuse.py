@@ -196,3 +196,16 @@ def test_run_refuses_sync_and_slack_flags_it_used_to_ignore(capsys, flags, named
     # slack, so its --slack-timeout was never read). --duration keeps a regression short.
     line = refusal(capsys, "run", "--backend", "sim", "--duration", "0.2", *flags)
     assert named in line
+
+
+def test_run_names_imu_sender_without_the_ngimu_config(capsys):
+    line = refusal(capsys, "run", "--backend", "sim", "--duration", "0.2", "--imu-sender", "1.2.3.4:99999")
+    assert line == "bowden: error: --imu-sender port must be an integer 1–65535, got 99999"
+    line = refusal(capsys, "run", "--backend", "sim", "--duration", "0.2", "--imu-sender", "not-an-ip")
+    assert line.startswith("bowden: error: --imu-sender must be an IP address") and "NgimuConfig" not in line
+
+
+def test_run_refuses_a_cpu_the_machine_does_not_have(capsys):
+    # Was run unpinned, with "CPU {4096}: Invalid argument" among the real-time settings.
+    line = refusal(capsys, "run", "--backend", "sim", "--duration", "0.2", "--cpu", "4096")
+    assert "--cpu 4096: this machine has CPUs 0–" in line

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 
 from bowden.cli._flag_errors import flag_errors
 from bowden.errors import ParameterError
@@ -93,5 +94,9 @@ def realtime_config(args: argparse.Namespace) -> RealtimeConfig:
         raise ParameterError(f"--rt-priority must be 1–99 (0: none), got {args.rt_priority}")
     if args.cpus and min(args.cpus) < 0:
         raise ParameterError(f"--cpu must be a CPU number ≥ 0, got {min(args.cpus)}")
+    cores = os.cpu_count()
+    if args.cpus and cores is not None and max(args.cpus) >= cores:
+        # A typo, not a permission the OS may lack: the loop would run unpinned, said only in passing.
+        raise ParameterError(f"--cpu {max(args.cpus)}: this machine has CPUs 0–{cores - 1}")
     return RealtimeConfig(priority=args.rt_priority or None,
                           cpus=frozenset(args.cpus) if args.cpus else None)

@@ -114,7 +114,8 @@ class CanSuitOptions:
         if self.imu_sender is not None:
             from bowden.hardware.ngimu import parse_sender
 
-            parse_sender(self.imu_sender, "sender (--imu-sender)")
+            with flag_errors({"NgimuConfig.sender": "--imu-sender"}):
+                parse_sender(self.imu_sender)
         if not (math.isfinite(self.calibration_s) and 0.0 < self.calibration_s <= MAX_CALIBRATION_S):
             raise ParameterError(f"CanSuitOptions.calibration_s must be in (0, {MAX_CALIBRATION_S:g}] s, "
                                  f"got {self.calibration_s!r}")
