@@ -64,6 +64,12 @@ def make_fixtures(d: Path) -> None:
     with sqlite3.connect(d / "foreign.db") as conn:
         conn.execute("create table t (x integer)")
     (d / "existing.txt").write_text("a recording that must survive\n")
+    from bowden.store.schema import configure_connection, create_schema
+
+    with sqlite3.connect(d / "store.db") as conn:  # an empty bowden store, as the recorder opens one
+        configure_connection(conn)
+        create_schema(conn)
+    conn.close()
     subprocess.run([str(BOWDEN), "bench", "simulate", "-o", str(d / "bench.csv"), "--speeds", "1", "2",
                     "--loads", "1", "2", "--repetitions", "1", "--quiet"], check=True, capture_output=True)
     shutil.copy(d / "bench.csv", d / "bench_copy.csv")
@@ -80,6 +86,8 @@ def make_fixtures(d: Path) -> None:
     negative["lowering"]["slope_m"] = -0.03
     (d / "model_negative.json").write_text(json.dumps(negative))
     (d / "model_list.json").write_text("[1, 2, 3]")
+    (d / "fake.edf").write_bytes(b"0       " + bytes(300))
+    (d / "fake.xdf").write_bytes(b"XDF:" + bytes(100))
     (d / "bad.toml").write_text("this is = = not toml\n")
     (d / "channels_bad.json").write_text('{"ch1": 5}')
 
@@ -134,7 +142,38 @@ CASES: list[Case] = [
     Case("emg import {d}/foreign.db {d}/other.csv --channels {d}/img.png"),
     Case("emg import {d}/foreign.db {d}/other.csv --channels {d}/channels_bad.json"),
     Case("emg import {d}/img.png {d}/other.csv", protect=("img.png",)),
+    Case("emg import {d}/store.db {d}/other.csv --rate 0", protect=("store.db",)),
+    Case("emg import {d}/store.db {d}/other.csv --rate inf"),
+    Case("emg import {d}/store.db {d}/other.csv --max-drift-ppm -1"),
+    Case("emg import {d}/store.db {d}/other.csv --max-residual-ms nan"),
+    Case("emg import {d}/store.db {d}/other.csv --trigger-bit -1"),
+    Case("emg import {d}/store.db {d}/other.csv --trigger-bit 99"),
+    Case("emg import {d}/store.db {d}/other.csv --csv-volts-per-unit 0"),
+    Case("emg import {d}/store.db {d}/other.csv --csv-volts-per-unit nan"),
+    Case("emg import {d}/store.db {d}/other.csv", protect=("store.db",)),
+    Case("emg import {d}/store.db {d}/empty.csv", protect=("store.db",)),
+    Case("emg import {d}/store.db {d}/img.png", protect=("store.db",)),
+    Case("emg import {d}/store.db {d}/corrupt.parquet", protect=("store.db",)),
+    Case("emg import {d}/store.db {d}/missing.edf", protect=("store.db",)),
+    Case("emg import {d}/store.db {d}/fake.edf", protect=("store.db",)),
+    Case("emg import {d}/store.db {d}/fake.xdf", protect=("store.db",)),
     # export
+    Case("export {d}/store.db --bids {d}/out --power-line-hz 55"),
+    Case("export {d}/store.db --bids {d}/out --power-line-hz -50"),
+    Case("export {d}/store.db --bids {d}/store.db", protect=("store.db",)),
+    Case("export {d}/store.db --bids {d}/adir/../store.db", protect=("store.db",)),
+    Case("export {d}/store.db --bids /proc/bids"),
+    Case("export {d}/store.db --bids {d}/out --authors ''"),
+    Case("analyze {d}/store.db"),
+    Case("analyze {d}/store.db --workers 0"),
+    Case("analyze {d}/store.db --report {d}/store.db", protect=("store.db",)),
+    Case("analyze {d}/store.db --export {d}/store.db", protect=("store.db",)),
+    Case("analyze {d}/store.db --export-emg"),
+    Case("analyze {d}/store.db --bench {d}/missing.parquet"),
+    Case("analyze {d}/store.db --bench {d}/corrupt.parquet"),
+    Case("analyze {d}/store.db --report {d}/r.txt"),
+    Case("bench run -o {d}/br.csv --backend can --i2c-bus 99 --channel vcan_nonexistent"),
+    Case("check --backend sim --record {d}/store.db --session-min 1e9"),
     Case("export {d}/missing.db --bids {d}/out"),
     Case("export {d}/img.png --bids {d}/out"),
     Case("export {d}/corrupt.db --bids {d}/out"),

@@ -209,3 +209,20 @@ def test_run_refuses_a_cpu_the_machine_does_not_have(capsys):
     # Was run unpinned, with "CPU {4096}: Invalid argument" among the real-time settings.
     line = refusal(capsys, "run", "--backend", "sim", "--duration", "0.2", "--cpu", "4096")
     assert "--cpu 4096: this machine has CPUs 0–" in line
+
+
+@pytest.mark.parametrize("hz", ["55", "nan", "0", "-50"])
+def test_export_refuses_a_mains_frequency_other_than_50_or_60(capsys, tmp_path, hz):
+    # 55 (a typo for 50) was written into every _emg.json as the PowerLineFrequency.
+    import sqlite3
+
+    from bowden.store.schema import configure_connection, create_schema
+
+    store = tmp_path / "study.db"
+    with sqlite3.connect(store) as connection:
+        configure_connection(connection)
+        create_schema(connection)
+    connection.close()
+    line = refusal(capsys, "export", str(store), "--bids", str(tmp_path / "bids"), "--power-line-hz", hz)
+    assert "--power-line-hz must be 50 or 60" in line
+    assert not (tmp_path / "bids").exists()

@@ -6,7 +6,6 @@ docs/study.md, "Share the study".
 from __future__ import annotations
 
 import argparse
-import math
 import re
 from pathlib import Path
 from typing import Final
@@ -76,8 +75,8 @@ def run(args: argparse.Namespace) -> int:
             f"no study store at {store} (a study directory holding {STORE_FILE_NAME}, or a store file)"
         )
     hz = args.power_line_hz
-    if hz is not None and not (math.isfinite(hz) and hz > 0):
-        raise ParameterError(f"--power-line-hz must be a positive frequency, got {hz}")
+    if hz is not None and hz not in (50.0, 60.0):  # the mains is one or the other: 55 is a typo
+        raise ParameterError(f"--power-line-hz must be 50 or 60 (the mains frequency), got {hz:g}")
     authors = tuple(name.strip() for name in args.authors)
     if any(not name for name in authors):
         raise ParameterError("--authors needs a name (an empty one was given)")
