@@ -226,3 +226,20 @@ def test_export_refuses_a_mains_frequency_other_than_50_or_60(capsys, tmp_path, 
     line = refusal(capsys, "export", str(store), "--bids", str(tmp_path / "bids"), "--power-line-hz", hz)
     assert "--power-line-hz must be 50 or 60" in line
     assert not (tmp_path / "bids").exists()
+
+
+def test_run_says_a_record_that_is_a_directory_in_the_flags_words(capsys, tmp_path):
+    # Was SQLite's "cannot open the study store DIR: unable to open database file" (no flag named).
+    line = refusal(capsys, "run", "--backend", "sim", "--duration", "0.2", "--record", str(tmp_path))
+    assert line == (f"bowden: error: cannot write the study store (--record) to {tmp_path}: "
+                    "it is a directory; give a file name")
+
+
+@pytest.mark.parametrize(("store", "says"), [
+    (".", "it is a directory"),
+    ("missing/study.db", "the folder"),
+])
+def test_serve_says_a_store_it_cannot_make_in_the_flags_words(capsys, tmp_path, store, says):
+    pytest.importorskip("starlette")
+    line = refusal(capsys, "serve", "--store", str(tmp_path / store))
+    assert "the study store (--store)" in line and says in line

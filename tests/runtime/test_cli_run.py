@@ -147,7 +147,7 @@ def test_an_unusable_store_is_found_before_any_device(
     record = tmp_path if where == "directory" else Path("/proc/bowden-test/study.db")
     assert main(["run", "--backend", "sim", "--duration", "0.3", "--record", str(record)]) == 1
     err = capsys.readouterr().err
-    assert f"cannot open the study store {record}" in err
+    assert f"cannot write the study store (--record) to {record}" in err  # the flag, not SQLite's words
     assert "bowden run: " not in err
 
 

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 
 from bowden.cli._flag_errors import flag_errors
 from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
+from bowden.cli._outputs import check_output_file
 from bowden.cli._protocol_options import add_protocol_arguments, protocol_catalogue
 from bowden.cli._run_plan import (
     controller_for,
@@ -346,6 +347,8 @@ def _prepare(args: argparse.Namespace) -> _Prepared:
         require_hardware_extra("bowden run", real_suit)
     if args.serve and args.record is None:
         raise ParameterError("--serve needs --record study.db (the trial and the questionnaires go there)")
+    if args.record is not None:  # said now, in the flag's words (SQLite says "unable to open database file")
+        check_output_file("the study store (--record)", args.record, create_parents=True)
     if args.record is not None and condition is None:
         raise ParameterError(f"no study condition for support {support}: give --condition")
     if not (math.isfinite(args.rate) and 1.0 <= args.rate <= 2000.0):

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Final
 
 from bowden.cli._flag_errors import flag_errors
 from bowden.cli._loop_options import add_safety_arguments, realtime_config, safety_config, slack_config
+from bowden.cli._outputs import check_output_file
 from bowden.cli._protocol_options import add_protocol_arguments
 from bowden.cli._suit import (
     CanSuitOptions,
@@ -187,6 +188,9 @@ def _serve_config(args: argparse.Namespace) -> ServeConfig:
     from bowden.model import CompensationModel
     from bowden.runtime import LoopConfig
 
+    # Said now, in the flag's words (SQLite says "unable to open database file"); the store is made
+    # in an existing folder.
+    check_output_file("the study store (--store)", args.store, create_parents=False)
     safety = safety_config(args)
     LoopConfig(rate_hz=args.rate_hz, safety=safety)  # refused now, not at the first trial
     backend: SuitBackend
