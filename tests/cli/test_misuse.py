@@ -243,3 +243,51 @@ def test_serve_says_a_store_it_cannot_make_in_the_flags_words(capsys, tmp_path, 
     pytest.importorskip("starlette")
     line = refusal(capsys, "serve", "--store", str(tmp_path / store))
     assert "the study store (--store)" in line and says in line
+
+
+@pytest.mark.parametrize("flags", [["--host", "0.0.0.0"], ["--port", "9999"]])
+def test_run_refuses_host_and_port_without_serve(capsys, flags):
+    # Were ignored: the trial ran and nothing listened where the operator's browser was pointed.
+    line = refusal(capsys, "run", "--backend", "sim", "--duration", "0.2", *flags)
+    assert "--host and --port say where --serve listens" in line
+
+
+@pytest.fixture
+def paper_model(tmp_path):
+    from bowden.model import CompensationModel
+    from bowden.model.model_file import save_model
+
+    path = tmp_path / "model.json"
+    save_model(CompensationModel.from_friction(k=0.12), path)
+    return path
+
+
+@pytest.mark.parametrize(("flags", "says"), [
+    (["--resume"], "--resume: for a run over the wires"),
+    (["--study-repetitions", "3"], "--study-repetitions: for a run over the wires"),
+    (["--study-speeds", "V1"], "--study-speeds: for a run over the wires"),
+    (["--bench-output", "v.csv"], "--bench-output: for a run over the wires"),
+    (["--recording", "x.study.csv", "--study-speeds", "V1"], "--study-speeds: --recording judges"),
+])
+def test_bench_validate_refuses_wire_run_flags_where_no_run_is_over_the_wires(capsys, paper_model, flags,
+                                                                             says):
+    # Were ignored: the batch simulated bench validated (seconds) with its own speeds and repetitions.
+    line = refusal(capsys, "bench", "validate", str(paper_model), "--support", "0.5", *flags)
+    assert says in line
+
+
+def test_bench_validate_refuses_o_before_validating(capsys, paper_model, tmp_path):
+    # A model without the dynamic part was validated first (seconds), then -o refused.
+    code = main(["bench", "validate", str(paper_model), "--support", "0.5", "-o", str(tmp_path / "m.json")])
+    captured = capsys.readouterr()
+    assert code == 1 and captured.out == ""  # no validation table: refused first
+    assert captured.err.strip().endswith("has no dynamic compensation to recommend or not")
+
+
+def test_bench_run_refuses_later_segment_flags_with_no_later_segments(capsys, tmp_path):
+    # --chirp-s and --study-* were ignored: the run had no later segments, as asked, and none of theirs.
+    line = refusal(capsys, "bench", "run", "--backend", "sim", "-o", str(tmp_path / "b.csv"), "--speeds", "6",
+                   "--loads", "1", "--repetitions", "1", "--no-later-segments", "--chirp-s", "5",
+                   "--study-speeds", "V1")  # a regression runs two short strokes
+    assert "--chirp-s, --study-speeds: the later segments' settings" in line
+    assert not (tmp_path / "b.csv").exists()

@@ -93,6 +93,17 @@ def bench_config(args: argparse.Namespace) -> BenchRunConfig:
                           study=study_strokes(args) if later else None)
 
 
+def _refuse_later_segment_flags(args: argparse.Namespace) -> None:
+    """The later segments' flags with ``--no-later-segments`` (``bench run``): refused, not ignored."""
+    given = [flag for flag, name in (("--chirp-s", "chirp_s"), ("--study-supports", "study_supports"),
+                                     ("--study-speeds", "study_speeds"),
+                                     ("--study-repetitions", "study_repetitions"))
+             if getattr(args, name, None) is not None]
+    if given:
+        raise ParameterError(f"{', '.join(given)}: the later segments' settings, which --no-later-segments "
+                             "leaves out")
+
+
 def latency_chirp(args: argparse.Namespace) -> LatencyChirp:
     """The latency segment from ``--chirp-s`` (validated by :class:`LatencyChirp`, which names the flag)."""
     if args.chirp_s is None:
@@ -215,6 +226,8 @@ def _discard_if_unused(writer: BenchRecordingWriter) -> Iterator[None]:
 
 
 def run_bench_on_backend(args: argparse.Namespace) -> int:
+    if args.no_later_segments:
+        _refuse_later_segment_flags(args)
     config = bench_config(args)
     return run_bench_config(args, config, model_source=bench_model_source(args))
 

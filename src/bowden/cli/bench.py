@@ -159,6 +159,7 @@ def run_bench_command(args: argparse.Namespace) -> int:
 
 
 def run_validate(args: argparse.Namespace) -> int:
+    from bowden.cli._outputs import check_output_file
     from bowden.identify.study_fit import STUDY_SUPPORTS
     from bowden.model.model_file import load_model
     from bowden.sim.parameters import check_seed
@@ -169,10 +170,30 @@ def run_validate(args: argparse.Namespace) -> int:
         if not 0.0 < args.support <= 1.0:
             raise ParameterError(f"--support must be in (0, 1], got {args.support:g}")
         supports = (args.support,)
+    _refuse_unused_run_flags(args)
     model = load_model(args.model)
+    if args.output is not None:  # before the strokes run, not after
+        if model.dynamic is None:
+            raise ParameterError(f"-o: {args.model} has no dynamic compensation to recommend or not")
+        check_output_file("the model (-o)", args.output, create_parents=False)
     if args.recording is not None or args.backend != "sim":
         return _validate_recorded(args, model, supports)
     return _validate_simulated(args, model, supports)
+
+
+def _refuse_unused_run_flags(args: argparse.Namespace) -> None:
+    """The flags of a run over the wires, refused where none runs (they would be silently ignored)."""
+    given = [flag for flag, value in (("--bench-output", args.bench_output), ("--resume", args.resume),
+                                      ("--study-speeds", args.study_speeds),
+                                      ("--study-repetitions", args.study_repetitions))
+             if value is not None and value is not False]
+    if not given:
+        return
+    if args.recording is not None:
+        raise ParameterError(f"{', '.join(given)}: --recording judges a recorded segment, nothing is run")
+    if args.backend == "sim":
+        raise ParameterError(f"{', '.join(given)}: for a run over the wires (--backend can or sim-wire); "
+                             "the batch simulated bench (--backend sim) takes --support and --seed")
 
 
 def _validate_simulated(args: argparse.Namespace, model: Any, supports: tuple[float | str, ...]) -> int:

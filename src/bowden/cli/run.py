@@ -74,6 +74,9 @@ if TYPE_CHECKING:
 
 __all__ = ["DEFAULT_IMU_PORT", "Backend", "open_can_backend", "open_sim_backend", "register", "run"]
 
+# Where --serve listens unless --host/--port say otherwise (this machine only; bowden serve's port).
+SERVE_HOST = "127.0.0.1"
+SERVE_PORT = 8765
 DRAIN_S = 2.0  # at the end, how long the browsers get to receive the last messages
 
 
@@ -137,11 +140,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     )
     web.add_argument(
         "--host",
-        default="127.0.0.1",
-        help="with --serve: address to listen on (default 127.0.0.1: this machine only)",
+        help=f"with --serve: address to listen on (default {SERVE_HOST}: this machine only)",
     )
     web.add_argument(
-        "--port", type=int, default=8765, help="with --serve: port (default 8765; 0 picks a free one)"
+        "--port", type=int, help=f"with --serve: port (default {SERVE_PORT}; 0 picks a free one)"
     )
     add_sync_arguments(parser, trials="the trial")
     add_safety_arguments(parser)
@@ -197,8 +199,8 @@ def _serving(args: argparse.Namespace, model: CompensationModel) -> Iterator[Ser
             store_path=args.record,
             model=model,
             backend=CommandLineBackend(args.backend),
-            host=args.host,
-            port=args.port,
+            host=SERVE_HOST if args.host is None else args.host,
+            port=SERVE_PORT if args.port is None else args.port,
             rate_hz=args.rate,
             safety=safety_config(args),
         )
@@ -347,6 +349,8 @@ def _prepare(args: argparse.Namespace) -> _Prepared:
         require_hardware_extra("bowden run", real_suit)
     if args.serve and args.record is None:
         raise ParameterError("--serve needs --record study.db (the trial and the questionnaires go there)")
+    if not args.serve and (args.host is not None or args.port is not None):
+        raise ParameterError("--host and --port say where --serve listens: add --serve, or leave them out")
     if args.record is not None:  # said now, in the flag's words (SQLite says "unable to open database file")
         check_output_file("the study store (--record)", args.record, create_parents=True)
     if args.record is not None and condition is None:
