@@ -291,3 +291,9 @@ def test_bench_run_refuses_later_segment_flags_with_no_later_segments(capsys, tm
                    "--study-speeds", "V1")  # a regression runs two short strokes
     assert "--chirp-s, --study-speeds: the later segments' settings" in line
     assert not (tmp_path / "b.csv").exists()
+
+
+def test_bench_validate_refuses_fit_of_a_model_without_the_dynamic_part(capsys, paper_model):
+    # The batch bench returned the model unchanged and validated it as if refitted (exit 0).
+    line = refusal(capsys, "bench", "validate", str(paper_model), "--support", "0.5", "--fit")
+    assert line.endswith("has no dynamic compensation to refit")

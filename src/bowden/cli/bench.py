@@ -172,6 +172,8 @@ def run_validate(args: argparse.Namespace) -> int:
         supports = (args.support,)
     _refuse_unused_run_flags(args)
     model = load_model(args.model)
+    if args.fit and model.dynamic is None:  # on every backend (the batch fit returned it unchanged)
+        raise ParameterError(f"--fit: {args.model} has no dynamic compensation to refit")
     if args.output is not None:  # before the strokes run, not after
         if model.dynamic is None:
             raise ParameterError(f"-o: {args.model} has no dynamic compensation to recommend or not")
@@ -219,8 +221,6 @@ def _validate_recorded(args: argparse.Namespace, model: Any, supports: tuple[flo
     from bowden.cli._bench_validate import check_recorded_model, default_fit, print_fit, run_study_on_bench
     from bowden.identify.study_recording import read_study_recording
 
-    if args.fit and model.dynamic is None:
-        raise ParameterError(f"--fit: {args.model} has no dynamic compensation to refit")
     path, flag, unchecked = args.recording, "--recording", None
     if path is not None:
         unchecked = check_recorded_model(model, args.model, path)
