@@ -107,6 +107,7 @@ class NgimuPeer(StartedInWith):
         self._frozen: tuple[float, float] | None = None
         self._streamer = StoppableThread(self._stream, "ngimu-peer")
         self.sent = 0
+        self.last_sent_wall_s = math.nan  # time.time() after the last bundle left (a silence starts there)
         self._sent_changed = threading.Condition()
 
     def start(self) -> Self:
@@ -212,6 +213,7 @@ class NgimuPeer(StartedInWith):
                 elevation, velocity = sample.elevation_rad, sample.elevation_velocity_rad_s
             self._emit(elevation, velocity)
             with self._sent_changed:
+                self.last_sent_wall_s = time.time()
                 self.sent += 1
                 self._sent_changed.notify_all()
 
