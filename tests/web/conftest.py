@@ -110,11 +110,13 @@ class WireSuit:
     model: Path
 
     def args(self) -> list[str]:
-        # Lenient watchdogs: on a loaded shared machine the peers' threads can be starved for tens of
-        # ms, which would (rightly) stop the suit before the test reaches the behaviour it checks.
+        # Lenient watchdogs: on a loaded shared machine the peers' threads, and the loop itself, can be
+        # starved for tens of ms, which would (rightly) stop the suit before the test reaches the
+        # behaviour it checks (a 112 ms host stall stopped the console's stop-button test once, in a
+        # fresh clone's suite whose workers were compiling numba's kernels).
         return ["--backend", "can", "--interface", "virtual", "--channel", self.channel,
                 "--imu-port", str(self.imu_port), "--calibration-s", "0.2", "--model", str(self.model),
-                "--imu-max-age-ms", "500", "--motor-silence-ms", "500"]
+                "--imu-max-age-ms", "500", "--motor-silence-ms", "500", "--host-stall-ms", "1000"]
 
     def frames(self) -> list[ReceivedFrame]:
         return list(self.motor.received)
