@@ -9,6 +9,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 from hypothesis import settings
@@ -102,10 +103,21 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     beside two lanes the cores were a third idle (CPU 471 of 690 core-seconds in an idle 5 min 45 s run
     on 2026-11-28), which the extra worker takes for the rest (4 min 31 s against 5 min 20 s idle on
     2026-11-27). Beside two busy processes that worker starved the lanes' devices and the recorder's
-    writer (four failures; see the comment above SERIAL_GROUPS): so only when the machine is idle."""
+    writer (four failures; see the comment above SERIAL_GROUPS): so only when the machine is idle, and
+    numba's cache already holds the study's kernels. On a fresh checkout the workers compile them
+    beside the lanes, and with a third worker two fresh clones' runs of two lost a real-time test each
+    (2026-11-28: a 112 ms host stall in a browser session, a silent mannequin seen 137 ms late)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     workers = max(cores, len(SERIAL_GROUPS))
-    return workers + 1 if _others_use_of_the_cores(cores) < IDLE_BELOW_CORES else workers
+    idle = _others_use_of_the_cores(cores) < IDLE_BELOW_CORES
+    return workers + 1 if idle and _study_kernels_cached(config.rootpath) else workers
+
+
+def _study_kernels_cached(root: Path) -> bool:
+    """Whether numba's cache holds the batch simulator's trial kernel (a fresh checkout's does not)."""
+    cache = os.environ.get("NUMBA_CACHE_DIR")
+    folder = Path(cache) if cache else root / "src" / "bowden" / "sim" / "__pycache__"
+    return folder.is_dir() and any(folder.rglob("_batch_kernel.run_trial-*.nbi"))
 
 
 IDLE_BELOW_CORES = 0.25  # what other processes may use of the machine for it to count as idle
