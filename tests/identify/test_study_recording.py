@@ -192,3 +192,19 @@ def test_identify_refuses_a_recorded_fit_before_it_fits_the_lines(tmp_path, caps
     assert code != 0 and len(err) == 1, err
     assert "--study-recording" in err[0] and "bench validate MODEL" in err[0], err
     assert not (tmp_path / "m.json").exists()
+
+
+def test_a_block_covers_its_cycles_when_the_judge_keeps_its_last_repetition():
+    # The bench runs a block again when its rows stop short of its last cycle (a host stall there),
+    # by the judge's own rule: a last repetition recorded below 95 % of its cycle is left out.
+    from bowden.identify.study_recording import covers_its_cycles
+
+    whole = np.arange(0.0, 2.0, 0.002)  # two cycles, rows up to 1.998
+    assert covers_its_cycles(whole, 2)
+    short = whole[whole < 1.94]  # the last 6 % of the second cycle missing
+    assert not covers_its_cycles(short, 2) and not covers_its_cycles(np.array([]), 2)
+    law = np.full(short.size, 20.0)
+    with pytest.raises(FitError, match="no repetition after the first"):  # what the bench now avoids
+        judge_block(short, law + 1.0, law)
+    assert judge_block(whole, np.full(whole.size, 21.0), np.full(whole.size, 20.0)).tension_rmse_n == 1.0
+    assert covers_its_cycles(np.arange(0.0, 3.0, 0.002)[:-20], 3)  # 4 % of a cycle short of 3: kept

@@ -40,8 +40,16 @@ from bowden.model import CompensationModel
 from bowden.model.dynamic import support_label
 
 REQUIRED = ("block", "support", "speed", "compensation", "cycle_phase", "tension_n", "law_tension_n")
+# A last repetition whose rows end before this fraction of its cycle was recorded only in part: left out.
+WHOLE_CYCLE = 0.95
 SPEEDS = {1: "V1", 2: "V2", 3: "V3"}
 COMPENSATIONS = {0: "paper", 1: "dynamic"}
+
+
+def covers_its_cycles(cycle_phase: NDArray[np.float64], repetitions: int) -> bool:
+    """Whether a block's rows reach the end of its last cycle (:data:`WHOLE_CYCLE` of it), so that
+    :func:`judge_block` keeps every repetition after the first."""
+    return cycle_phase.size > 0 and float(cycle_phase.max()) >= repetitions - 1 + WHOLE_CYCLE
 
 
 def judge_block(cycle_phase: NDArray[np.float64], tension_n: NDArray[np.float64],
@@ -51,7 +59,7 @@ def judge_block(cycle_phase: NDArray[np.float64], tension_n: NDArray[np.float64]
     # before its end) is left out.
     held_out = cycle_phase >= 1.0
     last = math.floor(float(cycle_phase.max())) if cycle_phase.size else 0
-    if last >= 1 and float(cycle_phase.max()) - last < 0.95:
+    if last >= 1 and float(cycle_phase.max()) - last < WHOLE_CYCLE:
         held_out &= cycle_phase < last
     phase = cycle_phase[held_out]
     error = tension_n[held_out] - law_tension_n[held_out]

@@ -22,14 +22,17 @@ import numpy as np
 
 from bowden.control import Controller
 from bowden.errors import TransmitError
+from bowden.identify.study_recording import covers_its_cycles
 from bowden.model import AssistanceParameters, desired_tension_n
 from bowden.protocol.bench import MotorNoise, StudyBlock, StudyStrokes
 from bowden.protocol.minimum_jerk import minimum_jerk_position
 from bowden.runtime.bench_config import BenchFault
+from bowden.runtime.bench_recording import STUDY_COLUMNS
 from bowden.runtime.bench_state import PHASE_LATENCY, PHASE_MANNEQUIN_MOVE, PHASE_STUDY, joint_rad
 from bowden.runtime.bench_strokes import _GAP_RETRIES, BenchStrokes
 
 _T = TypeVar("_T")
+_CYCLE_PHASE = STUDY_COLUMNS.index("cycle_phase")
 _log = logging.getLogger(__name__)
 _SETTLE_S = 1.0  # the arm held still before a segment: the joint's offset to the IMU is measured then
 _MOVE_SPEED_RAD_S = 0.5  # the mannequin's moves between blocks (peak speed of a minimum-jerk path)
@@ -187,16 +190,19 @@ class BenchSegments(BenchStrokes):
     # --- segment 3: the study-like strokes --------------------------------------------------------
     def _run_study_whole(self, block: StudyBlock, controller: Controller, study: StudyStrokes) -> np.ndarray:
         """The block, run again while the load cell's reader starved during its cycles (its rows would
-        hold a stale tension, and a fit would judge a candidate on it), up to ``_GAP_RETRIES`` times as
-        a stroke; the same mannequin noise each time (:class:`MotorNoise` starts over)."""
+        hold a stale tension, and a fit would judge a candidate on it) or when its rows stop short of
+        its last cycle's end (a host stall there: the judge would leave that repetition out), up to
+        ``_GAP_RETRIES`` times as a stroke; the same mannequin noise each time (:class:`MotorNoise`
+        starts over)."""
         for _ in range(_GAP_RETRIES + 1):
             rows = self._run_study_block(block, controller, study)
-            if not self._gap_in_attempt:
+            whole = covers_its_cycles(rows[:, _CYCLE_PHASE] if rows.size else rows, study.repetitions)
+            if not self._gap_in_attempt and whole:
                 return rows
-            _log.warning("bench: study-like block %d is run again (a gap in the load cell's data)",
-                         block.index + 1)
-        raise BenchFault(f"study-like block {block.index + 1}: the load cell's reader was starved in "
-                         f"{_GAP_RETRIES + 1} attempts in a row: the host is too busy")
+            why = "a gap in the load cell's data" if self._gap_in_attempt else "its last cycle cut short"
+            _log.warning("bench: study-like block %d is run again (%s)", block.index + 1, why)
+        raise BenchFault(f"study-like block {block.index + 1}: the load cell's reader was starved or the "
+                         f"loop stalled in {_GAP_RETRIES + 1} attempts in a row: the host is too busy")
 
     def _run_study_block(self, block: StudyBlock, controller: Controller, study: StudyStrokes) -> np.ndarray:
         """One block of ``study``'s strokes: rest at the low end, then the cycles with the controller on
