@@ -104,19 +104,13 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     on 2026-11-28), which the extra worker takes for the rest (4 min 31 s against 5 min 20 s idle on
     2026-11-27). Beside two busy processes that worker starved the lanes' devices and the recorder's
     writer (four failures; see the comment above SERIAL_GROUPS): so only when the machine is idle, and
-    numba's cache holds the study's kernels: on an idle fresh checkout they are compiled here first
-    (tests/warm_kernels.py, about 20 s of one core), before the workers start. When the workers compiled
-    them beside the lanes, with a third worker, two fresh clones' runs of two lost a real-time test each
+    numba's cache already holds the study's kernels. On a fresh checkout the workers compile them
+    beside the lanes, and with a third worker two fresh clones' runs of two lost a real-time test each
     (2026-11-28: a 112 ms host stall in a browser session, a silent mannequin seen 137 ms late)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     workers = max(cores, len(SERIAL_GROUPS))
-    if _others_use_of_the_cores(cores) >= IDLE_BELOW_CORES:
-        return workers
-    if not _study_kernels_cached(config.rootpath):  # compiled once here, before any worker starts
-        subprocess.run([sys.executable, str(config.rootpath / "tests" / "warm_kernels.py")],
-                       cwd=config.rootpath, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                       timeout=600, check=False)
-    return workers + 1 if _study_kernels_cached(config.rootpath) else workers
+    idle = _others_use_of_the_cores(cores) < IDLE_BELOW_CORES
+    return workers + 1 if idle and _study_kernels_cached(config.rootpath) else workers
 
 
 def _study_kernels_cached(root: Path) -> bool:
