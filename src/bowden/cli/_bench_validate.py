@@ -21,7 +21,7 @@ from bowden.model import CompensationModel
 from bowden.model.model_record import controller_sha256
 from bowden.protocol.bench import StudyFit
 from bowden.runtime.bench_config import BenchRunConfig
-from bowden.runtime.bench_recording import journal_path, read_journal
+from bowden.runtime.bench_recording import journal_model, journal_path, read_journal
 
 
 def _say(text: str) -> None:
@@ -139,8 +139,7 @@ def check_recorded_model(model: CompensationModel, model_path: Path, study_recor
         journal = read_journal(recording)
     except RecordingError as error:
         return f"{unchecked}: {error}"
-    protocol = None if journal is None else journal.get("protocol")
-    recorded = protocol.get("model") if isinstance(protocol, dict) else None
+    recorded = journal_model(journal)
     if recorded is None:
         return (f"{unchecked} ({journal_path(recording).name} keeps none: `bench run` identifies its model "
                 "during the run)")

@@ -98,6 +98,14 @@ def read_journal(recording: str | Path) -> dict[str, Any] | None:
     return journal
 
 
+def journal_model(journal: dict[str, Any] | None) -> str | None:
+    """The digest of the model a ``bench validate`` run's blocks ran, as its journal keeps it (None
+    for ``bench run``'s journal, which keeps none, or a protocol that is not a mapping)."""
+    protocol = None if journal is None else journal.get("protocol")
+    model = protocol.get("model") if isinstance(protocol, dict) else None
+    return None if model is None else str(model)
+
+
 class BenchRecordingWriter:
     """Appends complete strokes to a bench recording and its device log (a context manager).
 
@@ -159,7 +167,7 @@ class BenchRecordingWriter:
                                      else "add --resume to continue it, or choose another file name"))
         if journal.get("complete"):
             raise OutputFileError(f"{self.path} is already complete ({journal['strokes_done']} strokes)")
-        started_model = (journal.get("protocol") or {}).get("model")
+        started_model = journal_model(journal)
         if started_model != self.protocol.get("model"):
             raise OutputFileError(f"cannot resume {self.path} with another model: its blocks ran the one "
                                   f"whose coefficients hash to {str(started_model)[:12]}, this one's hash to "
