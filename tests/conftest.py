@@ -9,7 +9,6 @@ import os
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 from hypothesis import settings
@@ -100,24 +99,30 @@ AFTER_THE_LANES = (
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     """``-n auto``: one worker per core, at least one per lane, and one more on a machine nothing else
     is using. Each lane's tests run one after the other on one worker; they wait on the wall clock, so
-    beside two lanes the cores were a third idle (CPU 471 of 690 core-seconds in an idle 5 min 45 s run
-    on 2026-11-28), which the extra worker takes for the rest (4 min 31 s against 5 min 20 s idle on
-    2026-11-27). Beside two busy processes that worker starved the lanes' devices and the recorder's
-    writer (four failures; see the comment above SERIAL_GROUPS): so only when the machine is idle, and
-    numba's cache already holds the study's kernels. On a fresh checkout the workers compile them
-    beside the lanes, and with a third worker two fresh clones' runs of two lost a real-time test each
-    (2026-11-28: a 112 ms host stall in a browser session, a silent mannequin seen 137 ms late)."""
+    beside two lanes the cores were a third idle (CPU 132 % of 200 % in a fresh clone's 5 min 33 s run
+    on 2026-11-28), which the extra worker takes for the rest.
+
+    The extra worker runs at the lowest priority (:func:`pytest_configure`) and never takes a lane
+    (:func:`pytest_xdist_make_scheduler`), so it has only what the lanes leave of the CPU. At normal
+    priority it starved the lanes' devices: beside two busy processes four failures (the bench's IMU
+    and controller and the recorder's writer), and on fresh clones, whose workers compile numba's
+    kernels, two runs of two lost a real-time test (2026-11-28: a 112 ms host stall in a browser
+    session, a silent mannequin seen 137 ms late). Beside busy processes there is nothing left to
+    take, so there it is not started."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     workers = max(cores, len(SERIAL_GROUPS))
     idle = _others_use_of_the_cores(cores) < IDLE_BELOW_CORES
-    return workers + 1 if idle and _study_kernels_cached(config.rootpath) else workers
+    return workers + 1 if idle else workers
 
 
-def _study_kernels_cached(root: Path) -> bool:
-    """Whether numba's cache holds the batch simulator's trial kernel (a fresh checkout's does not)."""
-    cache = os.environ.get("NUMBA_CACHE_DIR")
-    folder = Path(cache) if cache else root / "src" / "bowden" / "sim" / "__pycache__"
-    return folder.is_dir() and any(folder.rglob("_batch_kernel.run_trial-*.nbi"))
+def _worker_index(worker_id: str) -> int:
+    """xdist's workers are named gw0, gw1, …"""
+    return int(worker_id.removeprefix("gw"))
+
+
+def _takes_lanes(worker_id: str) -> bool:
+    """The first workers, one per lane, take the lanes; the others only the rest, at low priority."""
+    return _worker_index(worker_id) < len(SERIAL_GROUPS)
 
 
 IDLE_BELOW_CORES = 0.25  # what other processes may use of the machine for it to count as idle
@@ -164,6 +169,15 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
     class LaneScheduling(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
             return _unit(nodeid)
+
+        def schedule(self) -> None:
+            # The first hand-out gives each worker one unit in the order of self.nodes (the order the
+            # workers finished collecting): put the lane workers first, so that they take the lanes,
+            # which lead the queue, and a low-priority worker never does.
+            if self.collection is None:
+                self.assigned_work = dict(sorted(
+                    self.assigned_work.items(), key=lambda item: _worker_index(item[0].gateway.id)))
+            super().schedule()
 
     return LaneScheduling(config, log)
 
@@ -218,7 +232,16 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
             print(f"\ntests/warm_kernels.py failed:\n{error.decode(errors='replace')}", file=sys.stderr)
 
 
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    worker = getattr(item.config, "workerinput", {}).get("workerid")
+    if worker and not _takes_lanes(worker) and _unit(item.nodeid) in SERIAL_GROUPS:
+        pytest.fail(f"a real-time lane's test was handed to the low-priority worker {worker}")
+
+
 def pytest_configure(config: pytest.Config) -> None:
+    worker = getattr(config, "workerinput", {}).get("workerid")
+    if worker and not _takes_lanes(worker):
+        os.nice(19)  # only what the lanes leave (see pytest_xdist_auto_num_workers); its children too
     files = [unit for unit in AFTER_THE_LANES if unit not in SHARED_FIXTURE_GROUPS]
     missing = [path for path in (*_UNIT_OF, *files) if not (config.rootpath / path).exists()]
     if missing:  # a renamed test file would silently leave its lane
