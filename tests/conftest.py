@@ -9,7 +9,6 @@ import os
 import subprocess
 import sys
 import time
-from typing import Any
 
 import pytest
 from hypothesis import settings
@@ -82,12 +81,9 @@ SHARED_FIXTURE_GROUPS = {
     ),
 }
 _UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS.items() for path in files}}
-# Files that start worker processes, a Dask cluster or a browser go last on the lanes' workers, so that
-# they meet the lanes' real-time tests as little as possible: handed out early at normal priority
-# (2026-11-27, as "the longest first"), a resumed bench run beside them stopped on "the IMU does not
-# follow the arm" in two idle runs of three. The low-priority worker (pytest_xdist_auto_num_workers)
-# takes them first: its processes inherit its priority, and they are the suite's longest units (the
-# reduced study's alone about 80 s), which at the end of the queue left it running alone for 30 s.
+# Files that start worker processes, a Dask cluster or a browser go last, so that they meet the lanes'
+# real-time tests as little as possible: handed out early (2026-11-27, as "the longest first"), a
+# resumed bench run beside them stopped on "the IMU does not follow the arm" in two idle runs of three.
 AFTER_THE_LANES = (
     "reduced study",  # its process pool and Dask cluster (tests/study/test_parallel_study.py)
     "tests/sweep/test_runner.py",
@@ -182,13 +178,6 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
                 self.assigned_work = dict(sorted(
                     self.assigned_work.items(), key=lambda item: _worker_index(item[0].gateway.id)))
             super().schedule()
-
-        def _assign_work_unit(self, node: Any) -> None:
-            if not _takes_lanes(node.gateway.id):  # the low-priority worker: the longest units first
-                first = next((unit for unit in AFTER_THE_LANES if unit in self.workqueue), None)
-                if first is not None:
-                    self.workqueue.move_to_end(first, last=False)
-            super()._assign_work_unit(node)
 
     return LaneScheduling(config, log)
 
