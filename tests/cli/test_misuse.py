@@ -297,3 +297,70 @@ def test_bench_validate_refuses_fit_of_a_model_without_the_dynamic_part(capsys, 
     # The batch bench returned the model unchanged and validated it as if refitted (exit 0).
     line = refusal(capsys, "bench", "validate", str(paper_model), "--support", "0.5", "--fit")
     assert line.endswith("has no dynamic compensation to refit")
+
+
+@pytest.mark.parametrize(("flags", "says"), [
+    (["--max-drift-ppm", "-1"], "--max-drift-ppm must be positive, got -1"),
+    (["--max-drift-ppm", "0"], "--max-drift-ppm must be positive, got 0"),
+    (["--max-drift-ppm", "inf"], "--max-drift-ppm must be positive, got inf"),
+    (["--max-residual-ms", "nan"], "--max-residual-ms must be positive, got nan"),
+    (["--max-residual-ms", "-0.5"], "--max-residual-ms must be positive, got -0.5"),
+    (["--csv-volts-per-unit", "0"], "--csv-volts-per-unit must be positive, got 0"),
+    (["--csv-volts-per-unit", "nan"], "--csv-volts-per-unit must be positive, got nan"),
+    (["--trigger-bit", "-1"], "--trigger-bit must be 0–31, got -1"),
+    (["--trigger-bit", "99"], "--trigger-bit must be 0–31, got 99"),
+    (["--rate", "0"], "--rate must be a positive rate in Hz, got 0"),
+])
+def test_emg_import_checks_its_flags_before_opening_anything(capsys, tmp_path, flags, says):
+    # The four were checked only once the store was opened and the recording read (the store's or the
+    # file's problem was reported instead, or the bad value after a long read). Neither path exists
+    # here: the flag's refusal must come first.
+    line = refusal(capsys, "emg", "import", str(tmp_path / "missing.db"), str(tmp_path / "missing.edf"),
+                   *flags)
+    assert line == f"bowden: error: {says}"
+
+
+def test_emg_import_checks_its_flags_before_reading_a_recording(capsys, tmp_path):
+    # A bowden store with no trial and a recording that is no CSV: either would be refused once opened.
+    from bowden.store.study_store import StudyStore
+
+    with StudyStore(tmp_path / "study.db"):
+        pass
+    (tmp_path / "emg.csv").write_bytes(PNG)
+    line = refusal(capsys, "emg", "import", str(tmp_path / "study.db"), str(tmp_path / "emg.csv"),
+                   "--trigger-channel", "TRIGGERS", "--max-residual-ms", "0")
+    assert line == "bowden: error: --max-residual-ms must be positive, got 0"
+
+
+@pytest.mark.parametrize("flag", ["--max-drift-ppm", "--max-residual-ms", "--csv-volts-per-unit", "--rate"])
+def test_emg_import_names_a_flag_that_is_no_number(capsys, tmp_path, flag):
+    with pytest.raises(SystemExit) as exited:
+        main(["emg", "import", str(tmp_path / "missing.db"), str(tmp_path / "missing.edf"), flag, "abc"])
+    err = capsys.readouterr().err
+    assert exited.value.code == 2
+    assert f"argument {flag}: invalid float value: 'abc'" in err and "Traceback" not in err
+
+
+def test_bench_run_says_a_missing_folder_does_not_exist(capsys, tmp_path):
+    # Was "cannot write the bench recording to nodir/x.csv: nodir is not a directory" (the writer's
+    # check, after the bench was opened); now the commands' shared check, naming -o, before it opens.
+    output = tmp_path / "nodir" / "x.csv"
+    line = refusal(capsys, "bench", "run", "--backend", "sim", "-o", str(output))
+    assert line == (f"bowden: error: cannot write the bench recording (-o) to {output}: "
+                    f"the folder {output.parent} does not exist")
+    assert not output.parent.exists()
+
+
+def test_bench_run_says_a_folder_that_is_a_file_is_not_a_directory(capsys, tmp_path):
+    (tmp_path / "afile").write_text("not a folder\n")
+    output = tmp_path / "afile" / "x.csv"
+    line = refusal(capsys, "bench", "run", "--backend", "sim", "-o", str(output))
+    assert line.endswith(f"the folder {output.parent} is not a directory")
+
+
+def test_bench_validate_names_bench_output_of_a_missing_folder(capsys, paper_model, tmp_path):
+    output = tmp_path / "nodir" / "v.csv"
+    line = refusal(capsys, "bench", "validate", str(paper_model), "--backend", "sim-wire", "--bench-output",
+                   str(output))
+    assert line == (f"bowden: error: cannot write the bench recording (--bench-output) to {output}: "
+                    f"the folder {output.parent} does not exist")

@@ -29,6 +29,7 @@ from bowden.analysis.emg.check import EmgCheckParameters, emg_check
 from bowden.analysis.emg.read import SourceChannel, SourceRecording, read_csv_source, read_edf_source
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.analysis.emg.sync import (
+    _MAX_TRIGGER_BIT,  # the bits trigger_pulses reads
     DRIFT_TOLERANCE_PPM,
     RESIDUAL_TOLERANCE_S,
     ClockFit,
@@ -63,8 +64,20 @@ class ImportOptions:
     csv_volts_per_unit: float = 1.0
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.expected_rate_hz) and self.expected_rate_hz > 0.0):
-            raise ParameterError(f"--rate must be a positive rate in Hz, got {self.expected_rate_hz:g}")
+        # Checked here, when the options are made, so that a bad flag is refused before the store or
+        # any recording is opened (the readers' and the fit's own checks came only after reading).
+        # Each message names the flag and quotes the number in its unit (ms for the residual).
+        positive = {
+            "--rate": (self.expected_rate_hz, "a positive rate in Hz"),
+            "--max-drift-ppm": (self.drift_tolerance_ppm, "positive"),
+            "--max-residual-ms": (1e3 * self.residual_tolerance_s, "positive"),
+            "--csv-volts-per-unit": (self.csv_volts_per_unit, "positive"),
+        }
+        for flag, (value, what) in positive.items():
+            if not (math.isfinite(value) and value > 0.0):
+                raise ParameterError(f"{flag} must be {what}, got {value:g}")
+        if self.trigger_bit is not None and not 0 <= self.trigger_bit <= _MAX_TRIGGER_BIT:
+            raise ParameterError(f"--trigger-bit must be 0–{_MAX_TRIGGER_BIT}, got {self.trigger_bit}")
 
 
 @dataclass(frozen=True, kw_only=True)
