@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from bowden.cli._flag_errors import flag_errors
+from bowden.cli._outputs import check_output_file
 from bowden.errors import ParameterError
 from bowden.hardware.backend import Backend
 from bowden.model import CompensationModel
@@ -234,10 +235,16 @@ def run_bench_on_backend(args: argparse.Namespace) -> int:
 
 def run_bench_config(args: argparse.Namespace, config: BenchRunConfig, *,
                      model_source: Callable[[Path, Path | None], CompensationModel],
-                     fit_models: FitModels | None = None) -> int:
-    """Open the bench of ``args``, run ``config``'s protocol into ``args.output``, report; the exit code."""
+                     fit_models: FitModels | None = None, output_flag: str = "-o") -> int:
+    """Open the bench of ``args``, run ``config``'s protocol into ``args.output``, report; the exit code.
+
+    ``output_flag`` is the flag that named ``args.output`` (``bench validate``'s ``--bench-output``).
+    """
     strokes = config.protocol.n_strokes if config.identification else 0
     total = config.n_units
+    # The commands' shared check, before the bench opens: it names the flag, and a missing folder
+    # as missing (the writer's own check said "is not a directory" of it).
+    check_output_file(f"the bench recording ({output_flag})", Path(args.output), create_parents=False)
     opener = _open(args)  # checks the options; the devices open below
     with BenchRecordingWriter(args.output, config.protocol_fingerprint(), resume=args.resume) as writer, \
             _discard_if_unused(writer):

@@ -83,7 +83,7 @@ def run_study_on_bench(args: argparse.Namespace, model: CompensationModel,
     if fit is not None:
         _say(estimate(config, blocks_done=_blocks_done(run_args, config)))
     code = run_bench_config(run_args, config, model_source=lambda _recording, _latency: model,
-                            fit_models=GridModels("--bench-output"))
+                            fit_models=GridModels("--bench-output"), output_flag="--bench-output")
     if code != 0:
         return code
     return output.with_name(output.stem + ".study.csv")
