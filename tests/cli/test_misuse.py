@@ -364,3 +364,63 @@ def test_bench_validate_names_bench_output_of_a_missing_folder(capsys, paper_mod
                    str(output))
     assert line == (f"bowden: error: cannot write the bench recording (--bench-output) to {output}: "
                     f"the folder {output.parent} does not exist")
+
+
+BENCH_HEADER = "time_s,motor_torque_nm,motor_velocity_rad_s,tension_n,elevation_rad"
+
+
+def test_identify_names_the_columns_of_a_file_of_other_columns_in_one_line(capsys, tmp_path):
+    # Was seven lines (one per problem) ending in "allow_extra_columns=True, or --ignore-extra-columns",
+    # where ignoring the extra columns could not help: every column of the contract is missing.
+    other = tmp_path / "other.csv"
+    other.write_text("a,b,c\n1,2,3\n4,5,6\n")
+    line = refusal(capsys, "identify", str(other), "-o", str(tmp_path / "m.json"))
+    assert line == (f"bowden: error: bench recording {other}: missing column(s) time_s, motor_torque_nm, "
+                    "motor_velocity_rad_s, tension_n, elevation_rad; unexpected column(s) 'a' (column 1), "
+                    "'b' (column 2), 'c' (column 3)")
+
+
+def test_identify_names_ignore_extra_columns_where_it_helps_and_shortens_many(capsys, tmp_path):
+    bench = tmp_path / "bench.csv"
+    extra = [f"extra{i}" for i in range(7)]
+    bench.write_text(f"{BENCH_HEADER},{','.join(extra)}\n0,0,0,0,0{',1' * 7}\n")
+    line = refusal(capsys, "identify", str(bench), "-o", str(tmp_path / "m.json"))
+    assert line == (f"bowden: error: bench recording {bench}: unexpected column(s) 'extra0' (column 6), "
+                    "'extra1' (column 7), 'extra2' (column 8), 'extra3' (column 9) and 3 more "
+                    "(give --ignore-extra-columns to ignore them)")
+    assert "allow_extra_columns" not in line
+
+
+def test_identify_keeps_the_rename_hint_of_a_column_in_its_one_line(capsys, tmp_path):
+    bench = tmp_path / "bench.csv"
+    bench.write_text(BENCH_HEADER.replace("tension_n", "tension") + "\n0,0,0,0,0\n")
+    line = refusal(capsys, "identify", str(bench), "-o", str(tmp_path / "m.json"))
+    assert line.endswith("missing column(s) tension_n (found 'tension': rename it?); "
+                         "unexpected column(s) 'tension' (column 4)")
+    assert "--ignore-extra-columns" not in line  # ignoring 'tension' leaves tension_n missing
+
+
+def test_identify_lists_other_problems_of_a_recording_as_before(capsys, tmp_path):
+    # Only the columns' problem is one line: a file with the contract's columns still gets every
+    # problem named by row (docs/identification.md), as the library raises it.
+    bench = tmp_path / "bench.csv"
+    bench.write_text(f"{BENCH_HEADER}\n0,0,0,0,0\n0,0,0,x,0\n")
+    assert main(["identify", str(bench), "-o", str(tmp_path / "m.json")]) == 1
+    err = capsys.readouterr().err
+    assert "'x' is not a number" in err and "Traceback" not in err
+
+
+def test_the_library_keeps_every_column_problem_for_its_callers(tmp_path):
+    from bowden.errors import RecordingError
+    from bowden.identify.recording import read_bench_recording
+    from bowden.identify.validation import BenchColumnsError
+
+    other = tmp_path / "other.csv"
+    other.write_text("a,b,c\n1,2,3\n")
+    with pytest.raises(BenchColumnsError) as raised:
+        read_bench_recording(other)
+    assert isinstance(raised.value, RecordingError)
+    assert str(raised.value).count("\n  - ") == 6 and "allow_extra_columns=True" in str(raised.value)
+    assert raised.value.unexpected == ((1, "a"), (2, "b"), (3, "c"))
+    assert [name for name, _ in raised.value.missing] == ["time_s", "motor_torque_nm", "motor_velocity_rad_s",
+                                                          "tension_n", "elevation_rad"]

@@ -15,16 +15,19 @@ import argparse
 import math
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from bowden.cli._flag_errors import flag_errors
 from bowden.cli._outputs import check_output_file, refuse_overwriting_inputs
-from bowden.errors import FitError, OutputFileError, ParameterError
+from bowden.errors import FitError, OutputFileError, ParameterError, RecordingError
 from bowden.hardware.motors import AK_MOTORS, DEFAULT_MOTOR
 from bowden.identify.settings import DEFAULT_IMU_LATENCY_S, LOWERING, RAISING, PreprocessSettings
 from bowden.model.compensation import CompensationModel
 from bowden.model.model_file import save_model
 from bowden.validation import check_number
+
+if TYPE_CHECKING:  # imported by run(): bowden identify --help needs no fitting stack
+    from bowden.identify.estimator import TransmissionIdentifier
 
 _DEFAULTS = PreprocessSettings()
 
@@ -141,12 +144,7 @@ def run(args: argparse.Namespace) -> int:
         )
     # The study-like recording is read and judged before the fit: a file it refuses costs no fit.
     study_results = None if args.study_recording is None else read_study_results(args.study_recording)
-    if args.ignore_extra_columns:
-        from bowden.identify.recording import read_bench_recording
-
-        identifier.fit(read_bench_recording(args.bench, limits=identifier.limits, allow_extra_columns=True))
-    else:
-        identifier.fit(args.bench)
+    _fit(identifier, args.bench, ignore_extra_columns=args.ignore_extra_columns)
     model = identifier.model_
     if study_results is not None:
         model = recommend_from_study_results(model, study_results)
@@ -175,6 +173,21 @@ def run(args: argparse.Namespace) -> int:
     if identifier.summary_.warnings:
         print(f"bowden identify: {len(identifier.summary_.warnings)} warning(s), see above", file=sys.stderr)
     return 0
+
+
+def _fit(identifier: TransmissionIdentifier, benches: list[Path], *, ignore_extra_columns: bool) -> None:
+    """Read the bench recordings and fit; a file of other columns is refused in one line (the
+    library's error lists every problem, one per line, for its callers)."""
+    from bowden.identify.recording import read_bench_recording
+    from bowden.identify.validation import BenchColumnsError
+
+    try:
+        recording = read_bench_recording(
+            benches, limits=identifier.limits, allow_extra_columns=ignore_extra_columns
+        )
+    except BenchColumnsError as error:
+        raise RecordingError(error.one_line("--ignore-extra-columns")) from None
+    identifier.fit(recording)
 
 
 def _check_degree_and_mm_flags(args: argparse.Namespace) -> None:

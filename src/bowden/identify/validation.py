@@ -69,6 +69,59 @@ class RecordingLimits:
                 raise ParameterError(f"{name} must be a positive finite number, got {value!r}")
 
 
+class BenchColumnsError(RecordingError):
+    """A bench recording whose columns are not the contract's.
+
+    ``str()`` lists every problem of the file's columns, as any :class:`RecordingError` of a bench
+    recording does; ``missing`` and ``unexpected`` keep the columns themselves, and :meth:`one_line`
+    says them in one line for a command's refusal.
+
+    Attributes
+    ----------
+    source
+        The file (or table) name.
+    missing
+        The contract's columns the file lacks, each with the file's column that looks like it (or None).
+    unexpected
+        The file's columns outside the contract, each with its position (1 the first; empty when they
+        are allowed).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        source: str,
+        missing: tuple[tuple[str, str | None], ...],
+        unexpected: tuple[tuple[int, str], ...],
+    ) -> None:
+        super().__init__(message)
+        self.source = source
+        self.missing = missing
+        self.unexpected = unexpected
+
+    def one_line(self, ignore_flag: str) -> str:
+        """The columns' problem in one line; ``ignore_flag`` (the command's flag that ignores columns
+        outside the contract) is named only where giving it would help: nothing is missing."""
+        parts = []
+        if self.missing:
+            names = [name if close is None else f"{name} (found '{close}': rename it?)"
+                     for name, close in self.missing]
+            parts.append(f"missing column(s) {_first_few(names)}")
+        if self.unexpected:
+            quoted = [f"'{name}' (column {position})" for position, name in self.unexpected]
+            ignore = "" if self.missing else f" (give {ignore_flag} to ignore them)"
+            parts.append(f"unexpected column(s) {_first_few(quoted)}{ignore}")
+        return f"bench recording {self.source}: {'; '.join(parts)}"
+
+
+def _first_few(names: list[str], shown: int = 4) -> str:
+    """``names`` joined, or the first ``shown`` and "and N more" (never "and 1 more": that one is named)."""
+    if len(names) <= shown + 1:
+        return ", ".join(names)
+    return f"{', '.join(names[:shown])} and {len(names) - shown} more"
+
+
 class _Problems:
     """Collects every problem of one source, then raises them together."""
 
@@ -84,15 +137,18 @@ class _Problems:
     def add(self, message: str) -> None:
         self.items.append(message)
 
-    def raise_if_any(self) -> None:
-        if not self.items:
-            return
+    def message(self) -> str:
+        """Every problem collected (the first few dozen), one per line under the source's name."""
         shown = self.items[:_MAX_LISTED_PROBLEMS]
         more = len(self.items) - len(shown)
         lines = "\n".join(f"  - {item}" for item in shown)
         tail = f"\n  ... and {more} more problem(s)" if more else ""
         noun = "problem" if len(self.items) == 1 else "problems"
-        raise RecordingError(f"bench recording {self.name}: {len(self.items)} {noun}:\n{lines}{tail}")
+        return f"bench recording {self.name}: {len(self.items)} {noun}:\n{lines}{tail}"
+
+    def raise_if_any(self) -> None:
+        if self.items:
+            raise RecordingError(self.message())
 
 
 def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
@@ -107,8 +163,10 @@ def _check_columns(frame: pd.DataFrame, problems: _Problems, allow_extra_columns
     missing = [c for c in BENCH_COLUMNS if c not in present]
     allowed = (*BENCH_COLUMNS, BENCH_TRIAL)
     extra = [(i + 1, c) for i, c in enumerate(present) if c not in allowed]
+    looks_like: list[tuple[str, str | None]] = []
     for name in missing:
         close = difflib.get_close_matches(name, [c for _, c in extra], n=1, cutoff=0.5)
+        looks_like.append((name, close[0] if close else None))
         hint = f" (found '{close[0]}': rename it if it holds {name})" if close else ""
         problems.add(f"column {name} is missing{hint}")
     if extra and not allow_extra_columns:
@@ -123,6 +181,11 @@ def _check_columns(frame: pd.DataFrame, problems: _Problems, allow_extra_columns
         problems.add(f"column {name} appears more than once")
     if not frame.shape[0]:
         problems.add("no data rows")
+    unexpected = () if allow_extra_columns else tuple(extra)
+    if looks_like or unexpected:
+        raise BenchColumnsError(
+            problems.message(), source=problems.name, missing=tuple(looks_like), unexpected=unexpected
+        )
     problems.raise_if_any()
     keep = [c for c in allowed if c in present]
     return frame.loc[:, keep]
