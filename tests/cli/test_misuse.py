@@ -424,3 +424,34 @@ def test_the_library_keeps_every_column_problem_for_its_callers(tmp_path):
     assert raised.value.unexpected == ((1, "a"), (2, "b"), (3, "c"))
     assert [name for name, _ in raised.value.missing] == ["time_s", "motor_torque_nm", "motor_velocity_rad_s",
                                                           "tension_n", "elevation_rad"]
+
+
+@pytest.mark.parametrize(("flags", "named"), [
+    (["--imu-latency-ms", "30"], "--imu-latency-ms: "),
+    (["--imu-latency-ms", "50"], "--imu-latency-ms: "),  # the default's value, given: still ignored
+    (["--latency-recording", "latency.csv"], "--latency-recording: "),
+    (["--imu-latency-ms", "30", "--latency-recording", "latency.csv"],
+     "--imu-latency-ms, --latency-recording: "),
+])
+def test_identify_refuses_latency_flags_that_paper_only_ignores(capsys, tmp_path, flags, named):
+    # --paper-only --imu-latency-ms 30 wrote the paper's lines and said nothing: only the dynamic
+    # compensation's estimator takes the IMU's latency. Refused before the recording is read (it
+    # does not exist here).
+    line = refusal(capsys, "identify", str(tmp_path / "bench.csv"), "-o", str(tmp_path / "m.json"),
+                   "--paper-only", *flags)
+    assert line == (f"bowden: error: {named}the dynamic compensation's IMU latency, which --paper-only "
+                    "leaves out (the paper's lines take none)")
+
+
+def test_identify_refuses_imu_latency_ms_beside_the_latency_recording_that_replaces_it(capsys, tmp_path):
+    # The latency identified from the segment silently replaced the one given.
+    line = refusal(capsys, "identify", str(tmp_path / "bench.csv"), "-o", str(tmp_path / "m.json"),
+                   "--imu-latency-ms", "30", "--latency-recording", str(tmp_path / "latency.csv"))
+    assert "--imu-latency-ms and --latency-recording both set the IMU latency" in line
+
+
+def test_identify_checks_its_degree_flags_before_reading_the_latency_recording(capsys, tmp_path):
+    # The latency segment (a missing file here) used to be read first.
+    line = refusal(capsys, "identify", str(tmp_path / "bench.csv"), "-o", str(tmp_path / "m.json"),
+                   "--latency-recording", str(tmp_path / "latency.csv"), "--min-speed-deg-s", "-1")
+    assert "--min-speed-deg-s" in line

@@ -80,8 +80,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.add_argument(
         "--imu-latency-ms",
         type=float,
-        default=1e3 * DEFAULT_IMU_LATENCY_S,
-        help="age of the suit's IMU samples on arrival, for the dynamic compensation's estimator (50)",
+        # None when not given: --paper-only and --latency-recording refuse it given (it would be ignored).
+        default=None,
+        help="age of the suit's IMU samples on arrival, for the dynamic compensation's estimator "
+        f"(default {1e3 * DEFAULT_IMU_LATENCY_S:g})",
     )
     parser.add_argument(
         "--study-recording",
@@ -115,9 +117,9 @@ def run(args: argparse.Namespace) -> int:
         _check_outputs(args.output, args.friction_figure, args.bench)
         if args.paper_only:
             raise ParameterError("--friction-figure draws the dynamic model, which --paper-only leaves out")
-    if not 0.0 <= args.imu_latency_ms <= 200.0:
-        raise ParameterError(f"--imu-latency-ms must be in [0, 200] ms, got {args.imu_latency_ms:g}")
-    imu_latency_s = args.imu_latency_ms / 1000.0
+    _refuse_unused_latency_flags(args)
+    _check_degree_and_mm_flags(args)  # every flag before the latency segment is read
+    imu_latency_s = DEFAULT_IMU_LATENCY_S if args.imu_latency_ms is None else args.imu_latency_ms / 1000.0
     if args.latency_recording is not None:
         from bowden.identify.latency import read_latency_segment
 
@@ -125,7 +127,6 @@ def run(args: argparse.Namespace) -> int:
         imu_latency_s = latency.latency_s
         print(f"IMU latency identified from {args.latency_recording}: {1e3 * latency.latency_s:.1f} ms "
               f"(residual {math.degrees(latency.residual_rms_rad):.2f}°)")
-    _check_degree_and_mm_flags(args)
     # The settings check the flags in their own units too; their refusals name the flags.
     with flag_errors({"cutoff_hz": "--cutoff-hz", "min_samples_per_direction": "--min-samples"}):
         settings = PreprocessSettings(
@@ -188,6 +189,24 @@ def _fit(identifier: TransmissionIdentifier, benches: list[Path], *, ignore_extr
     except BenchColumnsError as error:
         raise RecordingError(error.one_line("--ignore-extra-columns")) from None
     identifier.fit(recording)
+
+
+def _refuse_unused_latency_flags(args: argparse.Namespace) -> None:
+    """Refuse the IMU latency's flags where nothing reads them: only the dynamic compensation's
+    estimator does (the paper's lines take no latency), and ``--latency-recording`` replaces
+    ``--imu-latency-ms``. Ignored, either would leave the model other than the user asked."""
+    if args.imu_latency_ms is not None and not 0.0 <= args.imu_latency_ms <= 200.0:  # NaN fails too
+        raise ParameterError(f"--imu-latency-ms must be in [0, 200] ms, got {args.imu_latency_ms:g}")
+    if args.paper_only:
+        given = [flag for flag, value in (("--imu-latency-ms", args.imu_latency_ms),
+                                          ("--latency-recording", args.latency_recording))
+                 if value is not None]
+        if given:
+            raise ParameterError(f"{', '.join(given)}: the dynamic compensation's IMU latency, which "
+                                 "--paper-only leaves out (the paper's lines take none)")
+    if args.imu_latency_ms is not None and args.latency_recording is not None:
+        raise ParameterError("--imu-latency-ms and --latency-recording both set the IMU latency: "
+                             "--latency-recording identifies it from the segment; drop one")
 
 
 def _check_degree_and_mm_flags(args: argparse.Namespace) -> None:
