@@ -48,6 +48,7 @@ class Case:
     protect: tuple[str, ...] = ()
     expect_fail: bool = True
     allow_internal: bool = False
+    says: str = ""  # what the refusal must say (the flag's problem, not another input's)
     flags: list[str] = field(default_factory=list)
 
 
@@ -59,6 +60,9 @@ def make_fixtures(d: Path) -> None:
     (d / "empty.db").write_bytes(b"")
     (d / "img.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 4)
     (d / "other.csv").write_text("a,b,c\n1,2,3\n4,5,6\n")
+    header = "time_s,motor_torque_nm,motor_velocity_rad_s,tension_n,elevation_rad"
+    extra = "".join(f",extra{i}" for i in range(9))
+    (d / "wide.csv").write_text(f"{header}{extra}\n0,0,0,0,0{',1' * 9}\n")
     (d / "corrupt.parquet").write_bytes(b"PAR1" + os.urandom(300) + b"PAR1")
     (d / "corrupt.db").write_bytes(b"SQLite format 3\x00" + os.urandom(5000))
     with sqlite3.connect(d / "foreign.db") as conn:
@@ -155,6 +159,14 @@ CASES: list[Case] = [
     Case("emg import {d}/store.db {d}/missing.edf", protect=("store.db",)),
     Case("emg import {d}/store.db {d}/fake.edf", protect=("store.db",)),
     Case("emg import {d}/store.db {d}/fake.xdf", protect=("store.db",)),
+    # flags checked before the store or the recording is opened: neither exists here
+    Case("emg import {d}/missing.db {d}/missing.edf --max-drift-ppm 0", says="--max-drift-ppm must"),
+    Case("emg import {d}/missing.db {d}/missing.edf --max-drift-ppm inf", says="--max-drift-ppm must"),
+    Case("emg import {d}/missing.db {d}/missing.edf --max-drift-ppm abc", says="--max-drift-ppm"),
+    Case("emg import {d}/missing.db {d}/missing.edf --max-residual-ms -1", says="--max-residual-ms must"),
+    Case("emg import {d}/missing.db {d}/missing.edf --csv-volts-per-unit=-1e-6",
+         says="--csv-volts-per-unit must"),
+    Case("emg import {d}/missing.db {d}/missing.edf --trigger-bit 32", says="--trigger-bit must"),
     # export
     Case("export {d}/store.db --bids {d}/out --power-line-hz 55"),
     Case("export {d}/store.db --bids {d}/out --power-line-hz -50"),
@@ -192,8 +204,10 @@ CASES: list[Case] = [
     Case("emg import {d}/store.db {d}/other.csv --trigger-polarity low"),
     Case("identify {d}/bench.csv -o {d}/m.json --paper-only --study-recording {d}/bench.csv"),
     Case("identify {d}/bench.csv -o {d}/m.json --paper-only --latency-recording {d}/bench.csv"),
-    # Left alone: --imu-latency-ms has a default (50), so given and not given look alike.
-    Case("identify {d}/bench.csv -o {d}/m.json --paper-only --imu-latency-ms 30", expect_fail=False),
+    Case("identify {d}/bench.csv -o {d}/m.json --paper-only --imu-latency-ms 30", says="--paper-only"),
+    Case("identify {d}/bench.csv -o {d}/m.json --paper-only --imu-latency-ms 50", says="--paper-only"),
+    Case("identify {d}/bench.csv -o {d}/m.json --imu-latency-ms 30 --latency-recording {d}/bench.csv",
+         says="--imu-latency-ms and --latency-recording"),
     Case("study --quick-bench --force --out /proc/st"),
     Case("sweep blend-velocity --list --participants 0", expect_fail=False),  # --list prints and exits
     Case("export {d}/missing.db --bids {d}/out"),
@@ -208,7 +222,9 @@ CASES: list[Case] = [
     Case("identify {d}/adir -o {d}/m.json"),
     Case("identify {d}/empty.csv -o {d}/m.json"),
     Case("identify {d}/img.png -o {d}/m.json"),
-    Case("identify {d}/other.csv -o {d}/m.json"),
+    Case("identify {d}/other.csv -o {d}/m.json", says="missing column(s) time_s"),
+    Case("identify {d}/other.csv -o {d}/m.json --ignore-extra-columns", says="missing column(s) time_s"),
+    Case("identify {d}/wide.csv -o {d}/m.json", says="and 5 more (give --ignore-extra-columns"),
     Case("identify {d}/corrupt.parquet -o {d}/m.json"),
     Case("identify {d}/bench.csv -o {d}/bench.csv", protect=("bench.csv",)),
     Case("identify {d}/bench.csv -o {d}/nodir/sub/m.json"),
@@ -358,6 +374,8 @@ CASES: list[Case] = [
     Case("bench run -o {d}/br.csv --backend can --channel vcan_nonexistent"),
     Case("bench run -o {d}/bench.csv --backend sim", protect=("bench.csv",)),
     Case("bench run -o {d}/nodir/sub/br.csv --backend sim"),
+    Case("bench run -o {d}/nodir/br.csv --backend sim", says="nodir does not exist"),
+    Case("bench run -o {d}/existing.txt/br.csv --backend sim", says="existing.txt is not a directory"),
     Case("bench run -o {d}/adir --backend sim"),
     Case("bench run -o {d}/br.csv --backend sim --speeds 0"),
     Case("bench run -o {d}/br.csv --backend sim --loads nan"),
@@ -388,6 +406,8 @@ CASES: list[Case] = [
     Case("bench validate {d}/model.json --recording {d}/other.csv"),
     Case("bench validate {d}/model.json --recording {d}/missing.csv"),
     Case("bench validate {d}/model.json -o {d}/nodir/sub/m.json"),
+    Case("bench validate {d}/model.json --backend sim-wire --bench-output {d}/nodir/v.csv",
+         says="(--bench-output) to {d}/nodir/v.csv: the folder {d}/nodir does not exist"),
     Case("bench validate {d}/model.json -o {d}/bench.csv", protect=("bench.csv",)),
     Case("bench validate {d}/model.json --backend sim-wire --bench-output {d}/bench.csv",
          protect=("bench.csv",)),
@@ -450,6 +470,9 @@ def run_case(case: Case, d: Path) -> tuple[int | None, str]:
     elif done.returncode != 0 and len(lines) != 1:
         case.flags.append(f"{len(lines)} lines on stderr")
     text = " ".join(lines)
+    says = case.says.format(d=d)
+    if says and says not in text:
+        case.flags.append(f"does not say {says!r}")
     words = {m.group(0) for m in INTERNAL_NAME.finditer(text)} | set(BARE_FIELD.findall(text))
     for word in sorted(words - ALLOWED) if not case.allow_internal else ():
         case.flags.append(f"internal name {word!r}")
