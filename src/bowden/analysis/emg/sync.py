@@ -168,6 +168,12 @@ def clock_fit(
 _MAX_TRIGGER_BIT = 31
 
 
+def check_trigger_bit(bit: int) -> None:
+    """Refuse a ``--trigger-bit`` outside the trigger word's bits (0–31)."""
+    if not 0 <= bit <= _MAX_TRIGGER_BIT:
+        raise ParameterError(f"--trigger-bit must be 0–{_MAX_TRIGGER_BIT}, got {bit}")
+
+
 def trigger_pulses(
     emg: EmgSignal, channel: str, *, polarity: TriggerPolarity = "auto", bit: int | None = None
 ) -> NDArray[np.float64]:
@@ -242,8 +248,7 @@ def trigger_pulses(
 
 def _bit(values: NDArray[np.float64], channel: str, bit: int) -> NDArray[np.float64]:
     """Bit ``bit`` of a trigger word's values (0 or 1), which must be integers."""
-    if not 0 <= bit <= _MAX_TRIGGER_BIT:
-        raise ParameterError(f"--trigger-bit must be 0–{_MAX_TRIGGER_BIT}, got {bit}")
+    check_trigger_bit(bit)
     codes = np.rint(values)
     # An EDF export scales the word into its 16-bit range: a value within a quarter of an integer
     # is that integer; further off, the word's bits were not kept.

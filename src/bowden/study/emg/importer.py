@@ -29,11 +29,11 @@ from bowden.analysis.emg.check import EmgCheckParameters, emg_check
 from bowden.analysis.emg.read import SourceChannel, SourceRecording, read_csv_source, read_edf_source
 from bowden.analysis.emg.signal import EmgSignal
 from bowden.analysis.emg.sync import (
-    _MAX_TRIGGER_BIT,  # the bits trigger_pulses reads
     DRIFT_TOLERANCE_PPM,
     RESIDUAL_TOLERANCE_S,
     ClockFit,
     TriggerPolarity,
+    check_trigger_bit,
     clock_fit,
     match_pulses,
     trigger_pulses,
@@ -76,8 +76,8 @@ class ImportOptions:
         for flag, (value, what) in positive.items():
             if not (math.isfinite(value) and value > 0.0):
                 raise ParameterError(f"{flag} must be {what}, got {value:g}")
-        if self.trigger_bit is not None and not 0 <= self.trigger_bit <= _MAX_TRIGGER_BIT:
-            raise ParameterError(f"--trigger-bit must be 0–{_MAX_TRIGGER_BIT}, got {self.trigger_bit}")
+        if self.trigger_bit is not None:
+            check_trigger_bit(self.trigger_bit)
 
 
 @dataclass(frozen=True, kw_only=True)
