@@ -75,9 +75,12 @@ def test_the_documented_real_study_runs_on_the_simulated_suit(
     trial = replace_option(trial, "--lsl", None) if "--lsl" in trial else trial
     for condition in ("support_50", "pretension", "no_suit"):
         # One V3 repetition (5/3 s) after 0.2 s of rest: what the import and the report need.
+        # The simulated suit shares this host, and the test times no watchdog: relaxed as the web
+        # tests' (an idle three-worker run stopped the pretension trial once, exit 3, 2026-11-28).
         argv = [*replace_option(trial, "--condition", condition), "--duration", "2", "--lead-in", "0.2",
-                "--speed", "V3"]
-        assert main(argv) == 0, capsys.readouterr().err
+                "--speed", "V3", "--imu-max-age-ms", "500", "--motor-silence-ms", "500",
+                "--host-stall-ms", "1000"]
+        assert main(argv) == 0, capsys.readouterr()
 
     edges = [(int(level), float(time_s)) for level, time_s in
              (line.split() for line in levels.read_text(encoding="utf-8").splitlines())]
