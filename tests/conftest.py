@@ -86,9 +86,10 @@ SHARED_FIXTURE_GROUPS = {
     ),
 }
 _UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS.items() for path in files}}
-# Files that start worker processes, a Dask cluster or a browser go last, so that they meet the lanes'
-# real-time tests as little as possible: handed out early (2026-11-27, as "the longest first"), a
-# resumed bench run beside them stopped on "the IMU does not follow the arm" in two idle runs of three.
+# Files that start worker processes, a Dask cluster or a browser go to a lane's worker once its lane is
+# done (see LaneScheduling._assign_work_unit), and otherwise last, so that they meet the lanes' real-time
+# tests as little as possible: handed out early (2026-11-27, as "the longest first"), a resumed bench run
+# beside them stopped on "the IMU does not follow the arm" in two idle runs of three.
 AFTER_THE_LANES = (
     "reduced study",  # its process pool and Dask cluster (tests/study/test_parallel_study.py)
     "tests/sweep/test_runner.py",
@@ -105,7 +106,8 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     """``-n auto``: one worker per core, at least one per lane, and one more on a machine nothing else
     is using. Each lane's tests run one after the other on one worker; they wait on the wall clock, so
     beside two lanes the cores were a third idle (CPU 132 % of 200 % in a fresh clone's 5 min 33 s run
-    on 2026-11-28), which the extra worker takes for the rest.
+    on 2026-11-28), which the extra worker takes for the rest (4 min 42 s and 4 min 44 s from fresh
+    clones with it).
 
     The extra worker runs at the lowest priority (:func:`pytest_configure`) and never takes a lane
     (:func:`pytest_xdist_make_scheduler`), so it has only what the lanes leave of the CPU. At normal
