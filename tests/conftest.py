@@ -280,8 +280,10 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
         pytest.fail(f"a real-time lane's test was handed to the low-priority worker {worker}")
     if os.getpriority(os.PRIO_PROCESS, 0) > 0 and Path(os.environ.get(_LANES_DONE, "")).is_file():
         # The lanes are done: at the lowest priority beside two busy workers this one starved (an
-        # EMG import's tests took 113 s instead of 25 s at a fresh clone's end, 2026-11-28). Back to
-        # normal priority where the user may (root or CAP_SYS_NICE); elsewhere it stays low.
+        # EMG import's tests took 113 s instead of 25 s at the end of a fresh clone's run on a
+        # loaded host, 2026-11-28). Back to normal priority where the user may (root or
+        # CAP_SYS_NICE; checked by hand: gw2 at 19, then 0 at its first test after the lanes);
+        # elsewhere it stays low.
         with contextlib.suppress(PermissionError):
             os.setpriority(os.PRIO_PROCESS, 0, 0)
 
