@@ -443,6 +443,15 @@ def test_identify_refuses_latency_flags_that_paper_only_ignores(capsys, tmp_path
                     "leaves out (the paper's lines take none)")
 
 
+def test_identify_refuses_a_study_recording_that_paper_only_cannot_use(capsys, tmp_path):
+    # --paper-only --study-recording X read and judged X, then "recommended nothing": the recording
+    # chooses between the paper's lines and the dynamic compensation, which --paper-only leaves out.
+    line = refusal(capsys, "identify", str(tmp_path / "bench.csv"), "-o", str(tmp_path / "m.json"),
+                   "--paper-only", "--study-recording", str(tmp_path / "bench.study.csv"))
+    assert line == ("bowden: error: --study-recording chooses where the dynamic compensation runs, "
+                    "which --paper-only leaves out")
+
+
 def test_identify_refuses_imu_latency_ms_beside_the_latency_recording_that_replaces_it(capsys, tmp_path):
     # The latency identified from the segment silently replaced the one given.
     line = refusal(capsys, "identify", str(tmp_path / "bench.csv"), "-o", str(tmp_path / "m.json"),

@@ -117,6 +117,9 @@ def run(args: argparse.Namespace) -> int:
         _check_outputs(args.output, args.friction_figure, args.bench)
         if args.paper_only:
             raise ParameterError("--friction-figure draws the dynamic model, which --paper-only leaves out")
+    if args.paper_only and args.study_recording is not None:  # it would recommend nothing, every time
+        raise ParameterError("--study-recording chooses where the dynamic compensation runs, which "
+                             "--paper-only leaves out")
     _refuse_unused_latency_flags(args)
     _check_degree_and_mm_flags(args)  # every flag before the latency segment is read
     imu_latency_s = DEFAULT_IMU_LATENCY_S if args.imu_latency_ms is None else args.imu_latency_ms / 1000.0
