@@ -106,8 +106,7 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     """``-n auto``: one worker per core, at least one per lane, and one more on a machine nothing else
     is using. Each lane's tests run one after the other on one worker; they wait on the wall clock, so
     beside two lanes the cores were a third idle (CPU 132 % of 200 % in a fresh clone's 5 min 33 s run
-    on 2026-11-28), which the extra worker takes for the rest (4 min 42 s and 4 min 44 s from fresh
-    clones with it).
+    on 2026-11-28), which the extra worker takes for the rest.
 
     The extra worker runs at the lowest priority (:func:`pytest_configure`) and never takes a lane
     (:func:`pytest_xdist_make_scheduler`), so it has only what the lanes leave of the CPU. At normal
