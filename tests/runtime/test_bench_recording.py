@@ -70,6 +70,11 @@ def test_refusals_name_the_problem(tmp_path):
         BenchRecordingWriter(tmp_path / "bench.txt", PROTOCOL)
     with pytest.raises(OutputFileError, match="nothing to resume"):
         BenchRecordingWriter(tmp_path / "new.csv", PROTOCOL, resume=True)
+    # A missing folder is said to be missing (it was "is not a directory"), a file as a folder is not one.
+    with pytest.raises(OutputFileError, match=r"the folder .*nodir does not exist"):
+        BenchRecordingWriter(tmp_path / "nodir" / "x.csv", PROTOCOL)
+    with pytest.raises(OutputFileError, match=r"the folder .*bench\.csv is not a directory"):
+        BenchRecordingWriter(path / "x.csv", PROTOCOL)
     writer = BenchRecordingWriter(tmp_path / "a.csv", PROTOCOL)
     writer.write_stroke(*stroke(0, 0.0), strokes_done=1)
     writer.close()

@@ -125,9 +125,11 @@ class BenchRecordingWriter:
         suffix = self.path.suffix.lower()
         if suffix not in (".csv", ".parquet"):
             raise OutputFileError(f"cannot tell the format of {self.path}: use a .csv or .parquet extension")
-        if not self.path.absolute().parent.is_dir():
+        folder = self.path.absolute().parent
+        if not folder.is_dir():
+            reason = "is not a directory" if folder.exists() else "does not exist"
             raise OutputFileError(f"cannot write the bench recording to {self.path}: "
-                                  f"{self.path.absolute().parent} is not a directory")
+                                  f"the folder {folder} {reason}")
         self._parquet = suffix == ".parquet"
         self.data_path = self.path.with_name(self.path.name + ".partial.csv") if self._parquet else self.path
         self.log_path = self.path.with_name(self.path.stem + ".log.csv")
