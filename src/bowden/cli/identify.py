@@ -117,10 +117,7 @@ def run(args: argparse.Namespace) -> int:
         _check_outputs(args.output, args.friction_figure, args.bench)
         if args.paper_only:
             raise ParameterError("--friction-figure draws the dynamic model, which --paper-only leaves out")
-    if args.paper_only and args.study_recording is not None:  # it would recommend nothing, every time
-        raise ParameterError("--study-recording chooses where the dynamic compensation runs, which "
-                             "--paper-only leaves out")
-    _refuse_unused_latency_flags(args)
+    _refuse_ignored_flags(args)
     _check_degree_and_mm_flags(args)  # every flag before the latency segment is read
     imu_latency_s = DEFAULT_IMU_LATENCY_S if args.imu_latency_ms is None else args.imu_latency_ms / 1000.0
     if args.latency_recording is not None:
@@ -194,12 +191,16 @@ def _fit(identifier: TransmissionIdentifier, benches: list[Path], *, ignore_extr
     identifier.fit(recording)
 
 
-def _refuse_unused_latency_flags(args: argparse.Namespace) -> None:
-    """Refuse the IMU latency's flags where nothing reads them: only the dynamic compensation's
-    estimator does (the paper's lines take no latency), and ``--latency-recording`` replaces
-    ``--imu-latency-ms``. Ignored, either would leave the model other than the user asked."""
+def _refuse_ignored_flags(args: argparse.Namespace) -> None:
+    """Refuse the flags nothing would read: the IMU latency's and the study-like recording's serve
+    only the dynamic compensation (the paper's lines take no latency, and with them alone a study
+    recording recommends nothing), and ``--latency-recording`` replaces ``--imu-latency-ms``.
+    Ignored, either would leave the model other than the user asked."""
     if args.imu_latency_ms is not None and not 0.0 <= args.imu_latency_ms <= 200.0:  # NaN fails too
         raise ParameterError(f"--imu-latency-ms must be in [0, 200] ms, got {args.imu_latency_ms:g}")
+    if args.paper_only and args.study_recording is not None:
+        raise ParameterError("--study-recording chooses where the dynamic compensation runs, which "
+                             "--paper-only leaves out")
     if args.paper_only:
         given = [flag for flag, value in (("--imu-latency-ms", args.imu_latency_ms),
                                           ("--latency-recording", args.latency_recording))
