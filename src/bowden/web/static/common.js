@@ -43,8 +43,11 @@ const Bowden = (() => {
   function setBusy(value) { running = value; }
   function busy() { return running; }
 
+  // `refused`: the server refused the token that is still this tab's. A refusal of a request sent with
+  // an older one (in flight while the operator pasted the new token) is not a refusal of the new one.
   async function request(method, path, body) {
-    const options = { method, headers: { "X-Bowden-Token": token() } };
+    const sent = token();
+    const options = { method, headers: { "X-Bowden-Token": sent } };
     if (body !== undefined) {
       options.headers["Content-Type"] = "application/json";
       options.body = JSON.stringify(body);
@@ -56,7 +59,8 @@ const Bowden = (() => {
     } catch (error) {
       data = { error: `HTTP ${response.status}` };
     }
-    return { ok: response.ok, status: response.status, data };
+    const refused = response.status === 403 && sent === token();
+    return { ok: response.ok, status: response.status, data, refused };
   }
 
   // A plot of several series against time, scrolling with the newest sample.

@@ -110,7 +110,7 @@
       if (result.ok) {
         registry = new Map(result.data.participants.map((p) => [p.participant, p]));
         updateFields();
-      } else if (result.status === 403) {
+      } else if (result.refused) {
         refused();
       }
     } catch (error) { /* offline: the socket's reconnection says so */ }
@@ -145,7 +145,7 @@
       loadRegistry();
     } else {
       say(result.data.error || `refused (HTTP ${result.status})`, true);
-      if (result.status === 403) { refused(); }
+      if (result.refused) { refused(); }
     }
     if (result.status !== 403 && socket === null) { connect(); }
   });
@@ -173,7 +173,7 @@
       stopSay("Stop requested: ramping the torque to zero and leaving motor mode…");
     } else {
       stopSay(result.data.error || `refused (HTTP ${result.status})`, true);
-      if (result.status === 403) { refused(); }
+      if (result.refused) { refused(); }
     }
   }
 

@@ -22,7 +22,7 @@ const BowdenSession = (() => {
       say(`The server did not answer (${error.message}): try again.`, true);
       return null;
     }
-    if (result.status === 403) { onRefused(); }
+    if (result.refused) { onRefused(); }
     if (!result.ok) {
       say(result.data.error || `refused (HTTP ${result.status})`, true);
       return null;

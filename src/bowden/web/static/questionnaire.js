@@ -96,7 +96,7 @@
       $("exception").value = "";
     } else {
       say(result.data.error || `refused (HTTP ${result.status})`, true);
-      if (result.status === 403) { Bowden.tokenRefused($("token"), $("token-box")); }
+      if (result.refused) { Bowden.tokenRefused($("token"), $("token-box")); }
     }
   });
 
