@@ -86,10 +86,10 @@ SHARED_FIXTURE_GROUPS = {
     ),
 }
 _UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS.items() for path in files}}
-# Files that start worker processes, a Dask cluster or a browser go to a lane's worker once its lane is
-# done (see LaneScheduling._assign_work_unit), and otherwise last, so that they meet the lanes' real-time
-# tests as little as possible: handed out early (2026-11-27, as "the longest first"), a resumed bench run
-# beside them stopped on "the IMU does not follow the arm" in two idle runs of three.
+# Files that start worker processes, a Dask cluster, R, the BIDS validator or a browser wait until no
+# lane runs (LaneScheduling._next_unit), then go first: beside the lanes' real-time tests they cost
+# them (handed out early on 2026-11-27, a resumed bench run stopped on "the IMU does not follow the
+# arm" in two idle runs of three; see also pytest_xdist_auto_num_workers).
 AFTER_THE_LANES = (
     "reduced study",  # its process pool and Dask cluster (tests/study/test_parallel_study.py)
     "tests/sweep/test_runner.py",
@@ -116,22 +116,14 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     session, a silent mannequin seen 137 ms late). Beside busy processes there is nothing left to
     take, so there it is not started.
 
-    Nor on a fresh checkout (numba's cache without the study's kernels), which is what CI runs: there,
-    even at nice 19, it cost the later-segments bench test twice in six fresh clones' runs (the
-    mannequin up to 23° off its reference: the bench's loop late for about a quarter second), where
-    two workers' fresh runs passed it (4 min 42 s–5 min 25 s with it, 5 min 33 s–5 min 47 s without,
-    2026-11-28). A landing must not depend on luck; a developer's warm checkout gets the speed."""
+    On fresh checkouts (what CI runs) it was dropped once: even at nice 19 the later-segments bench
+    test lost a quarter second twice in six fresh clones' runs (the mannequin up to 23° off its
+    reference). In both, a lane's worker done with its lane ran the R refit and the BIDS validator
+    beside the bench lane, at normal priority; those units now wait for the lanes
+    (:func:`pytest_xdist_make_scheduler`)."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     workers = max(cores, len(SERIAL_GROUPS))
-    idle = _others_use_of_the_cores(cores) < IDLE_BELOW_CORES
-    return workers + 1 if idle and _study_kernels_cached(config.rootpath) else workers
-
-
-def _study_kernels_cached(root: Path) -> bool:
-    """Whether numba's cache holds the batch simulator's trial kernel (a fresh checkout's does not)."""
-    cache = os.environ.get("NUMBA_CACHE_DIR")
-    folder = Path(cache) if cache else root / "src" / "bowden" / "sim" / "__pycache__"
-    return folder.is_dir() and any(folder.rglob("_batch_kernel.run_trial-*.nbi"))
+    return workers + 1 if _others_use_of_the_cores(cores) < IDLE_BELOW_CORES else workers
 
 
 def _worker_index(worker_id: str) -> int:
@@ -176,7 +168,8 @@ def _unit(nodeid: str) -> str:
 
 def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
     """Each lane one unit of work for one worker, each shared-fixture group another, every other file
-    its own; units are handed out in collection order (:func:`pytest_collection_modifyitems`).
+    its own; units are handed out in collection order (:func:`pytest_collection_modifyitems`), but
+    those that start processes or a browser only when no lane runs (``LaneScheduling._next_unit``).
 
     xdist's own ``--dist loadgroup`` marks a group by rewriting the test's ``_nodeid``, which pytest 9.2
     no longer reads (``nodeid`` comes from ``_id``): the groups were silently spread over every worker.
@@ -191,13 +184,6 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
 
         lane_tests_left: set[str] | None = None
 
-        def mark_test_complete(self, node: Any, item_index: int, duration: float = 0) -> None:
-            super().mark_test_complete(node, item_index, duration)
-            if self.lane_tests_left:
-                self.lane_tests_left.discard(self.registered_collections[node][item_index])
-                if not self.lane_tests_left:  # the low-priority worker may take its share now
-                    Path(os.environ[_LANES_DONE]).touch()
-
         def schedule(self) -> None:
             # The first hand-out gives each worker one unit in the order of self.nodes (the order the
             # workers finished collecting): put the lane workers first, so that they take the lanes,
@@ -209,20 +195,53 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
                 self.lane_tests_left = {nodeid for nodeid in collection if _unit(nodeid) in SERIAL_GROUPS}
             super().schedule()
 
-        def _assign_work_unit(self, node: Any) -> None:
-            # With a low-priority worker taking the rest from the start, a lane's worker that is done
-            # with its lane takes the units that start processes or a browser first: they are the
-            # longest (the reduced study's about 70 s), and at the queue's end one of them ran alone,
-            # niced, for 30 s (a fresh clone, 2026-11-28). The low-priority worker takes them last:
-            # first, beside the lanes, two real-time tests were lost.
-            queue = self.workqueue
-            lanes_handed_out = not any(unit in SERIAL_GROUPS for unit in queue)
-            low_priority_worker = any(not _takes_lanes(other.gateway.id) for other in self.nodes)
-            if lanes_handed_out and low_priority_worker and _takes_lanes(node.gateway.id):
-                first = next((unit for unit in AFTER_THE_LANES if unit in queue), None)
-                if first is not None:
-                    queue.move_to_end(first, last=False)
-            super()._assign_work_unit(node)
+        def mark_test_complete(self, node: Any, item_index: int, duration: float = 0) -> None:
+            super().mark_test_complete(node, item_index, duration)  # reschedules ``node``
+            if self.lane_tests_left:
+                self.lane_tests_left.discard(self.registered_collections[node][item_index])
+                if not self.lane_tests_left:  # the low-priority worker may take its share now
+                    Path(os.environ[_LANES_DONE]).touch()
+            for other in self.nodes:  # a worker left waiting for the lanes (_next_unit) may go on
+                if other is not node:
+                    self._reschedule(other)
+
+        def _reschedule(self, node: Any) -> None:
+            # xdist's own, but the unit is chosen (_next_unit), and a worker may be left waiting.
+            if node.shutting_down:
+                return
+            if not self.workqueue:
+                node.shutdown()
+                return
+            if self._pending_of(self.assigned_work[node]) > 2:  # xdist's: "almost depleted"
+                return
+            unit = self._next_unit(node)
+            if unit is not None:
+                self.workqueue.move_to_end(unit, last=False)
+                self._assign_work_unit(node)
+
+        def _next_unit(self, node: Any) -> str | None:
+            """The units that start processes or a browser wait while another worker's lane runs:
+            beside one, a lane's worker done with its own lane ran the reduced study's R refit and
+            BIDS validator, and the later-segments bench test lost a quarter second in two fresh
+            clones' runs of six (2026-11-28). Once the lanes are done they go first (the longest:
+            the reduced study's about 70 s; at the queue's end one ran alone for 30 s)."""
+            queue = list(self.workqueue)
+            if queue[0] in SERIAL_GROUPS:  # a lane not handed out yet (fewer workers than lanes)
+                return queue[0]
+            if self._lane_runs_beside(node):
+                return next((unit for unit in queue if unit not in AFTER_THE_LANES), None)
+            return next((unit for unit in queue if unit in AFTER_THE_LANES), queue[0])
+
+        def _lane_runs_beside(self, node: Any) -> bool:
+            """Whether another worker still has a lane's tests to run. One that holds only its last
+            test is waiting for more work (xdist's worker runs a test once it knows the next one),
+            so it does not count: two such workers would wait for each other."""
+            for other, work in self.assigned_work.items():
+                lane_left = sum(list(tests.values()).count(False)
+                                for unit, tests in work.items() if unit in SERIAL_GROUPS)
+                if other is not node and lane_left and self._pending_of(work) >= 2:
+                    return True
+            return False
 
     return LaneScheduling(config, log)
 
