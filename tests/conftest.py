@@ -31,19 +31,18 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 #   it to two at once (one serial lane alone took 8.6 minutes);
 # - LSL discovery sees every outlet on the machine (resolve scope machine), so two workers' streams of
 #   the same name would reach each other's inlets: every test that uses LSL is in the "suit" lane.
-# The lanes take about 3 and 2.5 minutes (idle, two cores); the rest runs when a lane's worker is free.
-# Tried and dropped: nicing the rest (beside two busy processes it left the suite a tenth of the CPU);
-# a third worker for the rest beside the lanes (4 min 31 s idle, but beside two busy processes four
-# failures: the bench's IMU and controller and the recorder's writer starved).
+# The lanes take about 3.5 minutes each (idle, two cores); the rest runs beside them on a third worker
+# at the lowest priority where the machine is idle (pytest_xdist_auto_num_workers), and on a lane's
+# worker once its lane is done. Tried and dropped: nicing the rest on two workers (beside two busy
+# processes it left the suite a tenth of the CPU); a third worker at normal priority (beside two busy
+# processes four failures: the bench's IMU and controller and the recorder's writer starved).
 SERIAL_GROUPS = {
     "bench": (  # the mannequin bench in real time
         "tests/cli/test_bench_run_cli.py",
         "tests/runtime/test_bench_fit_sim.py",
-        "tests/runtime/test_bench_full_disk.py",
         "tests/runtime/test_bench_protocol.py",
         "tests/runtime/test_bench_run_sim.py",
         "tests/runtime/test_bench_segments_sim.py",
-        "tests/runtime/test_interrupt_signals.py",
     ),
     "suit": (  # the suit, its console and LSL in real time
         "tests/cli/test_check.py",
@@ -72,6 +71,10 @@ SERIAL_GROUPS = {
         "tests/web/test_real_suit.py",
         "tests/web/test_serve_sync.py",
         "tests/web/test_sim_devices.py",
+        # Two of the bench's files, so that the lanes end together (about 3 min 30 s each, idle: the
+        # bench lane had been 35 s longer, 2026-11-28).
+        "tests/runtime/test_bench_full_disk.py",
+        "tests/runtime/test_interrupt_signals.py",
     ),
 }
 _LANE_OF = {path: lane for lane, files in SERIAL_GROUPS.items() for path in files}
@@ -80,26 +83,28 @@ _LANE_OF = {path: lane for lane, files in SERIAL_GROUPS.items() for path in file
 SHARED_FIXTURE_GROUPS = {
     "reduced study": (
         "tests/study/test_pipeline.py",
-        "tests/study/test_parallel_study.py",
         "tests/share/test_r_script.py",
         "tests/share/test_bids_export.py",
     ),
 }
 _UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS.items() for path in files}}
-# Files that start worker processes, a Dask cluster, R, the BIDS validator or a browser wait until no
-# lane runs (LaneScheduling._next_unit), then go first: beside the lanes' real-time tests they cost
-# them (handed out early on 2026-11-27, a resumed bench run stopped on "the IMU does not follow the
-# arm" in two idle runs of three; see also pytest_xdist_auto_num_workers).
+# Files that start worker processes, a Dask cluster or a browser wait until no lane runs
+# (LaneScheduling._next_unit), then go first: beside the lanes' real-time tests they cost them (handed
+# out early on 2026-11-27, a resumed bench run stopped on "the IMU does not follow the arm" in two idle
+# runs of three; at nice 19 on a third worker, 2026-11-28, an IMU 126 ms stale and a lost `bowden check`).
 AFTER_THE_LANES = (
-    "reduced study",  # its process pool and Dask cluster (tests/study/test_parallel_study.py)
-    "tests/sweep/test_runner.py",
+    "tests/study/test_parallel_study.py",  # a process pool and a Dask cluster (it makes its own reduced
+    "tests/sweep/test_runner.py",  # study, about 5 s, when it runs beside the group's worker)
     "tests/sweep/test_cli.py",
-    "tests/cli/test_study_engine.py",
     "tests/analysis/test_outcomes.py",
-    "tests/study/test_compensation_comparison.py",
     "tests/web/test_browser.py",
     "tests/web/test_browser_check.py",
 )
+# Units that start one busy process of their own (R's refit, the BIDS validator) run beside a lane only
+# on the low-priority worker, whose children inherit its priority: run by a lane's worker done with its
+# lane, at normal priority, beside the bench lane, the later-segments bench test lost a quarter second
+# in two fresh clones' runs of six (2026-11-28).
+LOW_PRIORITY_BESIDE_THE_LANES = ("reduced study",)
 
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
@@ -220,17 +225,19 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
                 self._assign_work_unit(node)
 
         def _next_unit(self, node: Any) -> str | None:
-            """The units that start processes or a browser wait while another worker's lane runs:
-            beside one, a lane's worker done with its own lane ran the reduced study's R refit and
-            BIDS validator, and the later-segments bench test lost a quarter second in two fresh
-            clones' runs of six (2026-11-28). Once the lanes are done they go first (the longest:
-            the reduced study's about 70 s; at the queue's end one ran alone for 30 s)."""
+            """While another worker's lane runs, no unit of AFTER_THE_LANES, and those of
+            LOW_PRIORITY_BESIDE_THE_LANES only to the low-priority worker (None: this worker waits,
+            and is asked again when any test completes). Once no lane runs, those units go first:
+            they are the longest (at the queue's end one ran alone, niced, for 30 s)."""
             queue = list(self.workqueue)
             if queue[0] in SERIAL_GROUPS:  # a lane not handed out yet (fewer workers than lanes)
                 return queue[0]
-            if self._lane_runs_beside(node):
-                return next((unit for unit in queue if unit not in AFTER_THE_LANES), None)
-            return next((unit for unit in queue if unit in AFTER_THE_LANES), queue[0])
+            if not self._lane_runs_beside(node):
+                held_back = (*LOW_PRIORITY_BESIDE_THE_LANES, *AFTER_THE_LANES)
+                return next((unit for unit in queue if unit in held_back), queue[0])
+            low_priority = not _takes_lanes(node.gateway.id)
+            return next((unit for unit in queue if unit not in AFTER_THE_LANES and (
+                low_priority or unit not in LOW_PRIORITY_BESIDE_THE_LANES)), None)
 
         def _lane_runs_beside(self, node: Any) -> bool:
             """Whether another worker still has a lane's tests to run. One that holds only its last
