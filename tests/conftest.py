@@ -125,9 +125,9 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     a lane's worker done with its lane had run the R refit and the BIDS validator beside the bench
     lane at normal priority; such units now wait (:func:`pytest_xdist_make_scheduler`), and two fresh
     runs so passed (5 min 11 s, 5 min 18 s), but two more lost a real-time bench test (a fling 0.1°
-    past its bound, a loop stalled before a mannequin fault: with another change, since reverted, in
-    the simulated devices). A landing must not depend on luck; a developer's warm checkout gets the
-    speed."""
+    past its bound, as it also failed once in a two-worker run beside two busy processes; a loop
+    stalled before a mannequin fault). A landing must not depend on luck; a developer's warm checkout
+    gets the speed."""
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
     workers = max(cores, len(SERIAL_GROUPS))
     idle = _others_use_of_the_cores(cores) < IDLE_BELOW_CORES
