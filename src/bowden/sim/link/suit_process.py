@@ -429,7 +429,6 @@ class _ChildDevices:
         from bowden.sim.arm_follower import ArmFollowingTheLoop
         from bowden.sim.link.i2c import I2CServer
         from bowden.sim.peers import ADS1115Peer, AK60Peer, FakeSMBus, NgimuPeer, WallTimePlant
-        from bowden.sim.peers.ak60_peer import SharedNode
         from bowden.sim.peers.mannequin import MannequinJoint
         from bowden.sim.suit import SimulatedSuit
 
@@ -450,17 +449,20 @@ class _ChildDevices:
         self._closers: list[Any] = []
         self.bus = can.Bus(interface="bowden_loopback", channel=str(directory / "can"))
         self._closers.append(self.bus.shutdown)
-        self.motor = AK60Peer(self.bus, self.plant, limits=settings.motor_limits)
+        self.motor = AK60Peer(self.bus, self.plant, limits=settings.motor_limits).start()
+        self._closers.insert(0, self.motor.close)
         self.mannequin: AK60Peer | None = None
         self.mannequin_joint: MannequinJoint | None = None
         if mannequin_arm is not None:
+            # Its own node on the bus (two peers reading one node would take each other's frames).
+            mannequin_bus = can.Bus(interface="bowden_loopback", channel=str(directory / "can"))
+            self._closers.append(mannequin_bus.shutdown)
             limits = limits_for_motor("AK80-9")
             self.mannequin_joint = joint = MannequinJoint(self.plant, mannequin_arm,
                                                           torque_limit_nm=limits.torque_nm)
-            self.mannequin = AK60Peer(self.bus, joint, motor_id=MANNEQUIN_MOTOR_ID, limits=limits)
-        # The bench's two motors share one node and its thread (SharedNode: a third of the wake-ups).
-        node = SharedNode(self.bus, [peer for peer in (self.motor, self.mannequin) if peer is not None])
-        self._closers.insert(0, node.start().close)
+            self.mannequin = AK60Peer(mannequin_bus, joint, motor_id=MANNEQUIN_MOTOR_ID,
+                                      limits=limits).start()
+            self._closers.insert(0, self.mannequin.close)
         if settings.imu_lsl_name is not None:
             from bowden.sim.peers.lsl_imu_peer import LslImuPeer
 

@@ -303,39 +303,3 @@ class AK60Peer(StartedInWith):
     def commands_since(self, time_s: float) -> list[ReceivedFrame]:
         """The frames heard at or after wall time ``time_s``, oldest first."""
         return [frame for frame in list(self.received) if frame.time_s >= time_s]
-
-
-class SharedNode:
-    """Several simulated motors behind one node of the bus, heard by one thread.
-
-    Each motor on a node of its own wakes for every frame on the bus, its neighbour's replies
-    included, to discard most of them; on the bench (two motors) that was six wake-ups a control
-    cycle where two carry a command, and the simulated devices' largest cost in system time. Here
-    one thread hears each frame once and hands it to every motor, which answers its own id as
-    :meth:`AK60Peer.answer` does. A motor's replies do not come back to the node, as a CAN
-    controller does not receive its own frames.
-    """
-
-    def __init__(self, bus: can.BusABC, peers: Iterable[AK60Peer]) -> None:
-        self._bus = bus
-        self.peers = tuple(peers)
-        self._server = StoppableThread(self._serve, "ak60-node")
-
-    def start(self) -> Self:
-        """Power the motors and start hearing frames."""
-        if not self._server.running:
-            for peer in self.peers:
-                peer.power_on()
-            self._server.start()
-        return self
-
-    def close(self) -> None:
-        """Stop the thread (the bus stays open: its owner shuts it down)."""
-        self._server.stop()
-
-    def _serve(self) -> None:
-        while not self._server.stop_requested.is_set():
-            message = self._bus.recv(timeout=0.02)
-            if message is not None:
-                for peer in self.peers:
-                    peer.answer(message)
