@@ -92,7 +92,7 @@ _UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS
 # runs of three; at nice 19 on a third worker, 2026-11-28, an IMU 126 ms stale and a lost `bowden check`).
 AFTER_THE_LANES = (
     "tests/study/test_parallel_study.py",  # a process pool and a Dask cluster (it makes its own reduced
-    "tests/sweep/test_runner.py",  # study, about 5 s, when it runs beside the group's worker)
+    "tests/sweep/test_runner.py",  # study, about 5 s, on a worker that has not made one)
     "tests/sweep/test_cli.py",
     "tests/analysis/test_outcomes.py",
     "tests/web/test_browser.py",
