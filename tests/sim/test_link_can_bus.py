@@ -10,8 +10,17 @@ from pathlib import Path
 
 import can
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from bowden.sim.link.can_bus import ERRNO_NO_BUFFER_SPACE, SUFFIX, LoopbackBus
+from bowden.sim.link.can_bus import (
+    ERRNO_NO_BUFFER_SPACE,
+    SUFFIX,
+    LoopbackBus,
+    accepts,
+    decode_filters,
+    encode_filters,
+)
 
 FRAMES = [
     can.Message(arbitration_id=0x001, data=bytes([0xFF] * 7 + [0xFC]), is_extended_id=False),
@@ -129,3 +138,54 @@ def test_frames_longer_than_classic_can_are_refused(tmp_path: Path) -> None:
     with LoopbackBus(tmp_path / "bus") as bus, LoopbackBus(tmp_path / "bus"), \
             pytest.raises(can.CanOperationError, match="8 bytes"):
         bus.send(can.Message(arbitration_id=1, data=bytes(12), is_fd=True))
+
+
+MOTOR_2 = [{"can_id": 2, "can_mask": 0x7FF, "extended": False}]
+
+
+def test_a_node_with_acceptance_filters_hears_only_what_they_accept(tmp_path: Path) -> None:
+    # The simulated motors' nodes (sim/link/suit_process.py): the senders apply a node's filters, so
+    # it is not woken for frames it would drop; a sniffer without filters still hears everything.
+    directory = tmp_path / "bus"
+    with LoopbackBus(directory) as sender, LoopbackBus(directory, can_filters=MOTOR_2) as motor, \
+            LoopbackBus(directory) as sniffer:
+        frames = [can.Message(arbitration_id=i, data=bytes([i]), is_extended_id=extended)
+                  for i, extended in ((1, False), (2, True), (2, False), (3, False))]
+        for frame in frames:
+            sender.send(frame)
+        heard = motor.recv(timeout=5.0)
+        assert heard is not None and same_frame(heard, frames[2])
+        assert motor.recv(timeout=0.05) is None  # nothing else reached its socket
+        assert all(same_frame(sniffer.recv(timeout=5.0), frame) for frame in frames)  # type: ignore[arg-type]
+
+
+def test_a_frame_no_filter_accepts_is_still_acknowledged(tmp_path: Path) -> None:
+    # On a real bus every controller acknowledges a frame, whatever its filters keep: no errno 105.
+    with LoopbackBus(tmp_path / "bus") as sender, LoopbackBus(tmp_path / "bus", can_filters=MOTOR_2) as motor:
+        sender.send(FRAMES[0])  # id 1
+        assert motor.recv(timeout=0.05) is None
+
+
+def test_filters_are_fixed_while_the_node_is_open(tmp_path: Path) -> None:
+    with LoopbackBus(tmp_path / "bus", can_filters=MOTOR_2) as motor:
+        motor.set_filters(MOTOR_2)  # the same: nothing changes
+        with pytest.raises(can.CanOperationError, match="given when the bus is opened"):
+            motor.set_filters(None)
+        assert motor.filters == MOTOR_2
+
+
+@given(can_id=st.integers(0, 0x1FFFFFFF), can_mask=st.integers(0, 0x1FFFFFFF),
+       extended=st.sampled_from([None, False, True]), arbitration_id=st.integers(0, 0x1FFFFFFF),
+       is_extended=st.booleans())
+def test_the_senders_apply_python_can_s_own_filter_rule(can_id: int, can_mask: int, extended: bool | None,
+                                                         arbitration_id: int, is_extended: bool) -> None:
+    entry: dict[str, object] = {"can_id": can_id, "can_mask": can_mask}
+    if extended is not None:
+        entry["extended"] = extended
+    if not is_extended:
+        arbitration_id &= 0x7FF
+    message = can.Message(arbitration_id=arbitration_id, is_extended_id=is_extended)
+    with can.Bus(interface="virtual", channel="filter-rule", can_filters=[entry]) as reference:
+        expected = reference._matches_filters(message)
+    name = f"1-0{encode_filters([entry])}{SUFFIX}"  # type: ignore[list-item]
+    assert accepts(decode_filters(name), message) == expected

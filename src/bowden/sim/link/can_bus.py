@@ -14,6 +14,12 @@ blocks the sender. Frames carry id, flags and up to 8 data bytes; the receive ti
 frames of one sender arrive in the order sent, but frames of two senders may reach a third node (a
 sniffer) in either order when they are sent at the same moment.
 
+Acceptance filters given when a node opens (``can_filters``, python-can's rule) are applied by the
+senders, as a CAN controller's filters are applied before the host is woken: the filters are part of
+the node's socket file name, and a frame no filter of a node accepts is not sent to it (it still
+counts as acknowledged, as on a real bus). A simulated motor then wakes only for its own frames
+(the bench's two motors each woke for every frame on the bus, two of three not theirs).
+
 Registered as the python-can interface ``bowden_loopback`` (entry point ``can.interface``), so
 ``can.Bus(interface="bowden_loopback", channel=directory)`` opens it.
 """
@@ -34,6 +40,7 @@ import can
 
 ERRNO_NO_BUFFER_SPACE: Final = 105
 SUFFIX: Final = ".canbus"
+_FILTERS_MARK: Final = "~"  # in a socket file's name: the acceptance filters follow
 _FRAME = struct.Struct("!IBB8s")  # arbitration id, flags, dlc, data (zero-padded)
 _EXTENDED, _REMOTE, _ERROR = 1, 2, 4
 _RACY_NS: Final = 50_000_000  # a listing this soon after the directory's time stamp may miss a node
@@ -65,6 +72,47 @@ def decode_frame(datagram: bytes, channel: str) -> can.Message | None:
     )
 
 
+Filter = tuple[int, int, bool | None]  # can_id, can_mask, extended (None: either)
+_KIND = {None: "a", False: "s", True: "x"}
+
+
+def encode_filters(filters: can.typechecking.CanFilters | None) -> str:
+    """Acceptance filters as a part of a file name ("" for none: every frame)."""
+    if not filters:
+        return ""
+    parts = []
+    for entry in filters:
+        extended = entry.get("extended")
+        parts.append(f"{int(entry['can_id']):x}.{int(entry['can_mask']):x}.{_KIND[extended]}")
+    return _FILTERS_MARK + "+".join(parts)
+
+
+def decode_filters(name: str) -> tuple[Filter, ...] | None:
+    """The filters a socket file's name carries (None: it takes every frame)."""
+    stem = name.removesuffix(SUFFIX)
+    if _FILTERS_MARK not in stem:
+        return None
+    kinds = {code: extended for extended, code in _KIND.items()}
+    decoded = []
+    try:
+        for part in stem.split(_FILTERS_MARK, 1)[1].split("+"):
+            can_id, can_mask, kind = part.split(".")
+            decoded.append((int(can_id, 16), int(can_mask, 16), kinds[kind]))
+    except (ValueError, KeyError):
+        return None  # not a name this module made: send it every frame
+    return tuple(decoded)
+
+
+def accepts(filters: tuple[Filter, ...] | None, message: can.Message) -> bool:
+    """python-can's filter rule (``BusABC._matches_filters``): some filter's extended flag (if
+    given) and masked id match."""
+    if filters is None:
+        return True
+    return any((extended is None or extended == message.is_extended_id)
+               and (can_id ^ message.arbitration_id) & can_mask == 0
+               for can_id, can_mask, extended in filters)
+
+
 class LoopbackBus(can.BusABC):
     """One node on a loopback CAN bus.
 
@@ -72,21 +120,35 @@ class LoopbackBus(can.BusABC):
     ----------
     channel
         The bus: a directory (created if missing) shared by every node of the bus.
+    can_filters
+        Acceptance filters (python-can's), applied by the senders; fixed while the node is open.
     """
 
-    def __init__(self, channel: str | os.PathLike[str], **kwargs: Any) -> None:
+    def __init__(self, channel: str | os.PathLike[str],
+                 can_filters: can.typechecking.CanFilters | None = None, **kwargs: Any) -> None:
         self._directory = Path(channel)
         self._directory.mkdir(parents=True, exist_ok=True)
-        self._path = self._directory / f"{os.getpid()}-{next(_instances)}{SUFFIX}"
+        self._opened_filters = can_filters or None
+        self._published_filters = encode_filters(can_filters)
+        name = f"{os.getpid()}-{next(_instances)}{self._published_filters}{SUFFIX}"
+        self._path = self._directory / name
         self._socket = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         self._socket.bind(str(self._path))
-        self._members: list[str] = []
+        self._members: list[tuple[str, tuple[Filter, ...] | None]] = []
         self._listing_mtime_ns = -1
         self._listing_racy = True  # taken too soon after a change to trust the time stamp
         self._departed: set[str] = set()  # socket files nobody listens on any more (a killed node)
         self.dropped_frames = 0  # frames a member missed (its queue was full)
         self.channel_info = f"bowden_loopback {self._directory}"
-        super().__init__(channel=str(channel), **kwargs)
+        super().__init__(channel=str(channel), can_filters=can_filters, **kwargs)
+
+    def _apply_filters(self, filters: can.typechecking.CanFilters | None) -> None:
+        """The senders apply the filters the node opened with; others cannot reach them."""
+        if encode_filters(filters) != self._published_filters:
+            self._filters = self._opened_filters
+            raise can.CanOperationError(
+                "bowden_loopback applies acceptance filters given when the bus is opened "
+                "(can.Bus(..., can_filters=...)); they cannot change while it is open")
 
     def _refresh_members(self) -> None:
         """List the other nodes again if the directory changed since the last listing.
@@ -103,7 +165,7 @@ class LoopbackBus(can.BusABC):
         self._listing_mtime_ns = mtime
         self._listing_racy = now - mtime < _RACY_NS
         own = self._path.name
-        self._members = [str(self._directory / name) for name in names
+        self._members = [(str(self._directory / name), decode_filters(name)) for name in names
                          if name.endswith(SUFFIX) and name != own and name not in self._departed]
 
     def send(self, msg: can.Message, timeout: float | None = None) -> None:
@@ -112,15 +174,19 @@ class LoopbackBus(can.BusABC):
         self._refresh_members()
         delivered = 0
         for member in list(self._members):
+            path, filters = member
+            if not accepts(filters, msg):
+                delivered += 1  # its controller acknowledges the frame and drops it
+                continue
             try:
-                self._socket.sendto(datagram, socket.MSG_DONTWAIT, member)
+                self._socket.sendto(datagram, socket.MSG_DONTWAIT, path)
             except FileNotFoundError:
                 self._members.remove(member)  # the node left the bus
                 continue
             except ConnectionRefusedError:
                 # Its file is still there but nobody reads it: a node that was killed. Not listed again.
                 self._members.remove(member)
-                self._departed.add(os.path.basename(member))
+                self._departed.add(os.path.basename(path))
                 continue
             except BlockingIOError:
                 self.dropped_frames += 1
@@ -147,7 +213,7 @@ class LoopbackBus(can.BusABC):
                 continue
             message = decode_frame(datagram, self.channel_info)
             if message is not None:
-                return message, False
+                return message, True  # the senders applied this node's filters
             if deadline is not None and time.monotonic() >= deadline:
                 return None, False
 

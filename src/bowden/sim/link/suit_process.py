@@ -59,6 +59,7 @@ FAULTS: Final = {
     "i2c": ("unplug",),
     "mannequin": ("mute", "ignore_next", "inject_error", "limit_torque"),
 }
+TDU_MOTOR_ID: Final = 1  # the simulated suit's motor (AK60Peer's default id, the driver's)
 MANNEQUIN_MOTOR_ID: Final = 2  # the bench's second motor on the suit's bus (TDU: 1)
 BENCH_START_ELEVATION_RAD: Final = math.radians(20.0)
 
@@ -369,6 +370,15 @@ class SimulatedSuitProcess:
 
 
 # --- the child --------------------------------------------------------------------------------------
+def _motor_node(directory: Path, motor_id: int) -> Any:
+    """A simulated motor's own node on the suit's bus, accepting only standard frames to its id (what
+    its firmware answers): the bench's two motors no longer wake for each other's frames."""
+    import can  # the child's: the parent does not need python-can to start it
+
+    return can.Bus(interface="bowden_loopback", channel=str(directory / "can"),
+                   can_filters=[{"can_id": motor_id, "can_mask": 0x7FF, "extended": False}])
+
+
 def _warm_up(cycle: Any) -> None:
     """Compile and run everything the devices use once, so that the first frame is answered in time
     (``cycle`` None: the bench's mannequin arm)."""
@@ -422,7 +432,6 @@ class _ChildDevices:
     """The plant and its peers in the child."""
 
     def __init__(self, settings: SuitProcessSettings) -> None:
-        import can
 
         from bowden.hardware.ak60_codec import limits_for_motor
         from bowden.sim.arm import ArmDriver, MannequinArm, PrescribedArm
@@ -447,15 +456,16 @@ class _ChildDevices:
         if self.follower is not None:
             self.follower.plant = self.plant
         self._closers: list[Any] = []
-        self.bus = can.Bus(interface="bowden_loopback", channel=str(directory / "can"))
+        self.bus = _motor_node(directory, TDU_MOTOR_ID)
         self._closers.append(self.bus.shutdown)
-        self.motor = AK60Peer(self.bus, self.plant, limits=settings.motor_limits).start()
+        self.motor = AK60Peer(self.bus, self.plant, motor_id=TDU_MOTOR_ID,
+                              limits=settings.motor_limits).start()
         self._closers.insert(0, self.motor.close)
         self.mannequin: AK60Peer | None = None
         self.mannequin_joint: MannequinJoint | None = None
         if mannequin_arm is not None:
             # Its own node on the bus (two peers reading one node would take each other's frames).
-            mannequin_bus = can.Bus(interface="bowden_loopback", channel=str(directory / "can"))
+            mannequin_bus = _motor_node(directory, MANNEQUIN_MOTOR_ID)
             self._closers.append(mannequin_bus.shutdown)
             limits = limits_for_motor("AK80-9")
             self.mannequin_joint = joint = MannequinJoint(self.plant, mannequin_arm,
