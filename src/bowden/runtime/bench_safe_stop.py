@@ -21,7 +21,10 @@ def safe_stop(devices: BenchDevices, *, period_s: float, ramp_down_s: float, tdu
     deadline = start
     while True:
         deadline += period_s
-        fraction = max(1.0 - (deadline - start) / ramp, 0.0)
+        # By the clock once the cycles run late (a busy host, a motor's driver slow to send), as the
+        # suit's loop ramps (runtime.safety.ramp_torque_nm): counted in cycles, 30 late ones once
+        # stretched a 30 ms ramp to 117 ms, and the exit frames came 152 ms after a silent motor.
+        fraction = max(1.0 - (max(deadline, clock.now()) - start) / ramp, 0.0)
         for motor, torque in ((tdu, tdu_from * fraction), (mannequin, load_from * fraction)):
             with contextlib.suppress(HardwareError, OSError):  # the exit frame below is what matters
                 motor.command_torque(torque)
