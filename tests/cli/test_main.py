@@ -83,3 +83,16 @@ def test_ctrl_c_while_the_subcommands_load_is_one_line(monkeypatch, capsys):
     monkeypatch.setattr(importlib, "import_module", interrupted)
     assert main(["version"]) == 130
     assert capsys.readouterr().err == "bowden: interrupted\n"
+
+
+def test_a_value_in_scientific_notation_may_be_negative(tmp_path, capsys):
+    # Python 3.11's argparse took "-1e-6" for an unknown option ("expected one argument"); now the
+    # option's own check answers.
+    args = ["emg", "import", str(tmp_path), "x.csv", "--csv-volts-per-unit"]
+    assert build_parser().parse_args([*args, "1e-6"]).csv_volts_per_unit == 1e-6
+    assert build_parser().parse_args([*args, "-1e-6"]).csv_volts_per_unit == -1e-6
+    assert main([*args, "-1e-6"]) == 1
+    assert "--csv-volts-per-unit must be positive, got -1e-06" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # an option that does not exist is still one
+        build_parser().parse_args([*args, "1e-6", "-x"])
+    assert "unrecognized arguments: -x" in capsys.readouterr().err

@@ -16,6 +16,7 @@ import importlib
 import importlib.util
 import os
 import pkgutil
+import re
 import sys
 from collections.abc import Mapping, Sequence
 from typing import Final
@@ -41,6 +42,16 @@ PROVIDERS: Final[Mapping[str, tuple[str, str | None]]] = {
 }
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, but a value such as ``-1e-6`` is a negative number, not an unknown option
+    (Python 3.11's argparse knows only ``-1`` and ``-1.5``; 3.13 reads it so too). The subcommands'
+    parsers are of this class as well (``add_subparsers`` makes its parsers of the parent's class)."""
+
+    def __init__(self, *args: object, **kwargs: object) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[arg-type]
+        self._negative_number_matcher = re.compile(r"-\.?\d")
+
+
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """Build the top-level parser with every subcommand module of this package registered.
 
@@ -50,7 +61,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         Register only this subcommand (one of :func:`command_names`): ``bowden run ...`` then imports
         the run command's module alone, not every other command's (a second of start-up each time).
     """
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="bowden",
         description="Sensorless tension control of cable-driven exosuits.",
     )
