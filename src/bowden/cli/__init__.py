@@ -61,7 +61,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         Register only this subcommand (one of :func:`command_names`): ``bowden run ...`` then imports
         the run command's module alone, not every other command's (a second of start-up each time).
     """
-    parser = _Parser(
+    parser: argparse.ArgumentParser = _Parser(
         prog="bowden",
         description="Sensorless tension control of cable-driven exosuits.",
     )
