@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import threading
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -46,6 +47,14 @@ class Rig:
     imu: NgimuClient
     load_cell: ADS1115LoadCell
     sniffer: can.BusABC
+
+    def peer_leaves_motor_mode(self, timeout_s: float = 5.0) -> bool:
+        """The simulated motor has handled the exit frame (the driver does not wait for its reply,
+        and the peer's thread may not have run yet)."""
+        deadline = time.monotonic() + timeout_s
+        while self.motor_peer.in_motor_mode and time.monotonic() < deadline:
+            time.sleep(0.005)
+        return not self.motor_peer.in_motor_mode
 
     def frames(self) -> list[can.Message]:
         """Everything the sniffer saw on the bus so far."""

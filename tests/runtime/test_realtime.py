@@ -12,6 +12,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 import weakref
 
 import pytest
@@ -62,6 +63,52 @@ def test_restored_when_the_block_raises() -> None:
     assert os.sched_getscheduler(0) == policy and os.sched_getaffinity(0) == cpus
     assert gc.isenabled() and gc.get_freeze_count() == 0
     assert sys.getswitchinterval() == interval
+
+
+def _waiting_thread(stop: threading.Event) -> threading.Thread:
+    thread = threading.Thread(target=stop.wait, daemon=True)
+    thread.start()
+    return thread
+
+
+def test_the_other_python_threads_share_the_priority_for_the_block_only() -> None:
+    # They share the interpreter lock with the loop: a normal thread holding it while preempted would
+    # keep a real-time loop waiting (a priority inversion).
+    stop = threading.Event()
+    reader = _waiting_thread(stop)
+    assert reader.native_id is not None
+    try:
+        with realtime(RealtimeConfig(priority=10, freeze_gc=False)) as report:
+            if "SCHED_FIFO 10" not in report.applied:
+                pytest.skip(f"the OS refuses SCHED_FIFO here: {report.unavailable}")
+            assert os.sched_getscheduler(reader.native_id) == os.SCHED_FIFO
+            assert os.sched_getparam(reader.native_id).sched_priority == 10
+            assert any(text.startswith("SCHED_FIFO 10 also for the process's") for text in report.applied)
+            started_inside = _waiting_thread(stop)  # inherits the loop thread's policy
+            assert started_inside.native_id is not None
+            assert os.sched_getscheduler(started_inside.native_id) == os.SCHED_FIFO
+        # Back to normal, the one started inside the block too: no thread outlives it real-time.
+        assert os.sched_getscheduler(reader.native_id) == os.SCHED_OTHER
+        assert os.sched_getscheduler(started_inside.native_id) == os.SCHED_OTHER
+    finally:
+        stop.set()
+
+
+def test_a_thread_already_real_time_keeps_its_own_priority() -> None:
+    stop = threading.Event()
+    device = _waiting_thread(stop)
+    assert device.native_id is not None
+    try:
+        try:
+            os.sched_setscheduler(device.native_id, os.SCHED_FIFO, os.sched_param(3))
+        except PermissionError:
+            pytest.skip("the OS refuses SCHED_FIFO here")
+        with realtime(RealtimeConfig(priority=10, freeze_gc=False)):
+            assert os.sched_getparam(device.native_id).sched_priority == 3
+        assert os.sched_getscheduler(device.native_id) == os.SCHED_FIFO
+        assert os.sched_getparam(device.native_id).sched_priority == 3
+    finally:
+        stop.set()
 
 
 class _Node:

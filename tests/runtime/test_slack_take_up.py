@@ -13,6 +13,7 @@ from bowden.errors import ParameterError
 from bowden.hardware.ak60_codec import ENTER_MOTOR_MODE, EXIT_MOTOR_MODE, unpack_command
 from bowden.runtime import ControlLoop, LoopConfig
 from bowden.runtime.clock import MonotonicClock
+from bowden.runtime.realtime import RealtimeConfig
 from bowden.runtime.safety import SafetyConfig
 from bowden.runtime.slack import SlackTakeUp
 from bowden.sim.arm import PrescribedArm
@@ -28,7 +29,7 @@ def loop(rig, controller, slack: SlackTakeUp, duration_s: float) -> ControlLoop:
                        clock=MonotonicClock(),
                        config=LoopConfig(rate_hz=500.0, duration_s=duration_s, slack=slack,
                                          safety=ON_SHARED_HOST),
-                       tension_sensor=rig.load_cell)
+                       tension_sensor=rig.load_cell, realtime=RealtimeConfig())  # as bowden run's
 
 
 def test_reels_in_to_the_pretension_then_assists(rig, controller):
@@ -62,7 +63,7 @@ def test_a_cable_that_never_tightens_is_a_safe_stop(rig, controller):
     assert report.fault == Fault.SLACK_NOT_TAKEN_UP
     assert "is it attached?" in report.reason
     assert math.isnan(report.slack_take_up_s)
-    assert report.motor_disabled and not rig.motor_peer.in_motor_mode
+    assert report.motor_disabled and rig.peer_leaves_motor_mode()
     assert report.stop_time_s == pytest.approx(0.3, abs=0.05)
 
 

@@ -5,7 +5,12 @@ Inside :func:`realtime` the calling thread (the loop's) may get:
 * ``SCHED_FIFO`` at ``priority``: it preempts every normal process as soon as its sleep ends, so a
   busy machine no longer delays the cycles. The loop sleeps between cycles, so it cannot starve the
   machine; the kernel's RT throttling (95 % by default) is the backstop. Needs root or
-  ``CAP_SYS_NICE`` (or an ``rtprio`` limit): see docs/hardware.md, "Real-time settings";
+  ``CAP_SYS_NICE`` (or an ``rtprio`` limit): see docs/hardware.md, "Real-time settings".
+  The process's other Python threads (the load cell's reader, the recorder's writer) get the same
+  priority for the block: they share the interpreter lock with the loop, and a normal thread that
+  holds the lock when the scheduler takes its CPU away keeps the loop waiting until it gets a CPU
+  back (a priority inversion: on the simulated bench, whose devices run under ``SCHED_FIFO`` on the
+  same machine, each CAN send of the loop waited 0.18 ms on average for the lock, 2026-11-28);
 * a CPU affinity (an isolated core, say);
 * a short interpreter switch interval (0.5 ms instead of Python's 5 ms), so that when the loop's
   sleep ends while another thread of the process holds the interpreter lock (the recorder, the load
@@ -33,14 +38,18 @@ import gc
 import os
 import platform
 import sys
+import threading
 from collections.abc import Iterator
-from contextlib import ExitStack, contextmanager
+from contextlib import ExitStack, contextmanager, suppress
 from dataclasses import dataclass
 from pathlib import Path
 
 from bowden.errors import ParameterError
 
 __all__ = ["RealtimeConfig", "RealtimeReport", "realtime"]
+
+_REALTIME_POLICIES = frozenset(getattr(os, name) for name in ("SCHED_FIFO", "SCHED_RR")
+                               if hasattr(os, name))
 
 _CAP_IPC_LOCK = 14  # bit of the capability in /proc/<pid>/status CapEff
 
@@ -162,6 +171,46 @@ def _fifo(priority: int, restore: ExitStack, applied: list[str], unavailable: li
         return
     restore.callback(os.sched_setscheduler, 0, policy, os.sched_param(previous))
     applied.append(f"SCHED_FIFO {priority}")
+    lifted = _lift_other_threads(priority, restore)
+    if lifted:
+        applied.append(f"SCHED_FIFO {priority} also for the process's {lifted} other Python "
+                       f"thread{'s' if lifted > 1 else ''}")
+
+
+def _lift_other_threads(priority: int, restore: ExitStack) -> int:
+    """Give the process's other Python threads ``priority`` for the block; how many were lifted.
+
+    On the way out each lifted thread gets its own policy back, and a thread started during the block
+    (by the loop or a lifted thread: it inherited ``SCHED_FIFO``) gets the normal policy, so no thread
+    outlives the block at real-time priority. Threads already real-time at the start are left alone.
+    """
+    own = threading.get_native_id()
+    before: dict[int, tuple[int, int]] = {}
+    for tid in _python_thread_ids(own):
+        with suppress(OSError):  # it ended meanwhile (ESRCH)
+            before[tid] = (os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority)
+    lifted = [tid for tid, (policy, _) in before.items() if policy not in _REALTIME_POLICIES]
+    for tid in lifted:
+        try:
+            os.sched_setscheduler(tid, os.SCHED_FIFO, os.sched_param(priority))
+        except OSError:  # it ended, or the OS refused this one: the loop's own setting stands
+            before.pop(tid)
+    restore.callback(_unlift_threads, own, before)
+    return sum(tid in before for tid in lifted)
+
+
+def _unlift_threads(own: int, before: dict[int, tuple[int, int]]) -> None:
+    for tid in _python_thread_ids(own):
+        policy, priority = before.get(tid, (os.SCHED_OTHER, 0))
+        with suppress(OSError):  # the thread has ended: nothing to restore
+            if tid in before or os.sched_getscheduler(tid) == os.SCHED_FIFO:
+                os.sched_setscheduler(tid, policy, os.sched_param(priority))
+
+
+def _python_thread_ids(own: int) -> list[int]:
+    """The native ids of the process's running Python threads but the calling one."""
+    return [thread.native_id for thread in threading.enumerate()
+            if thread.native_id is not None and thread.native_id != own and thread.is_alive()]
 
 
 def _affinity(cpus: frozenset[int], restore: ExitStack, applied: list[str], unavailable: list[str]) -> None:
