@@ -23,21 +23,20 @@ settings.register_profile("dev", deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "dev"))
 
 
-# The suite runs on several worker processes (pyproject: -n auto). The tests that run the suit in real
-# time form two lanes; each lane runs on one worker, one test after the other:
-# - they drive the simulated suit (its own process, or peers on threads) on the wall clock at real-time
-#   priority: more of them at once than the cores starve each other's devices (a simulated motor
-#   silent for 31 ms is a real watchdog fault), which no test should have to tolerate; two lanes keep
-#   it to two at once (one serial lane alone took 8.6 minutes);
+# The suite runs on several worker processes (pyproject: -n auto). The tests that run the suit or the
+# bench in real time form one lane, run on one worker, one test after the other:
+# - they drive the simulated devices (their own process, or peers on threads) on the wall clock under
+#   SCHED_FIFO where the OS allows (the loops at bowden run's 50, the devices' process at 40): at most
+#   one such test at a time keeps what they need within two cores, so no other test's load (the rest
+#   runs at normal priority, which they preempt) can starve a simulated device, and none starves
+#   another's. Two lanes at once did, on a two-core machine half as fast as before (2026-11-28: in CI a
+#   motor peer silent for 118 ms; in a fresh clone's run a resumed bench's load cell, its I²C server
+#   starved by the other lane's real-time loop: "3 I²C errors in a row over 40 ms");
 # - LSL discovery sees every outlet on the machine (resolve scope machine), so two workers' streams of
-#   the same name would reach each other's inlets: every test that uses LSL is in the "suit" lane.
-# The lanes take about 3.5 and 3 minutes (idle, two cores); the rest runs beside them on a third worker
-# at the lowest priority where the machine is idle (pytest_xdist_auto_num_workers), and on a lane's
-# worker once its lane is done. Tried and dropped: nicing the rest on two workers (beside two busy
-# processes it left the suite a tenth of the CPU); a third worker at normal priority (beside two busy
-# processes four failures: the bench's IMU and controller and the recorder's writer starved).
+#   the same name would reach each other's inlets: one lane keeps the LSL tests apart too.
+# The rest runs beside the lane on the other workers.
 SERIAL_GROUPS = {
-    "bench": (  # the mannequin bench in real time
+    "real time": (  # the mannequin bench, then the suit, its console and LSL
         "tests/cli/test_bench_run_cli.py",
         "tests/runtime/test_bench_fit_sim.py",
         "tests/runtime/test_bench_full_disk.py",
@@ -45,8 +44,6 @@ SERIAL_GROUPS = {
         "tests/runtime/test_bench_run_sim.py",
         "tests/runtime/test_bench_segments_sim.py",
         "tests/runtime/test_interrupt_signals.py",
-    ),
-    "suit": (  # the suit, its console and LSL in real time
         "tests/cli/test_check.py",
         "tests/cli/test_run_custom.py",
         "tests/cli/test_run_lsl_imu.py",
