@@ -132,6 +132,17 @@ def test_errors_of_several_files_name_the_file_and_the_flags(session, store, tmp
     )
 
 
+def test_trigger_flags_without_a_trigger_channel_are_refused_not_ignored(session, store, tmp_path, capsys):
+    # An XDF file without --trigger-channel is synchronised by markers, which no trigger flag reads.
+    path = tmp_path / "markers.xdf"
+    path.write_bytes(b"")  # refused before any file is read
+    err = _refused(store, path, "--trigger-bit", "3", capsys=capsys)
+    assert err == ("bowden: error: --trigger-bit reads the trigger channel: give --trigger-channel NAME too "
+                   "(without it an XDF recording is synchronised by bowden's LSL markers)")
+    err = _refused(store, path, "--trigger-polarity", "low", "--trigger-bit", "0", capsys=capsys)
+    assert "--trigger-bit and --trigger-polarity read the trigger channel" in err
+
+
 def test_a_24_bit_bdf_is_stored_code_for_code(session, store, tmp_path):
     # One 5 mV artefact: a per-trial 16-bit range would have a 0.15 µV step; the BDF's is 1/32 µV.
     path = tmp_path / "artefact.bdf"

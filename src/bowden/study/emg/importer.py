@@ -78,6 +78,16 @@ class ImportOptions:
                 raise ParameterError(f"{flag} must be {what}, got {value:g}")
         if self.trigger_bit is not None:
             check_trigger_bit(self.trigger_bit)
+        # Without a trigger channel nothing reads them (an XDF file is synchronised by bowden's LSL
+        # markers): a flag the user gave must not be silently ignored.
+        unread = [flag for flag, given in (("--trigger-bit", self.trigger_bit is not None),
+                                           ("--trigger-polarity", self.trigger_polarity != "auto"))
+                  if given]
+        if unread and self.trigger_channel is None:
+            verb = "reads" if len(unread) == 1 else "read"
+            raise ParameterError(f"{' and '.join(unread)} {verb} the trigger channel: give "
+                                 "--trigger-channel NAME too (without it an XDF recording is "
+                                 "synchronised by bowden's LSL markers)")
 
 
 @dataclass(frozen=True, kw_only=True)
