@@ -18,7 +18,7 @@ import weakref
 import pytest
 
 from bowden.errors import ParameterError
-from bowden.runtime.realtime import RealtimeConfig, RealtimeReport, realtime
+from bowden.runtime.realtime import RealtimeConfig, RealtimeReport, at_normal_priority, realtime
 
 NOTHING = {"priority": None, "freeze_gc": False, "switch_interval_s": None}
 
@@ -109,6 +109,32 @@ def test_a_thread_already_real_time_keeps_its_own_priority() -> None:
         assert os.sched_getparam(device.native_id).sched_priority == 3
     finally:
         stop.set()
+
+
+def test_a_computation_started_by_the_loop_runs_at_normal_priority() -> None:
+    # The bench's identification runs on a thread the real-time loop starts, which inherits SCHED_FIFO;
+    # at that priority it starved the simulated devices. It, and threads it starts, run normally.
+    from concurrent.futures import ThreadPoolExecutor
+
+    from bowden.runtime.bench_segments import _at_normal_priority
+
+    def policies() -> tuple[int, int]:
+        with ThreadPoolExecutor(max_workers=1) as pool:  # a pool the computation starts (a BLAS one)
+            started = pool.submit(os.sched_getscheduler, 0).result()
+        return os.sched_getscheduler(0), started
+
+    with realtime(RealtimeConfig(priority=10, freeze_gc=False)) as report:
+        if "SCHED_FIFO 10" not in report.applied:
+            pytest.skip(f"the OS refuses SCHED_FIFO here: {report.unavailable}")
+        with ThreadPoolExecutor(max_workers=1) as task_thread:
+            assert task_thread.submit(os.sched_getscheduler, 0).result() == os.SCHED_FIFO  # inherited
+            assert task_thread.submit(_at_normal_priority, policies).result() == (os.SCHED_OTHER,
+                                                                                  os.SCHED_OTHER)
+            # The thread has its inherited priority back for whatever it runs next.
+            assert task_thread.submit(os.sched_getscheduler, 0).result() == os.SCHED_FIFO
+        with at_normal_priority():
+            assert os.sched_getscheduler(0) == os.SCHED_OTHER
+        assert os.sched_getscheduler(0) == os.SCHED_FIFO and os.sched_getparam(0).sched_priority == 10
 
 
 class _Node:

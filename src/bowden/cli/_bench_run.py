@@ -205,7 +205,7 @@ def _open(args: argparse.Namespace) -> AbstractContextManager[Backend]:
 @contextmanager
 def _realtime() -> Iterator[str]:
     """The loop thread's real-time settings (as ``bowden run``'s), on the simulated bench too: its
-    devices' process runs under ``SCHED_FIFO`` 40 on this machine, and a loop of normal priority
+    devices' process runs under ``SCHED_FIFO`` 40 on the same machine, and a loop of normal priority
     fell behind them (1.18 ms of work per 1 ms cycle on a slow two-core host, 0.48 ms with these
     settings, 2026-11-28)."""
     from bowden.runtime.realtime import RealtimeConfig, realtime

@@ -30,6 +30,7 @@ from bowden.runtime.bench_config import BenchFault
 from bowden.runtime.bench_recording import STUDY_COLUMNS
 from bowden.runtime.bench_state import PHASE_LATENCY, PHASE_MANNEQUIN_MOVE, PHASE_STUDY, joint_rad
 from bowden.runtime.bench_strokes import _GAP_RETRIES, BenchStrokes
+from bowden.runtime.realtime import at_normal_priority
 
 _T = TypeVar("_T")
 _CYCLE_PHASE = STUDY_COLUMNS.index("cycle_phase")
@@ -127,7 +128,7 @@ class BenchSegments(BenchStrokes):
         TDU at the chirp's holding torque); its result, or its exception. The motors are commanded
         every cycle meanwhile: a loop that paused for the seconds an identification takes would leave
         them on their last command (when the simulated mannequin held its last MIT torque, a weightless
-        arm drifted to 141°)."""
+        arm drifted to 141°). The task runs at normal priority, not the loop's."""
         holding = self.config.latency.holding_torque_nm if self.config.latency else 0.5
         study = self.config.study
         kp, kd = (study.stiffness_nm_rad, study.damping_nms_rad) if study else (25.0, 2.5)
@@ -136,7 +137,7 @@ class BenchSegments(BenchStrokes):
         here = self._joint_elevation_rad()
         executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="bench-task")
         try:
-            future = executor.submit(task)
+            future = executor.submit(_at_normal_priority, task)
             while not future.done():
                 self._impedance_cycle(here, 0.0, 0.0, kp=kp, kd=kd, tdu_torque_nm=holding)
                 if self._cycle % self.record_every == 0:
@@ -278,3 +279,10 @@ def _reference(cycle: Any, t: float, repetitions: int) -> tuple[float, float, fl
     change = cycle.elevation_velocity_rad_s(t + h) - cycle.elevation_velocity_rad_s(t - h)
     acceleration = float(change) / (2.0 * h)
     return elevation, velocity, acceleration
+
+
+def _at_normal_priority(task: Callable[[], _T]) -> _T:
+    """``task`` on the calling thread at normal priority: the loop's real-time priority, which the
+    thread inherited, is for the loop (:func:`~bowden.runtime.realtime.at_normal_priority`)."""
+    with at_normal_priority():
+        return task()

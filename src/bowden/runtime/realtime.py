@@ -46,7 +46,7 @@ from pathlib import Path
 
 from bowden.errors import ParameterError
 
-__all__ = ["RealtimeConfig", "RealtimeReport", "realtime"]
+__all__ = ["RealtimeConfig", "RealtimeReport", "at_normal_priority", "realtime"]
 
 _REALTIME_POLICIES = frozenset(getattr(os, name) for name in ("SCHED_FIFO", "SCHED_RR")
                                if hasattr(os, name))
@@ -156,6 +156,35 @@ def realtime(config: RealtimeConfig) -> Iterator[RealtimeReport]:
             _freeze_gc(restore)
             applied.append("gc frozen, no collection in the loop")
         yield RealtimeReport(tuple(applied), tuple(unavailable))
+
+
+@contextmanager
+def at_normal_priority() -> Iterator[None]:
+    """The calling thread under the normal policy for the block, its own after (a no-op where it was
+    normal already, or the OS has no policies).
+
+    For computations a real-time loop starts on a thread of its own (the bench's identification while
+    it holds the arm): the thread inherits the loop's ``SCHED_FIFO``, and at that priority seconds of
+    fitting took a core from the simulated devices' process until the load cell's reader timed out
+    (a default `bench run` stopped on "load cell lost" after its 350 strokes, 2026-11-28). Threads
+    it starts (a BLAS pool) inherit the normal policy too.
+    """
+    try:
+        policy, priority = os.sched_getscheduler(0), os.sched_getparam(0).sched_priority
+    except (AttributeError, OSError):
+        yield
+        return
+    lowered = False
+    if policy in _REALTIME_POLICIES:
+        with suppress(OSError):
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+            lowered = True
+    try:
+        yield
+    finally:
+        if lowered:
+            with suppress(OSError):  # lowering needs no privilege, raising back may
+                os.sched_setscheduler(0, policy, os.sched_param(priority))
 
 
 def _fifo(priority: int, restore: ExitStack, applied: list[str], unavailable: list[str]) -> None:
