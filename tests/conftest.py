@@ -125,10 +125,18 @@ def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     0.1° past its bound, a load cell "lost" after 3 I²C errors in 40 ms, a trial's exit 3; docs/
     design.md "The tests"). A landing must not depend on luck; a developer's warm checkout gets the
     speed."""
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-    workers = max(cores, len(SERIAL_GROUPS))
-    idle = _others_use_of_the_cores(cores) < IDLE_BELOW_CORES
+    workers = _normal_workers()
+    idle = _others_use_of_the_cores(_cores()) < IDLE_BELOW_CORES
     return workers + 1 if idle and _study_kernels_cached(config.rootpath) else workers
+
+
+def _cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def _normal_workers() -> int:
+    """The workers at normal priority: one per core, at least one per lane (the extra one is not)."""
+    return max(_cores(), len(SERIAL_GROUPS))
 
 
 def _study_kernels_cached(root: Path) -> bool:
@@ -144,8 +152,16 @@ def _worker_index(worker_id: str) -> int:
 
 
 def _takes_lanes(worker_id: str) -> bool:
-    """The first workers, one per lane, take the lanes; the others only the rest, at low priority."""
+    """The first workers, one per lane, take the lanes; the others only the rest."""
     return _worker_index(worker_id) < len(SERIAL_GROUPS)
+
+
+def _low_priority(worker_id: str) -> bool:
+    """The extra worker of an idle machine (:func:`pytest_xdist_auto_num_workers`), at nice 19. Not
+    every worker that takes no lane: with one lane, the second worker of two is at normal priority
+    (at nice 19 beside two busy processes it got 2 % of a core and had not collected the tests after
+    five minutes, 2026-11-28)."""
+    return _worker_index(worker_id) >= _normal_workers()
 
 
 IDLE_BELOW_CORES = 0.25  # what other processes may use of the machine for it to count as idle
@@ -242,7 +258,7 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
             if not self._lane_runs_beside(node):
                 held_back = (*LOW_PRIORITY_BESIDE_THE_LANES, *AFTER_THE_LANES)
                 return next((unit for unit in queue if unit in held_back), queue[0])
-            low_priority = not _takes_lanes(node.gateway.id)
+            low_priority = _low_priority(node.gateway.id)
             return next((unit for unit in queue if unit not in AFTER_THE_LANES and (
                 low_priority or unit not in LOW_PRIORITY_BESIDE_THE_LANES)), None)
 
@@ -322,8 +338,9 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
     if not worker or _takes_lanes(worker):
         return
     if _unit(item.nodeid) in SERIAL_GROUPS:
-        pytest.fail(f"a real-time lane's test was handed to the low-priority worker {worker}")
-    if os.getpriority(os.PRIO_PROCESS, 0) > 0 and Path(os.environ.get(_LANES_DONE, "")).is_file():
+        pytest.fail(f"a real-time lane's test was handed to worker {worker}, which takes no lane")
+    lanes_done = Path(os.environ.get(_LANES_DONE, "")).is_file()
+    if _low_priority(worker) and os.getpriority(os.PRIO_PROCESS, 0) > 0 and lanes_done:
         # The lanes are done: at the lowest priority beside two busy workers this one starved (an
         # EMG import's tests took 113 s instead of 25 s at the end of a fresh clone's run on a
         # loaded host, 2026-11-28). Back to normal priority where the user may (root or
@@ -335,7 +352,7 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
 
 def pytest_configure(config: pytest.Config) -> None:
     worker = getattr(config, "workerinput", {}).get("workerid")
-    if worker and not _takes_lanes(worker):
+    if worker and _low_priority(worker):
         os.nice(19)  # only what the lanes leave (see pytest_xdist_auto_num_workers); its children too
     if not worker and _LANES_DONE not in os.environ:  # the controller, before it starts the workers
         _MADE.append(Path(tempfile.mkdtemp(prefix="bowden-lanes-")))
