@@ -104,9 +104,9 @@ LOW_PRIORITY_BESIDE_THE_LANES = ("reduced study",)
 
 def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
     """``-n auto``: one worker per core, at least one per lane, and one more on a machine nothing else
-    is using. Each lane's tests run one after the other on one worker; they wait on the wall clock, so
-    beside two lanes the cores were a third idle (CPU 132 % of 200 % in a fresh clone's 5 min 33 s run
-    on 2026-11-28), which the extra worker takes for the rest.
+    is using. A lane's tests run one after the other on one worker; they wait on the wall clock, so
+    beside them the cores are partly idle (with the two lanes of the ninth session, CPU 132 % of 200 %
+    in a fresh clone's 5 min 33 s run on 2026-11-28), which the extra worker takes for the rest.
 
     The extra worker runs at the lowest priority (:func:`pytest_configure`) and never takes a lane
     (:func:`pytest_xdist_make_scheduler`), so it has only what the lanes leave of the CPU. At normal
