@@ -96,7 +96,8 @@ def make_loop(rig: Rig, controller: Controller, tap: Tap, safety: SafetyConfig =
     """The loop with ``bowden run``'s real-time settings: where the OS allows, it and the peers'
     threads (the devices' own processors; they share the loop's interpreter lock) run under
     ``SCHED_FIFO``, so another test worker does not starve them (a motor peer silent for 118 ms
-    in CI, 2026-11-27)."""
+    in CI, 2026-11-27). The arm starts its cycle now."""
+    rig.start_moving()
     return ControlLoop(
         controller=controller, motor=rig.motor, elevation_sensor=rig.imu, clock=MonotonicClock(),
         config=LoopConfig(rate_hz=RATE_HZ, duration_s=duration_s, safety=safety),
@@ -411,6 +412,7 @@ def test_signals_stop_within_one_cycle(rig: Rig, controller: Controller, caplog:
 def test_duration_ends_cleanly(rig: Rig, controller: Controller, caplog: pytest.LogCaptureFixture) -> None:
     caplog.set_level(logging.INFO)
     tap = Tap(lambda: None)
+    rig.start_moving()
     loop = ControlLoop(
         controller=controller, motor=rig.motor, elevation_sensor=rig.imu, clock=MonotonicClock(),
         config=LoopConfig(rate_hz=RATE_HZ, duration_s=0.3, safety=PATIENT), tension_sensor=rig.load_cell,
