@@ -16,6 +16,7 @@ import sys
 from bowden.protocol.bench import BenchProtocol
 from bowden.runtime.bench import PHASE_STROKE, BenchDevices, BenchRun, BenchRunConfig, BenchSafety
 from bowden.runtime.bench_recording import BenchRecordingWriter
+from bowden.runtime.realtime import RealtimeConfig, realtime
 from bowden.runtime.signals import stop_on_signals
 from bowden.sim.backend import open_sim_bench
 
@@ -55,7 +56,10 @@ def main(path: str, speeds: str, loads: str, repetitions: str, high_deg: str, po
         with BenchRecordingWriter(path, config.protocol_fingerprint(), resume=resume) as writer:
             run = BenchRun(devices, config, writer)
             clock.run = run
-            with stop_on_signals(run.request_stop):  # as `bowden bench run`, even in the background
+            # As `bowden bench run`: stopped by signals even in the background, and the loop under its
+            # real-time settings (at normal priority beside the devices' SCHED_FIFO process it fell
+            # behind 1 kHz on a slow host, and the lines identified moved by 2-5 %).
+            with stop_on_signals(run.request_stop), realtime(RealtimeConfig()):
                 report = run.run()
             if report.complete:
                 writer.finish()

@@ -416,7 +416,7 @@ def test_duration_ends_cleanly(rig: Rig, controller: Controller, caplog: pytest.
     loop = ControlLoop(
         controller=controller, motor=rig.motor, elevation_sensor=rig.imu, clock=MonotonicClock(),
         config=LoopConfig(rate_hz=RATE_HZ, duration_s=0.3, safety=PATIENT), tension_sensor=rig.load_cell,
-        record=tap,
+        record=tap, realtime=RealtimeConfig(),
     )
     report = loop.run()
     assert report.clean and report.fault == Fault.NONE
