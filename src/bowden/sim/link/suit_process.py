@@ -178,6 +178,13 @@ class SimulatedSuitProcess:
         self._requests, self._notices = child.requests, child.notices
         try:
             self._requests.send(self.settings)
+        except OSError:  # the child is gone (a spare that died as it was taken)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                process.wait(timeout=10.0)
+            message = self._child_error()
+            self.close()
+            raise HardwareError(f"the simulated suit's process ended before it was ready "
+                                f"(exit code {process.returncode}){message}") from None
         except Exception as error:  # pickle's errors have no common base
             self.close()
             raise ParameterError(f"the simulated suit's settings cannot be sent to its process (the "
@@ -198,7 +205,7 @@ class SimulatedSuitProcess:
                 raise HardwareError(f"the simulated suit was not ready within {self.ready_timeout_s:g} s")
         try:
             kind, detail = self._requests.recv()
-        except EOFError:  # it closed its end: it is ending
+        except (EOFError, OSError):  # it closed its end, or died: it is ending
             with contextlib.suppress(subprocess.TimeoutExpired):
                 process.wait(timeout=10.0)
             message = self._child_error()
