@@ -259,13 +259,6 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
 
 
 def pytest_configure(config: pytest.Config) -> None:
-    worker = getattr(config, "workerinput", {}).get("workerid")
-    if not worker or _takes_lanes(worker):
-        # The lane starts about seventy simulated suits one after another: each next one warms up
-        # (1.7 s of CPU on the slower machine) while the current one runs, instead of in the lane.
-        from bowden.sim.link.child_start import keep_a_spare
-
-        keep_a_spare()
     files = [unit for unit in AFTER_THE_LANES if unit not in SHARED_FIXTURE_GROUPS]
     missing = [path for path in (*_UNIT_OF, *files) if not (config.rootpath / path).exists()]
     if missing:  # a renamed test file would silently leave its lane

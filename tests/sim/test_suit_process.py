@@ -31,8 +31,6 @@ from bowden.hardware.ngimu import NgimuClient, NgimuConfig
 from bowden.hardware.protocols import ElevationSample, MotorState
 from bowden.protocol.minimum_jerk import MinimumJerkCycle
 from bowden.sim.backend import open_sim_backend
-from bowden.sim.link import child_start
-from bowden.sim.link.child_start import keep_a_spare, spare_pid, start_child
 from bowden.sim.link.suit_process import SimulatedSuitProcess
 from bowden.sim.peers.ak60_peer import ReceivedFrame
 from bowden.web.reference import TrialReference
@@ -369,11 +367,8 @@ def test_stopping_the_loops_process_does_not_stop_the_suit_which_ends_with_it() 
 @pytest.mark.parametrize("bench", [False, True], ids=["suit", "bench"])
 def test_opening_the_simulated_suit_starts_one_process(monkeypatch, bench: bool) -> None:
     # Both backends started the suit with ``enter_context(suit.start(...))``, whose __enter__ started
-    # it again: two children on one socket directory, the first removing it as it ended. (Counted
-    # without a spare, which would start the next suit's process too.)
+    # it again: two children on one socket directory, the first removing it as it ended.
     from bowden.sim.backend import open_sim_bench
-
-    monkeypatch.setattr(child_start, "_SPARE", child_start._Spare())  # none kept here
 
     spawned: list[int] = []
     real_popen = subprocess.Popen
@@ -399,43 +394,3 @@ def test_a_started_suit_is_not_started_twice() -> None:
             suit.start()
         assert suit.pid == pid
     assert suit.pid is None
-
-
-@pytest.fixture
-def spare() -> Iterator[None]:
-    """A spare kept for the test; the setting before it is restored after."""
-    before = keep_a_spare(True)
-    try:
-        yield
-    finally:
-        keep_a_spare(before)
-
-
-def test_a_spare_started_ahead_is_the_next_suit_and_a_dead_one_is_replaced(spare: None) -> None:
-    first = SimulatedSuitProcess(imu_target=("127.0.0.1", 9), cycle=CYCLE).start()
-    waiting = spare_pid()
-    assert waiting is not None and waiting != first.pid
-    first.close()
-    with SimulatedSuitProcess(imu_target=("127.0.0.1", 9), bench=True) as bench:  # another kind of suit
-        assert bench.pid == waiting
-        assert bench.start_plant() == pytest.approx(time.monotonic(), abs=PATIENCE_S)
-        dead = spare_pid()
-        assert dead is not None and dead != waiting
-    os.kill(dead, signal.SIGKILL)
-    # Ended, ready to be reaped (a zombie's threads may still be exiting: /proc says Z before that).
-    eventually(lambda: os.waitid(os.P_PID, dead, os.WEXITED | os.WNOHANG | os.WNOWAIT), "the spare killed")
-    with SimulatedSuitProcess(imu_target=("127.0.0.1", 9), cycle=CYCLE) as suit:  # not the dead one
-        assert suit.pid not in (None, dead)
-        assert suit.start_plant() == pytest.approx(time.monotonic(), abs=PATIENCE_S)
-    assert not Path(f"/proc/{dead}").exists()  # reaped
-
-
-def test_a_spare_whose_parent_lets_go_ends_by_itself() -> None:
-    # What happens to a spare not taken when its parent ends (or stops keeping one): it reads the end
-    # of its settings' pipe and ends, with nothing to say.
-    child = start_child()
-    child.requests.close()
-    child.notices.close()
-    assert child.process.wait(timeout=PATIENCE_S * 6) == 0
-    assert child.process.stderr is not None and child.process.stderr.read() == ""
-    child.process.stderr.close()

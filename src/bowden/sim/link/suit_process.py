@@ -26,6 +26,7 @@ import multiprocessing.connection
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -41,7 +42,6 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Any, Final, Self
 
 from bowden.errors import HardwareError, ParameterError
-from bowden.sim.link.child_start import take_child
 
 if TYPE_CHECKING:
     from bowden.sim.peers.ak60_peer import ReceivedFrame
@@ -166,8 +166,23 @@ class SimulatedSuitProcess:
             # A second child would share the first's socket directory, and the first, orphaned,
             # would remove it when it ends.
             raise RuntimeError("the simulated suit's process is already started")
-        child = take_child()  # a new one, or the spare started ahead (child_start.keep_a_spare)
-        process = self._process = child.process
+        # A fresh interpreter (not a fork of this one with its threads and sockets, and not
+        # multiprocessing's spawn, which would re-run the caller's main script), talking over two
+        # socket pairs: requests and replies, and one-way notices from the loop.
+        parent_requests, child_requests = socket.socketpair()
+        notice_writer, notice_reader = socket.socketpair()
+        fds = (child_requests.fileno(), notice_reader.fileno())
+        try:
+            process = subprocess.Popen(
+                [sys.executable, "-m", "bowden.sim.link.suit_process", str(fds[0]), str(fds[1]),
+                 str(os.getpid())],
+                pass_fds=fds, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                text=True,
+            )
+        finally:
+            child_requests.close()
+            notice_reader.close()
+        self._process = process
         self._stderr_tail.clear()
         self._ready = False
         # The child's stderr is drained all along (a full pipe would stall the devices), its last
@@ -175,10 +190,11 @@ class SimulatedSuitProcess:
         self._stderr_reader = threading.Thread(target=self._drain_stderr, args=(process,),
                                                name="suit-stderr", daemon=True)
         self._stderr_reader.start()
-        self._requests, self._notices = child.requests, child.notices
+        self._requests = Connection(parent_requests.detach())
+        self._notices = Connection(notice_writer.detach())
         try:
             self._requests.send(self.settings)
-        except OSError:  # the child is gone (a spare that died as it was taken)
+        except OSError:  # the child is gone (killed before it read its settings)
             with contextlib.suppress(subprocess.TimeoutExpired):
                 process.wait(timeout=10.0)
             message = self._child_error()
@@ -373,34 +389,18 @@ def _motor_node(directory: Path, motor_id: int) -> Any:
 
 def _warm_up(cycle: Any) -> None:
     """Compile and run everything the devices use once, so that the first frame is answered in time
-    (``cycle`` None: the bench's mannequin arm; before the settings are known, both kinds of arm are
-    warmed, and the settings' own run is then fast)."""
+    (``cycle`` None: the bench's mannequin arm)."""
     from bowden.sim.arm import MannequinArm, PrescribedArm
     from bowden.sim.peers.warm_up import warm_up_suit
 
     warm_up_suit(PrescribedArm.following(cycle) if cycle is not None else MannequinArm(load_torque_nm=1.0))
 
 
-def _warm_up_both() -> None:
-    from bowden.protocol.minimum_jerk import MinimumJerkCycle
-
-    _warm_up(None)
-    _warm_up(MinimumJerkCycle())
-
-
 def _child_main(requests: Connection, notices: Connection, parent_pid: int) -> None:
     """Entry point of the suit's process: build, warm up, say ready, serve until told to stop."""
     # Ctrl-C reaches the whole terminal's process group: the parent stops the suit, not the signal.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        # Before the settings: a spare (child_start.keep_a_spare) warms up while it waits for them.
-        _warm_up_both()
-    except BaseException:
-        traceback.print_exc()  # the settings' own warm-up below says what failed
-    try:
-        settings = requests.recv()
-    except EOFError:
-        return  # the parent went away before it needed this process (a spare not taken)
+    settings = requests.recv()
     try:
         # Compiling takes seconds of CPU: at a real-time priority it would starve the machine.
         _warm_up(None if settings.bench else
