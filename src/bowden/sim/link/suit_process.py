@@ -195,12 +195,7 @@ class SimulatedSuitProcess:
         try:
             self._requests.send(self.settings)
         except OSError:  # the child is gone (killed before it read its settings)
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                process.wait(timeout=10.0)
-            message = self._child_error()
-            self.close()
-            raise HardwareError(f"the simulated suit's process ended before it was ready "
-                                f"(exit code {process.returncode}){message}") from None
+            raise self._ended_before_ready(process) from None
         except Exception as error:  # pickle's errors have no common base
             self.close()
             raise ParameterError(f"the simulated suit's settings cannot be sent to its process (the "
@@ -222,17 +217,21 @@ class SimulatedSuitProcess:
         try:
             kind, detail = self._requests.recv()
         except (EOFError, OSError):  # it closed its end, or died: it is ending
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                process.wait(timeout=10.0)
-            message = self._child_error()
-            self.close()
-            raise HardwareError(f"the simulated suit's process ended before it was ready "
-                                f"(exit code {process.returncode}){message}") from None
+            raise self._ended_before_ready(process) from None
         if kind != "ready":
             self.close()
             raise HardwareError(f"the simulated suit could not start: {' '.join(str(detail).split())}")
         self._ready = True
         return self
+
+    def _ended_before_ready(self, process: subprocess.Popen[str]) -> HardwareError:
+        """The error for a child that went away before it said ready, once it has ended (closed)."""
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            process.wait(timeout=10.0)
+        message = self._child_error()
+        self.close()
+        return HardwareError(f"the simulated suit's process ended before it was ready "
+                             f"(exit code {process.returncode}){message}")
 
     def _drain_stderr(self, process: subprocess.Popen[str]) -> None:
         stream = process.stderr
