@@ -18,6 +18,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import replace
 
 import pytest
+from tests.runtime.bench_frames import exited
 
 from bowden.hardware.ak60 import AK60Config, AK60Motor
 from bowden.protocol.bench import BenchProtocol, BenchStroke
@@ -66,23 +67,6 @@ def run_bench(backend, tmp_path, *, protocol: BenchProtocol | None = None,
         if report.complete:
             writer.finish()
     return report
-
-
-def exited(backend, since_s: float, expected: set[str], patience_s: float = 5.0) -> dict[str, float]:
-    """When each simulated motor heard its exit frame after ``since_s``, waiting up to ``patience_s``
-    for the ``expected`` ones: the driver does not wait for the exit's reply, so the devices' process
-    may not have handled the frame yet when the run returns."""
-    deadline = time.monotonic() + patience_s
-    while True:
-        times = {}
-        for device in ("motor", "mannequin"):
-            frames = [f.time_s for f in backend.simulation.received_frames(since_s, device)
-                      if f.kind == "exit"]
-            if frames:
-                times[device] = frames[0]
-        if expected <= times.keys() or time.monotonic() > deadline:
-            return times
-        time.sleep(0.01)
 
 
 def test_a_stopped_run_resumes_where_it_stopped(bench, tmp_path):

@@ -9,10 +9,10 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
+from tests.runtime.bench_frames import exited
 
 from bowden.protocol.bench import BenchProtocol
 from bowden.runtime.bench import PHASE_STROKE, BenchDevices, BenchRun, BenchRunConfig, BenchSafety
@@ -82,14 +82,7 @@ def test_a_signal_inside_a_device_call_stops_at_the_next_cycle_and_a_second_one_
             run = mannequin.run = BenchRun(devices, config, writer)
             with stop_on_signals(run.request_stop):
                 report = run.run()
-        # The driver does not wait for the exit's reply: the devices' process may handle it after.
-        deadline = time.monotonic() + 5.0
-        while True:
-            exits = {device for device in ("motor", "mannequin") if any(
-                frame.kind == "exit" for frame in backend.simulation.received_frames(since, device))}
-            if len(exits) == 2 or time.monotonic() > deadline:
-                break
-            time.sleep(0.01)
+        exits = set(exited(backend, since, {"motor", "mannequin"}))
     assert report.fault == "interrupted", report
     assert mannequin.signals_sent == 2
     assert mannequin.calls_begun == mannequin.calls_ended  # no device call was cut short
