@@ -1,8 +1,8 @@
 """The command line starts without the heavy libraries: each imports inside the command that uses it.
 
 ``bowden --help`` and every ``bowden <command> --help`` (and so every ``bowden run`` a real-time test
-or a user starts) should not pay seconds of start-up for pandas, SciPy's statistics and signal
-processing, statsmodels, matplotlib, numba or MuJoCo. Each check runs in a fresh interpreter, where
+or a user starts) should not pay seconds of start-up for pandas, SciPy's linear algebra, statistics and
+signal processing, statsmodels, matplotlib, numba or MuJoCo. Each check runs in a fresh interpreter, where
 ``sys.modules`` shows what the start-up imported.
 """
 
@@ -14,7 +14,8 @@ import pytest
 
 from bowden.cli import command_names
 
-HEAVY = ("pandas", "scipy.stats", "scipy.signal", "statsmodels", "matplotlib", "numba", "mujoco")
+HEAVY = ("pandas", "scipy.linalg", "scipy.stats", "scipy.signal", "statsmodels", "matplotlib", "numba",
+         "mujoco")
 
 # Runs ``python -m bowden ARGS`` in this interpreter, then prints the heavy modules it imported.
 _PROBE = """

@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING
 from bowden._lazy import lazy_exports
 
 # robustfit shares its module's name: imported lazily, the package's attribute would become the module
-# as soon as anything imported bowden.identify.robustfit. It is light (NumPy and scipy.linalg; its
-# scipy.stats is imported inside). The settings are what the command line's parser reads.
+# as soon as anything imported bowden.identify.robustfit. It is light (NumPy; its scipy.linalg and
+# scipy.stats are imported inside). The settings are what the command line's parser reads.
 from bowden.identify.robustfit import RobustFit, robustfit
 from bowden.identify.settings import (
     DIRECTIONS,

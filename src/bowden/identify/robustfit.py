@@ -32,7 +32,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from bowden.errors import FitError
@@ -186,7 +185,9 @@ def _pivoted_qr(
     design: NDArray[np.float64],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.intp], int]:
     """Economy QR with column pivoting and MATLAB's rank rule |R_ii| > |R_11|·max(n, p)·eps."""
-    q, r, perm = scipy.linalg.qr(design, mode="economic", pivoting=True)
+    from scipy.linalg import qr  # here, as scipy.stats below: `bowden --help` reads this package
+
+    q, r, perm = qr(design, mode="economic", pivoting=True)
     n, p = design.shape
     diagonal = np.abs(np.diag(r))
     tolerance = (diagonal[0] if diagonal.size else 0.0) * max(n, p) * _EPS
@@ -198,12 +199,14 @@ def _weighted_least_squares(
     y: NDArray[np.float64], design: NDArray[np.float64], weights: NDArray[np.float64]
 ) -> tuple[NDArray[np.float64], int]:
     """Weighted LS through QR of sqrt(w)·X; a rank-deficient system gets its basic solution."""
+    from scipy.linalg import solve_triangular
+
     root_w = np.sqrt(weights)
     q, r, perm, rank = _pivoted_qr(design * root_w[:, None])
     coefficients = np.zeros(design.shape[1])
     if rank > 0:
         qty = q[:, :rank].T @ (y * root_w)
-        coefficients[perm[:rank]] = scipy.linalg.solve_triangular(r[:rank, :rank], qty)
+        coefficients[perm[:rank]] = solve_triangular(r[:rank, :rank], qty)
     return coefficients, rank
 
 
@@ -276,6 +279,8 @@ def robustfit(
         raise FitError(f"tune must be a positive finite number, got {tune!r}")
     if max_iterations < 1:
         raise FitError(f"max_iterations must be at least 1, got {max_iterations!r}")
+    from scipy.linalg import solve_triangular
+
     design, response = _as_design(x, y)
     n, p = design.shape
 
@@ -287,11 +292,11 @@ def robustfit(
         )
     r_factor = r[:p, :p]
     coefficients = np.zeros(p)
-    coefficients[perm] = scipy.linalg.solve_triangular(r_factor, q.T @ response)
+    coefficients[perm] = solve_triangular(r_factor, q.T @ response)
     ols_coefficients = coefficients.copy()
 
     # Leverage of the OLS fit: rows of E = X·R⁻¹ (in pivoted column order) equal rows of Q.
-    e = scipy.linalg.solve_triangular(r_factor, design[:, perm].T, trans="T").T
+    e = solve_triangular(r_factor, design[:, perm].T, trans="T").T
     leverage = np.minimum(MAX_LEVERAGE, np.sum(e * e, axis=1))
     adjust = 1.0 / np.sqrt(1.0 - leverage)
 
@@ -340,7 +345,7 @@ def robustfit(
         math.sqrt((ols_scale**2 * rank**2 + robust_scale**2 * n) / (rank**2 + n)),
     )
 
-    r_inverse = scipy.linalg.solve_triangular(r_factor, np.eye(p))
+    r_inverse = solve_triangular(r_factor, np.eye(p))
     pivoted_cov = (r_inverse @ r_inverse.T) * scale_final**2
     covariance = np.empty((p, p))
     covariance[np.ix_(perm, perm)] = pivoted_cov

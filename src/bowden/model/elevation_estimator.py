@@ -21,7 +21,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from bowden.errors import ParameterError
 
@@ -73,6 +72,8 @@ def estimator_gains(
     q[3, 3] = bias_walk_rad_s**2
     h = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 1.0]])
     r = np.diag([elevation_noise_rad**2, gyro_noise_rad_s**2])
+    import scipy.linalg  # here, not at the top: `bowden run --help` need not import it (0.4 s)
+
     prior = scipy.linalg.solve_discrete_are(f.T, h.T, q, r)
     gain = prior @ h.T @ np.linalg.inv(h @ prior @ h.T + r)
     rows = tuple((float(row[0]), float(row[1])) for row in gain)
