@@ -2,6 +2,8 @@
 
 The stores are written through the study store's API with trials whose cycles are known exactly
 (minimum-jerk references sampled at 100 Hz), so every count the analysis finds is hand-checkable.
+An analysis writes its report with its figures, about 5 s of CPU even for a few trials, so the tests
+that only read an analysed store share it (module fixtures).
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from __future__ import annotations
 import logging
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +25,7 @@ from bowden.errors import RecordingError, StoreError
 from bowden.protocol import MinimumJerkCycle
 from bowden.runtime.recorder import TrialInfo
 from bowden.store.study_store import StudyStore
-from bowden.study.analyze import analyze_store, data_kind, expected_repetitions
+from bowden.study.analyze import AnalysisReport, analyze_store, data_kind, expected_repetitions
 
 RATE_HZ = 100.0
 CYCLE = MinimumJerkCycle(peak_speed_rad_s=math.radians(180.0))  # V3: one cycle in 5/3 s
@@ -73,19 +76,46 @@ def title(report: Path) -> str:
     return found.group(1)
 
 
-def test_each_trial_is_checked_against_its_own_repetition_count(tmp_path: Path) -> None:
-    # The first trial's count (2) no longer stands for the others; the old `bowden run` place of
-    # the count (under "reference") is still read.
-    store = write_store(tmp_path / "study.db", [
-        (2, {"backend": BACKEND_SIM, "repetitions": 2}),
+@dataclass(frozen=True)
+class Analysed:
+    """A store and what ``analyze_store`` made of it (the tests only read both)."""
+
+    store: Path
+    result: AnalysisReport
+
+
+def analysed(directory: Path, trials: list[tuple[int, dict[str, Any]]]) -> Analysed:
+    store = write_store(directory / "study.db", trials)
+    return Analysed(store, analyze_store(store, directory / "report.html", workers=1))
+
+
+@pytest.fixture(scope="module")
+def own_counts_mixed(tmp_path_factory: pytest.TempPathFactory) -> Analysed:
+    """A measured trial then two simulated ones, each with its own repetition count: 2, 3, and 4 in
+    the old `bowden run` place (under "reference"). Read by the counts' test and the title's: a trial's
+    backend labels the report, it does not enter the trial's analysis."""
+    return analysed(tmp_path_factory.mktemp("own_counts_mixed"), [
+        (2, {"backend": BACKEND_CAN, "repetitions": 2}),
         (3, {"backend": BACKEND_SIM, "repetitions": 3}),
         (4, {"backend": BACKEND_SIM, "reference": {"start_s": 0.5, "repetitions": 4}}),
     ])
-    result = analyze_store(store, tmp_path / "report.html", workers=1)
+
+
+@pytest.fixture(scope="module")
+def one_repetition_simulated(tmp_path_factory: pytest.TempPathFactory) -> Analysed:
+    """Two simulated trials of one repetition each (the one-repetition test and the title's read it)."""
+    return analysed(tmp_path_factory.mktemp("one_repetition"),
+                    [(1, {"backend": BACKEND_SIM, "repetitions": 1})] * 2)
+
+
+def test_each_trial_is_checked_against_its_own_repetition_count(own_counts_mixed: Analysed) -> None:
+    # The first trial's count (2) no longer stands for the others; the old `bowden run` place of
+    # the count (under "reference") is still read.
+    result = own_counts_mixed.result
     assert result.skipped == ()
     assert result.n_trials == 3
     # The first repetition of each trial is dropped: repetitions 2…4 remain.
-    assert kept_repetitions(store) == [2, 3, 4]
+    assert kept_repetitions(own_counts_mixed.store) == [2, 3, 4]
     assert result.outcomes.info.n_repetitions == 1 + 2 + 3
 
 
@@ -133,11 +163,10 @@ def test_a_store_with_no_usable_trial_says_which_and_why(tmp_path: Path) -> None
         analyze_store(store, tmp_path / "report.html", workers=1)
 
 
-def test_one_repetition_trials_are_kept_when_no_trial_holds_more(tmp_path: Path) -> None:
-    store = write_store(tmp_path / "study.db", [(1, {"backend": BACKEND_SIM, "repetitions": 1})] * 2)
-    result = analyze_store(store, tmp_path / "report.html", workers=1)
+def test_one_repetition_trials_are_kept_when_no_trial_holds_more(one_repetition_simulated: Analysed) -> None:
+    result = one_repetition_simulated.result
     assert result.skipped == () and result.outcomes.info.parameters.segmentation.drop_first == 0
-    assert kept_repetitions(store) == [1]
+    assert kept_repetitions(one_repetition_simulated.store) == [1]
 
 
 def test_expected_repetitions_reads_the_agreed_key_then_the_old_place() -> None:
@@ -170,17 +199,13 @@ def test_the_kind_of_data_follows_every_trials_backend(backends: list[str | None
     assert data_kind(metadata) == kind
 
 
-def test_reports_say_simulated_measured_or_mixed_in_the_title(tmp_path: Path) -> None:
-    simulated = write_store(tmp_path / "sim.db", [(2, {"backend": BACKEND_SIM, "repetitions": 2})])
-    result = analyze_store(simulated, tmp_path / "sim.html", workers=1)
+def test_reports_say_simulated_measured_or_mixed_in_the_title(
+    one_repetition_simulated: Analysed, own_counts_mixed: Analysed
+) -> None:
+    result = one_repetition_simulated.result
     assert result.data_kind == "simulated" and "SIMULATED" in title(result.report)
 
-    mixed = write_store(tmp_path / "mixed.db", [
-        (2, {"backend": BACKEND_CAN, "repetitions": 2}),
-        (2, {"backend": BACKEND_SIM, "repetitions": 2}),
-        (2, {"backend": BACKEND_SIM, "repetitions": 2}),
-    ])
-    result = analyze_store(mixed, tmp_path / "mixed.html", workers=1)
+    result = own_counts_mixed.result  # trial 1 measured, trials 2 and 3 simulated
     assert result.data_kind == "mixed"
     assert title(result.report) == "bowden study report — MIXED: 1 measured and 2 simulated trials"
     html = result.report.read_text(encoding="utf-8")

@@ -1,16 +1,23 @@
 """Issue 29, items 4 and 6: a report a reviewer can read.
 
 The report is built from drawn outcome tables (tests/study/report_inputs.py) with statistics fitted
-for real, so each test sees the shapes a study gives without simulating one.
+for real, so each test sees the shapes a study gives without simulating one. Fitting them takes about
+2 s of CPU, building the report's body about 1.5 s and drawing its figures about 7 s, so one
+four-participant study (a bench, questionnaires, notes to condense) is made once, its body and its whole
+report too (module fixtures); the study without a bench or questionnaires is derived from its inputs,
+refitting nothing.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import html
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from matplotlib.colors import to_hex
 
@@ -18,19 +25,54 @@ from bowden.contracts import CONDITIONS
 from bowden.model import CompensationModel
 from bowden.study.report.build import ReportInputs, build_report
 from bowden.study.report.figures import CONDITION_COLOURS, participant_curves
+from bowden.study.statistics import questionnaire_tests
 
 from .report_inputs import curves, report_inputs
 
+# The analysis's notes: EMG sources of 204 trials, skipped trials with one reason, a trial set aside.
+NOTES = (
+    "EMG of trials " + ", ".join(str(i) for i in range(1, 205)) + ": recorded with the trial",
+    *(f"trial {i} (participant P0{i % 3 + 1}, no_suit, V1) skipped: it holds no samples"
+      for i in (300, 301, 302, 305)),
+    "trial 400 (participant P01, support_50, V2) set aside: the suit stalled",
+)
+
+
+@dataclass(frozen=True)
+class Study:
+    """A four-participant study with a bench, questionnaires and :data:`NOTES`: its inputs, its body, its
+    whole report."""
+
+    inputs: ReportInputs
+    body: str  # what _body gives
+    report: str  # rendered: the contents added, figures drawn
+
 
 @pytest.fixture(scope="module")
-def report() -> str:
+def study() -> Study:
+    inputs = report_inputs(model=CompensationModel.from_friction(k=0.1), notes=NOTES)
+    document = build_report(inputs)
+    body = "\n".join(document.parts)  # before render() puts the drawn figures in its parts
+    return Study(inputs=inputs, body=body, report=document.render())
+
+
+@pytest.fixture(scope="module")
+def report(study: Study) -> str:
     """The whole report of a four-participant study, figures drawn."""
-    return build_report(report_inputs(model=CompensationModel.from_friction(k=0.1))).render()
+    return study.report
 
 
 def _body(inputs: ReportInputs) -> str:
     """The report's HTML without drawing its figures."""
     return "\n".join(build_report(inputs).parts)
+
+
+def _without_bench_or_answers(inputs: ReportInputs) -> ReportInputs:
+    """``inputs`` as ``report_inputs(model=None, with_answers=False)`` gives them (same notes): the
+    outcomes' fits do not depend on the answers, and the questionnaires' tests are those of no answers."""
+    tests, posthoc = questionnaire_tests(pd.DataFrame())
+    statistics = dataclasses.replace(inputs.statistics, questionnaires=tests, questionnaire_posthoc=posthoc)
+    return dataclasses.replace(inputs, model=None, questionnaires=pd.DataFrame(), statistics=statistics)
 
 
 def _cells(text: str) -> list[str]:
@@ -106,25 +148,18 @@ def test_a_single_repetition_shows_its_value_in_the_peak_tables() -> None:
     assert len(ours) == 2 * 3 * 3 * 2  # phases × suit conditions × speeds × (peak, time)
 
 
-def test_sections_without_data_are_left_out() -> None:
+def test_sections_without_data_are_left_out(study: Study) -> None:
     # A lab store without a bench and without questionnaires.
-    body = _body(report_inputs(model=None, with_answers=False))
+    body = _body(_without_bench_or_answers(study.inputs))
     assert "Transmission identification" not in body
     assert "<h2>Questionnaires</h2>" not in body and "No questionnaire answers" not in body
     assert "Muscle activity (iEMG)" in body  # sections with data stay
-    with_them = _body(report_inputs(model=CompensationModel.from_friction(k=0.1)))
+    with_them = study.body
     assert "<h2>Transmission identification</h2>" in with_them and "<h2>Questionnaires</h2>" in with_them
 
 
-def test_the_notes_are_condensed() -> None:
-    notes = (
-        "EMG of trials " + ", ".join(str(i) for i in range(1, 205)) + ": recorded with the trial",
-        *(f"trial {i} (participant P0{i % 3 + 1}, no_suit, V1) skipped: it holds no samples"
-          for i in (300, 301, 302, 305)),
-        "trial 400 (participant P01, support_50, V2) set aside: the suit stalled",
-    )
-    body = _body(report_inputs(notes=notes))
-    shown = [html.unescape(p) for p in re.findall(r'<p class="note">([^<]*)</p>', body)]
+def test_the_notes_are_condensed(study: Study) -> None:
+    shown = [html.unescape(p) for p in re.findall(r'<p class="note">([^<]*)</p>', study.body)]
     assert "EMG of trials #1–#204: recorded with the trial" in shown
     assert "trials #300–#302, #305 (4 trials) skipped: it holds no samples" in shown
     assert "trial 400 (participant P01, support_50, V2) set aside: the suit stalled" in shown
