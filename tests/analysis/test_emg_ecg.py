@@ -260,13 +260,18 @@ def _brute_force_adaptive(y, peaks, rate_hz, params):
             if 0 <= j < peaks.size and j != k
         ]
 
-        def template_at(offset, neighbours=neighbours):
-            vals = [
-                y[peaks[j] + offset] for j in neighbours if bounds[j][0] <= peaks[j] + offset < bounds[j][1]
-            ]
-            return np.mean(vals) if vals else 0.0
+        def template_at(offsets, neighbours=neighbours):
+            """The mean of the neighbours' samples at ``offsets`` from their R-peaks, each neighbour
+            where its own beat holds that sample (0 where none does)."""
+            total, count = np.zeros(offsets.size), np.zeros(offsets.size)
+            for j in neighbours:
+                at = peaks[j] + offsets
+                inside = (bounds[j][0] <= at) & (at < bounds[j][1])
+                total[inside] += y[at[inside]]
+                count += inside
+            return total / np.maximum(count, 1.0)
 
-        qrs_part = np.array([template_at(o) for o in range(-qrs, qrs + 1)])
+        qrs_part = template_at(np.arange(-qrs, qrs + 1))
         qrs_t = qrs_part - qrs_part.mean()
         scores = [
             np.dot(qrs_t, y[r + lag - qrs : r + lag + qrs + 1] - y[r + lag - qrs : r + lag + qrs + 1].mean())
@@ -274,7 +279,7 @@ def _brute_force_adaptive(y, peaks, rate_hz, params):
         ]
         ra = r + int(np.argmax(scores)) - m
         offsets = np.arange(bounds[k][0] - ra, bounds[k][1] - ra)
-        base = np.array([template_at(o) for o in offsets])
+        base = template_at(offsets)
         pchip = PchipInterpolator(np.arange(-qrs, qrs + 1), qrs_part)
         best = None
         for d in range(-s, s + 1):

@@ -60,8 +60,9 @@ class Session:
     offset_s: float
     drift_ppm: float
     first_zero_s: float = TRIAL_ZEROS_S[0]
-    # emg_uv per seed: 20 minutes of 8 channels at 2 kHz, drawn once (every file written reads it).
-    _emg_uv: dict[int, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
+    # emg_uv per seed and drift (tests change drift_ppm: the trials' spans and the length follow it): 20
+    # minutes of 8 channels at 2 kHz, drawn once (every file written reads it).
+    _emg_uv: dict[tuple[int, float], np.ndarray] = field(default_factory=dict, repr=False, compare=False)
 
     def host_time(self, n: np.ndarray) -> np.ndarray:
         """True host time of amplifier sample n, s."""
@@ -88,8 +89,9 @@ class Session:
     def emg_uv(self, seed: int = 5) -> np.ndarray:
         """The recording's muscle channels, µV, samples x muscles: trials' sEMG and noise between.
 
-        Drawn once per seed and returned read-only (the same array to every caller)."""
-        if seed not in self._emg_uv:
+        Drawn once per seed and drift, returned read-only (the same array to every caller)."""
+        key = (seed, self.drift_ppm)
+        if key not in self._emg_uv:
             rng = np.random.default_rng(seed)
             data = 3.0 * rng.standard_normal((self.n_samples, len(MUSCLES)))
             for trial in self.trials:
@@ -97,8 +99,8 @@ class Session:
                 assert len(span) <= len(trial.emg_v)
                 data[span] = 1e6 * trial.emg_v[: len(span)]
             data.flags.writeable = False
-            self._emg_uv[seed] = data
-        return self._emg_uv[seed]
+            self._emg_uv[key] = data
+        return self._emg_uv[key]
 
     def trigger(
         self, *, ramp_samples: float, pulses: Sequence[int] | None = None, late_s: Sequence[float] = ()

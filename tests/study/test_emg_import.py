@@ -1,10 +1,14 @@
-"""`bowden emg import`: a 20-minute session's amplifier recording (EDF and XDF) into the store.
+"""`bowden emg import`: a session's amplifier recording (EDF, XDF and CSV) into the store.
 
 The truth is known: every amplifier sample's host time (tests/study/emg_session.py). The import
 sees only the files and the store's sync events, and must find the trials, fit the +80 ppm drift and
-the offset, and store each trial's samples at their true loop times. The checks of a refused or
-partial import, whose messages do not depend on the session's length, read the same three trials 40
-and 45 s apart (a 2-minute recording, a tenth of the data to write and read).
+the offset, and store each trial's samples at their true loop times. The 20-minute session is read
+where the span is what is checked: the alignment at both of its ends, and a drift that command
+edges' latency must not fake. Every other check reads the same three trials 40 and 45 s apart (a
+2-minute recording, a tenth of the data to write and read): a refused or partial import, whose
+messages do not depend on the session's length; a repeated import; the outcomes of an imported EDF;
+and an XDF's markers, where +80 ppm left unfitted would still move a trial by several times the
+millisecond checked (between the first and the last edge, 92 s: 7 ms).
 """
 
 from __future__ import annotations
@@ -44,22 +48,11 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> Session:
     return simulate_session(tmp_path_factory.mktemp("session"))
 
 
-def _edf_of(session: Session, tmp_path_factory: pytest.TempPathFactory, name: str) -> Path:
-    path = tmp_path_factory.mktemp(name) / "P01_session.edf"
-    write_edf(session, path)
-    return path
-
-
 def _store_copy(session: Session, tmp_path: Path) -> Path:
     """A fresh copy of the session's store (trials and sync events, no EMG)."""
     copy = tmp_path / "study.db"
     shutil.copyfile(session.store, copy)
     return copy
-
-
-@pytest.fixture(scope="module")
-def edf(session: Session, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return _edf_of(session, tmp_path_factory, "edf")
 
 
 @pytest.fixture
@@ -75,7 +68,9 @@ def short(tmp_path_factory: pytest.TempPathFactory) -> Session:
 
 @pytest.fixture(scope="module")
 def short_edf(short: Session, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return _edf_of(short, tmp_path_factory, "short_edf")
+    path = tmp_path_factory.mktemp("short_edf") / "P01_session.edf"
+    write_edf(short, path)
+    return path
 
 
 @pytest.fixture
@@ -153,30 +148,32 @@ def test_edf_import_is_within_a_millisecond_at_both_ends_of_a_20_minute_session(
 
 
 def test_outcomes_from_the_imported_edf_equal_those_of_the_same_emg_stored_directly(
-    session, store, edf, tmp_path
+    short, short_store, short_edf, tmp_path
 ):
-    result = import_emg(store, edf, ImportOptions(trigger_channel=TRIGGER, channel_map=SAGA_CHANNELS))
+    options = ImportOptions(trigger_channel=TRIGGER, channel_map=SAGA_CHANNELS)
+    result = import_emg(short_store, short_edf, options)
     assert result.trials == (1, 2, 3) and abs(result.fit.drift_ppm - 80.0) < 0.01
     assert result.fit.max_residual_s < 1e-6
     from bowden.analysis.emg.read import read_emg_edf
 
-    decoded = read_emg_edf(edf, channels=list(SAGA_CHANNELS)).values
-    _assert_same_outcomes(store, direct_store(session, tmp_path / "direct.db", decoded))
+    decoded = read_emg_edf(short_edf, channels=list(SAGA_CHANNELS)).values
+    _assert_same_outcomes(short_store, direct_store(short, tmp_path / "direct.db", decoded))
 
 
-def test_xdf_with_bowden_markers_is_imported_on_the_controller_clock(session, store, tmp_path):
+def test_xdf_with_bowden_markers_is_imported_on_the_controller_clock(short, short_store, tmp_path):
     path = tmp_path / "session.xdf"
-    write_xdf(session, path)
-    result = import_emg(store, path, ImportOptions(channel_map=SAGA_CHANNELS))
+    write_xdf(short, path)
+    result = import_emg(short_store, path, ImportOptions(channel_map=SAGA_CHANNELS))
     assert result.via == "markers" and result.trials == (1, 2, 3) and result.fit.n_events == 6
-    errors = _alignment_errors(session, store)
+    errors = _alignment_errors(short, short_store)
     print("XDF alignment error per trial: " + ", ".join(f"{e * 1e6:.3f} µs" for e in errors.values()))
     assert max(errors.values()) < 1e-3
-    decoded = 1e-6 * session.emg_uv()
-    _assert_same_outcomes(store, direct_store(session, tmp_path / "direct.db", decoded))
+    decoded = 1e-6 * short.emg_uv()
+    _assert_same_outcomes(short_store, direct_store(short, tmp_path / "direct.db", decoded))
 
 
-def test_the_same_file_again_is_a_no_op_and_another_needs_replace(session, store, edf, tmp_path, capsys):
+def test_the_same_file_again_is_a_no_op_and_another_needs_replace(short_store, short_edf, tmp_path, capsys):
+    store, edf = short_store, short_edf
     args = ["emg", "import", str(store), str(edf), "--trigger-channel", TRIGGER, *MAP]
     assert main(args) == 0
     with StudyStore(store) as opened:
@@ -337,7 +334,8 @@ def test_analyze_reports_which_trials_had_emg_and_from_which_file(short, short_s
 
 
 def test_a_csv_export_is_imported_like_an_edf(tmp_path, capsys):
-    short = simulate_session(tmp_path, zeros_s=(100.0, 131.0, 170.0), offset_s=2.2)
+    # Trials of 6.5 s, 11 and 13 s apart: a 39 s export (writing it, every value formatted, is the cost).
+    short = simulate_session(tmp_path, zeros_s=(100.0, 111.0, 124.0), offset_s=2.2)
     path = tmp_path / "export.csv"
     write_csv(short, path)
     args = ["emg", "import", str(short.store), str(path), "--trigger-channel", TRIGGER, *MAP]

@@ -152,9 +152,10 @@ def remove_ecg_from_channel(
     samples: NDArray[np.float64], r_peaks: NDArray[np.int64], rate_hz: float, params: EcgRemovalParameters
 ) -> NDArray[np.float64]:
     """One channel of :func:`emg_remove_ecg` (1-D in, cleaned copy out)."""
-    # A contiguous copy: a column of a (samples x channels) array is strided, and the gathers
-    # below would touch every channel's memory.
-    y = np.ascontiguousarray(samples, dtype=np.float64)
+    # A contiguous, writable copy: a column of a (samples x channels) array is strided, and the
+    # gathers below would touch every channel's memory; numba types a read-only array apart, so a
+    # read-only column (a one-channel EmgSignal's) compiled every kernel a second time (8 s of CPU).
+    y = np.array(samples, dtype=np.float64, order="C")
     n = y.size
     qrs = max(1, round(params.qrs_half_width_s * rate_hz))
     # A QRS section must keep at least one sample per side whatever the stretch.
@@ -163,7 +164,7 @@ def remove_ecg_from_channel(
     reach = qrs + stretch + shift
     peaks = r_peaks[(r_peaks - reach >= 0) & (r_peaks + reach < n)]
     if peaks.size < 2:
-        return y.copy()
+        return y
     start, end = _beat_bounds(peaks, n, round(_MAX_HALF_BEAT_S * rate_hz))
     half = int(max(np.max(peaks - start), np.max(end - 1 - peaks))) + shift
     half = max(half, qrs + stretch + 1)  # the grid always holds every QRS variant
