@@ -172,7 +172,9 @@ def fit_beats(
     # -w_k…w_k, the template's QRS part at positions offset·qrs/w_k, evaluated for all beats from
     # the PCHIP coefficients and summed per segment in one compiled pass.
     grid = _qrs_variant_grid(qrs, stretch)
-    qrs_part = template[:, half - qrs : half + qrs + 1].T
+    # Contiguous: a transposed slice's layout (C, F or neither, with the number of beats) would
+    # compile the kernel once per layout.
+    qrs_part = np.ascontiguousarray(template[:, half - qrs : half + qrs + 1].T)
     coefficients = pchip_coefficients(qrs_part).reshape(4 * 2 * qrs, aligned.size)
     evaluate = (grid.evaluate.indptr, grid.evaluate.indices, grid.evaluate.data)
     q_sums = qrs_variant_sums(y, aligned, grid.offsets, evaluate, coefficients, grid.starts)

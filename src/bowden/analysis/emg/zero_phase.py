@@ -35,9 +35,7 @@ def zero_phase_bandpass(
     # Large buffers come from NumPy, which asks the kernel for huge pages (few page faults), not
     # from inside the compiled code.
     out = np.empty(values.shape)
-    finite = sosfiltfilt_rows(
-        np.ascontiguousarray(values, dtype=np.float64), sos, zi, edge, _scratch(size), out
-    )
+    finite = sosfiltfilt_rows(_read_only(values), sos, zi, edge, _scratch(size), out)
     return out, finite
 
 
@@ -53,7 +51,7 @@ def zero_phase_bandpass_columns(
     sos, zi, edge = _design(rate_hz, low_hz, high_hz, order)
     if values.shape[0] <= edge:
         raise ValueError(f"The length of the input vector x must be greater than padlen, which is {edge}.")
-    x = np.ascontiguousarray(values, dtype=np.float64)
+    x = _read_only(values)
     if sos.shape[0] != 2:
         filtered, _ = zero_phase_bandpass(
             np.ascontiguousarray(x[:, columns]), rate_hz, low_hz, high_hz, order
@@ -64,6 +62,15 @@ def zero_phase_bandpass_columns(
         x, np.asarray(columns, dtype=np.int64), sos, zi, edge, _scratch(2 * (x.shape[0] + 2 * edge)), out
     )
     return out
+
+
+def _read_only(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``values`` as a C-contiguous float64 array, read-only (a copy only where the layout or type asks
+    for one). numba compiles a kernel apart for a read-only and a writable input, seconds of CPU each
+    on a fresh installation; the kernels only read it, so they are always given the read-only kind."""
+    view = np.ascontiguousarray(values, dtype=np.float64).view()
+    view.flags.writeable = False
+    return view
 
 
 _SCRATCH = threading.local()
