@@ -47,10 +47,18 @@ def peak_mb(store: Path, out: Path, file_format: str) -> float:
     return int(result.stdout.strip()) / 1024
 
 
+@pytest.fixture(scope="module")
+def stores(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """The stores of 4 and of 16 trials, made once: each format exports them (an export only reads)."""
+    directory = tmp_path_factory.mktemp("export_memory")
+    return make_store(directory / "small.db", 4), make_store(directory / "large.db", 16)
+
+
 @pytest.mark.parametrize("file_format", ["parquet", "csv"])
-def test_four_times_the_data_does_not_raise_the_peak(tmp_path: Path, file_format: str) -> None:
-    small = make_store(tmp_path / "small.db", 4)
-    large = make_store(tmp_path / "large.db", 16)
+def test_four_times_the_data_does_not_raise_the_peak(
+    stores: tuple[Path, Path], tmp_path: Path, file_format: str
+) -> None:
+    small, large = stores
     # 12 more trials: 37 MB more samples and 31 MB more EMG once decoded (and twice that as labelled
     # rows), which an export holding a whole table would add to its peak.
     small_peak = peak_mb(small, tmp_path / "small", file_format)
