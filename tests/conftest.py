@@ -75,19 +75,19 @@ SHARED_FIXTURE_GROUPS = {
         "tests/study/test_pipeline.py",
         "tests/share/test_r_script.py",
         "tests/share/test_bids_export.py",
+        "tests/study/test_parallel_study.py",  # its single-process run (a process pool and Dask besides)
     ),
 }
 _UNIT_OF = {**_LANE_OF, **{path: group for group, files in SHARED_FIXTURE_GROUPS.items() for path in files}}
-# Units that start processes of their own (R's refit and the BIDS validator for the reduced study, a
-# process pool, a Dask cluster, a browser) wait until no lane runs (LaneScheduling._next_unit), then go
-# first, the longest first. Beside the lane's real-time tests they cost them: handed out early, a resumed
-# bench run stopped on "the IMU does not follow the arm" (two idle runs of three, 2026-11-27); the R refit
-# and the validator beside the bench lane cost the later-segments bench test a quarter second in two
-# fresh clones' runs of six (2026-11-28).
+# Units that start processes of their own (R's refit, the BIDS validator, a process pool and a Dask
+# cluster for the reduced study; a Dask cluster, a browser) wait until no lane runs
+# (LaneScheduling._next_unit), then go first, the longest first. Beside the lane's real-time tests they
+# cost them: handed out early, a resumed bench run stopped on "the IMU does not follow the arm" (two idle
+# runs of three, 2026-11-27); the R refit and the validator beside the bench lane cost the later-segments
+# bench test a quarter second in two fresh clones' runs of six (2026-11-28).
 AFTER_THE_LANES = (
     "reduced study",
-    "tests/study/test_parallel_study.py",  # a process pool and a Dask cluster (it makes its own reduced
-    "tests/sweep/test_runner.py",  # study, about 5 s, on a worker that has not made one)
+    "tests/sweep/test_runner.py",  # a Dask cluster
     "tests/sweep/test_cli.py",
     "tests/analysis/test_outcomes.py",
     "tests/web/test_browser.py",
