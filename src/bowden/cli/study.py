@@ -56,6 +56,10 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.scheduler is not None:  # refused before the study's imports (4 s) when Dask is missing
+        from bowden.engine.cluster import require_dask
+
+        require_dask("bowden study --scheduler")
     # Imported here, not at the top: building the parser (bowden --help) needs none of the study.
     from bowden.engine.pool import check_workers
     from bowden.study.pipeline import StudySettings, run_study

@@ -23,7 +23,10 @@ _CONNECT_TIMEOUT_S = 10.0
 _WORKER_WAIT_S = 30.0
 
 
-def _distributed(purpose: str) -> Any:
+def require_dask(purpose: str) -> Any:
+    """The ``distributed`` module, or the one-line :class:`~bowden.errors.MissingExtraError` naming the
+    extra (``purpose`` says what needs it). A command calls it before its own imports, which take
+    seconds, so that the refusal comes at once."""
     try:
         import distributed
     except ImportError:
@@ -56,7 +59,7 @@ def dask_client(
     purpose
         What runs on Dask, for the message when Dask is not installed.
     """
-    distributed = _distributed(purpose)
+    distributed = require_dask(purpose)
     if scheduler is not None and workers is not None:
         raise ParameterError(
             "--workers sets the size of the local cluster; it cannot be used with --scheduler"
