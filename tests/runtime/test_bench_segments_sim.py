@@ -19,7 +19,6 @@ from bowden.cli._bench_run import bench_model_source
 from bowden.protocol.bench import BenchProtocol, LatencyChirp, StudyStrokes
 from bowden.runtime.bench import BenchDevices, BenchRun, BenchRunConfig
 from bowden.runtime.bench_recording import LATENCY_COLUMNS, STUDY_COLUMNS, BenchRecordingWriter
-from bowden.runtime.realtime import RealtimeConfig, realtime
 from bowden.sim.backend import open_sim_bench
 
 SHORT = ["--speeds", "1", "2", "--loads", "1", "--repetitions", "1", "--high-deg", "80", "--chirp-s", "4",
@@ -63,11 +62,7 @@ def test_the_later_segments_run_resume_and_feed_identify_and_validate(tmp_path, 
             time.sleep(1.5)  # one more is more than twice the device log's allowed gap below
             return identify(recording, latency)
 
-        # Under `bowden bench run`'s real-time settings, as the command runs it: at normal priority on a
-        # loaded host the loop fell behind, and the strokes' spool speed was too uneven for a model (26
-        # and 36 steady samples while raising, 50 needed, in two busy runs of 2026-11-28).
-        with realtime(RealtimeConfig()):
-            report = BenchRun(devices, config, writer, model_source=slow_identify, announce=announce).run()
+        report = BenchRun(devices, config, writer, model_source=slow_identify, announce=announce).run()
     # The loop held the arm while the model was identified (a loop that paused would leave both motors
     # on their last command: the simulated mannequin once held its last torque, and the arm drifted out
     # of the range).
